@@ -126,7 +126,7 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
   Rx_inv <- array(0, c(n_x, n_x, nrow(combos)))
   logdet_x <- numeric(nrow(combos))
   for (gx in seq_len(nrow(combos))) {
-    rho <- unlist(combos[gx, ])
+    rho <- unlist(combos[gx, , drop = FALSE])
     U <- tryCatch(chol(corr_x(library$x, rho, x_power)), error = function(e) NULL)
     if (is.null(U) || any(diag(U) < 1e-7)) {
       stop_no_call("R_x is numerically singular at ", paste0(names(rho), " = ", rho,

@@ -68,7 +68,7 @@ noisy_outputs <- function(fit, pick) {
     rows <- which(d$rho == g)
     gx <- (g - 1L) %% n_gx + 1L
     gt <- (g - 1L) %/% n_gx + 1L
-    U <- chol(corr_x(lib$x, unlist(combos[gx, ]), setup$x_power))
+    U <- chol(corr_x(lib$x, unlist(combos[gx, , drop = FALSE]), setup$x_power))
     phi <- setup$phi[, gt]
     E <- matrix(stats::rnorm(n_t * n_x * length(rows)), n_t)
     for (j in seq_len(n_t - 1L)) E[j + 1L, ] <- phi[j] * E[j, ] + sqrt(1 - phi[j]^2) * E[j + 1L, ]
