@@ -2,14 +2,14 @@
 # Generator token: 10BE3573-1514-4C36-9D1C-5A225CD40393
 
 collapsed_cdf_cpp <- function(C, log_prior_run, shape_post, rate) {
-    .Call('_griddy_collapsed_cdf_cpp', PACKAGE = 'griddy', C, log_prior_run, shape_post, rate)
+    .Call(`_griddy_collapsed_cdf_cpp`, C, log_prior_run, shape_post, rate)
 }
 
 gibbs_chain_cpp <- function(C, cdf, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, n_iter, first_iter, burn_in, thin, rho_start, tau_start) {
-    .Call('_griddy_gibbs_chain_cpp', PACKAGE = 'griddy', C, cdf, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, n_iter, first_iter, burn_in, thin, rho_start, tau_start)
+    .Call(`_griddy_gibbs_chain_cpp`, C, cdf, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, n_iter, first_iter, burn_in, thin, rho_start, tau_start)
 }
 
 quad_forms_cpp <- function(Y, y_field, Rx_inv, phi) {
-    .Call('_griddy_quad_forms_cpp', PACKAGE = 'griddy', Y, y_field, Rx_inv, phi)
+    .Call(`_griddy_quad_forms_cpp`, Y, y_field, Rx_inv, phi)
 }
 

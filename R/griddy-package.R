@@ -9,5 +9,6 @@
 #' @keywords internal
 #' @useDynLib griddy, .registration = TRUE
 #' @importFrom Rcpp sourceCpp
+#' @importFrom RcppArmadillo armadillo_version
 #' @importFrom stats predict
 "_PACKAGE"

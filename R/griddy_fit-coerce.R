@@ -32,6 +32,7 @@ as.data.frame.griddy_fit <- function(x, row.names = NULL, optional = FALSE, ...)
 
 #' @rdname griddy_fit-coerce
 #' @importFrom coda as.mcmc.list
+#' @method as.mcmc.list griddy_fit
 #' @export
 as.mcmc.list.griddy_fit <- function(x, ...) {
   draws <- parameter_draws(x)

@@ -81,12 +81,13 @@ fit_description <- function(fit) {
 #' @export
 print.griddy_summary <- function(x, digits = 4, ...) {
   cli::cat_line(attr(x, "info"))
-  level <- attr(x, "level")
+  level <- if (is.null(attr(x, "level"))) 0.95 else attr(x, "level")
   tab <- as.data.frame(x)
   class(tab) <- "data.frame"
-  names(tab)[4:5] <- paste0(c("lower", "upper"), " (", format(100 * level), "%)")
+  bounds <- names(tab) %in% c("lower", "upper")
+  names(tab)[bounds] <- paste0(names(tab)[bounds], " (", format(100 * level), "%)")
   print(tab, digits = digits, row.names = FALSE)
-  cli::cat_line(format_adequacy(attr(x, "adequacy")))
+  if (!is.null(attr(x, "adequacy"))) cli::cat_line(format_adequacy(attr(x, "adequacy")))
   invisible(x)
 }
 

@@ -23,7 +23,8 @@ arma::mat collapsed_cdf_cpp(const arma::mat& C, const arma::vec& log_prior_run,
     const double top = log_w.max();
     double total = 0.0;
     for (arma::uword i = 0; i < C.n_rows; ++i) {
-      total += std::exp(log_w[i] - top);
+      const double d = log_w[i] - top;
+      if (d > griddy::negligible_log_weight) total += std::exp(d);
       cdf(i, g) = total;
     }
   }

@@ -16,6 +16,11 @@ inline arma::uword draw_from_cdf(const double* cdf, arma::uword n) {
   return std::min<arma::uword>(static_cast<arma::uword>(hit - cdf), n - 1);
 }
 
+// Weights below exp(-700) of the largest are set to zero without calling exp:
+// their sum stays below 1e-300 of the total for any library that fits in
+// memory, and exp of such arguments (subnormal results) is very slow.
+constexpr double negligible_log_weight = -700.0;
+
 // Shift log weights by their maximum (so the largest weight is 1 and nothing
 // overflows), exponentiate, accumulate into `work`, then draw.
 inline arma::uword draw_from_log_weights(const double* log_w, arma::uword n,
@@ -23,7 +28,8 @@ inline arma::uword draw_from_log_weights(const double* log_w, arma::uword n,
   const double top = *std::max_element(log_w, log_w + n);
   double total = 0.0;
   for (arma::uword i = 0; i < n; ++i) {
-    total += std::exp(log_w[i] - top);
+    const double d = log_w[i] - top;
+    if (d > negligible_log_weight) total += std::exp(d);
     work[i] = total;
   }
   return draw_from_cdf(work, n);
