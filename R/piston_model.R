@@ -11,6 +11,7 @@ piston_spec <- function() {
     radius = 65, height = 50,                       # bore 130 mm, crown top z = 50
     crankcase = c(r_max = 50, z_max = 25),          # void under the crown
     undercrown_r_max = 44,                          # oil-jet cooled part of the underside
+    undercrown_output_r_max = 44,                   # output locations on the undercrown
     gallery1 = c(r_min = 52, r_max = 59, z_min = 18, z_max = 36),  # outer gallery
     gallery2 = c(r_min = 34, r_max = 42, z_min = 30, z_max = 40),  # inner gallery
     ring_belt_z_min = 25,                           # outer wall above this is the ring belt
@@ -216,6 +217,7 @@ piston_setup <- function(condition, cell, material) {
   out <- integer(0)
   for (s in seq_along(surfaces)) {
     idx <- which(hf$surface == s)
+    if (s == 1L) idx <- idx[hf$r[idx] <= sp$undercrown_output_r_max]
     a <- hf$arc[idx]
     lo <- min(a)
     hi <- max(a)

@@ -51,6 +51,9 @@ test_that("temperatures fall as each coefficient rises", {
 })
 
 test_that("each surface responds most to its own coefficient", {
+  # Checked at the truth and at points where no surface is nearly adiabatic;
+  # when a surface's own coefficient is far below its neighbours' its own
+  # sensitivity vanishes (d T / d log h -> 0 as h -> 0) and a neighbour wins.
   sens <- function(base) {
     f <- function(h) {
       y <- piston_model(h)
@@ -64,7 +67,7 @@ test_that("each surface responds most to its own coefficient", {
     })
   }
   for (base in list(truth, c(6000, 6000, 6000), c(100, 100, 100), c(12000, 12000, 12000),
-                    c(300, 8000, 1000))) {
+                    c(2000, 8000, 4000))) {
     s <- abs(sens(base))                                 # rows: surface, cols: coefficient
     expect_identical(apply(s, 1, which.max), 1:3, info = paste(base, collapse = ","))
   }
