@@ -1,0 +1,175 @@
+#' Calibrate a simulator by Griddy Gibbs sampling over a library of runs
+#'
+#' Draws the posterior of the simulator's parameters \eqn{\theta} (a library
+#' run), the precision \eqn{\tau} of the misfit and the correlation parameters
+#' \eqn{\rho}, for the data model \eqn{y = g(x, \theta) + \epsilon},
+#' \eqn{\epsilon \sim N(0, \tau^{-1} R_x \otimes R_t)} of Stewart (2023),
+#' ch. 3.2 and Appendices A and B.
+#'
+#' The quadratic forms \eqn{C_{ig} = (y - g_i)' R_g^{-1} (y - g_i)} are
+#' computed once for every run \eqn{i} and correlation grid point \eqn{g},
+#' using the Kronecker structure and the tridiagonal inverse of \eqn{R_t}
+#' (see [rho_grid()] for the correlation functions). Each iteration then draws
+#' by inverse CDF over the library and over the grid:
+#'
+#' * `update = "collapsed"` (default): \eqn{\theta \mid \rho} and
+#'   \eqn{\rho \mid \theta} with \eqn{\tau} integrated out, weights
+#'   \eqn{\pi_i (b + C_{ig}/2)^{-(a + n/2)}}, then
+#'   \eqn{\tau \mid \theta, \rho \sim Gamma(a + n/2, b + C_{ig}/2)}.
+#' * `update = "thesis"`: Appendix A.3 exactly: \eqn{\theta \mid \tau, \rho}
+#'   (weights \eqn{\pi_i \exp(-\tau C_{ig}/2)}), then \eqn{\tau}, then
+#'   \eqn{\rho \mid \theta, \tau}.
+#'
+#' Both target the same posterior. With \eqn{\rho} on a grid the thesis's
+#' order mixes very badly, because \eqn{\tau} and \eqn{\rho} are tightly
+#' coupled: a chain can stay on one grid point for its whole length although
+#' the posterior gives that point little mass. The collapsed update removes
+#' the coupling; use `"thesis"` to reproduce the thesis's figures, and compare
+#' either with [posterior_exact()].
+#'
+#' The chains start at a random correlation grid point and, for the thesis
+#' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
+#'
+#' @param library A [sim_library()].
+#' @param field A [field_data()] object at the library's x and t.
+#' @param rho_x,rho_t Correlation grids over x settings and output coordinate,
+#'   each in \[0, 1): see [rho_grid()]. 0 (the default) means independence.
+#' @param n_iter Total iterations per chain, burn-in included.
+#' @param burn_in Iterations discarded at the start of each chain.
+#' @param thin Keep every `thin`-th iteration after the burn-in.
+#' @param chains Number of chains.
+#' @param prior The Gamma prior on \eqn{\tau}: a list with `shape` (a) and
+#'   `rate` (b); the default is the thesis's eq. 3.8.
+#' @param update `"collapsed"` or `"thesis"`; see Details.
+#' @param seed `NULL`, or a seed for this call only (the global random number
+#'   stream is left as it was). Either way the result is reproducible with
+#'   [set.seed()].
+#' @param progress Show a progress bar.
+#' @param x_power Power of the distance in the correlation over x settings:
+#'   2 gives the thesis's eq. 3.14, 1 its Appendix A eq. 5.
+#' @param run_weights Optional prior weights \eqn{\pi_i} of the library runs
+#'   (non-negative, one per run); `NULL` is uniform.
+#' @return An object of class `griddy_fit`: a list holding the kept `draws`
+#'   (a data.frame with columns `chain`, `iteration`, `run`, `rho` (the row of
+#'   `grid`) and `tau`), the correlation `grid`, the `library`, the field
+#'   measurements `y_field`, the precomputed `problem` (priors, correlation
+#'   setup and the quadratic forms `C`), the settings of the call, the chains'
+#'   `seeds` and the `runtime` in seconds. Use [summary()][summary.griddy_fit],
+#'   [plot()][plot.griddy_fit], [predict()][predict.griddy_fit],
+#'   [as.data.frame()][as.data.frame.griddy_fit] and [coda::as.mcmc.list()]
+#'   on it.
+#' @references Stewart, H. (2023). Creation and Validation of a Novel Bayesian
+#'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
+#'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
+#' @seealso [posterior_exact()] for the exact grid posterior.
+#' @examples
+#' ex <- griddy_example()
+#' fit <- calibrate(ex$library, ex$field, n_iter = 2000, burn_in = 500, seed = 1)
+#' fit
+#' summary(fit)
+#' @export
+calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
+                      burn_in = 15000, thin = 1, chains = 1,
+                      prior = list(shape = 1e-9, rate = 1e-9),
+                      update = c("collapsed", "thesis"), seed = NULL,
+                      progress = interactive(), x_power = 2, run_weights = NULL) {
+  call <- match.call()
+  update <- match.arg(update)
+  control <- sampler_control(n_iter, burn_in, thin, chains, progress)
+  start <- proc.time()[["elapsed"]]
+  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
+  cdf <- if (update == "collapsed") {
+    collapsed_cdf_cpp(problem$C, problem$log_prior_run,
+                      problem$prior$shape + problem$n_obs / 2, problem$prior$rate)
+  } else {
+    matrix(0, 0, 0)
+  }
+  precompute <- proc.time()[["elapsed"]] - start
+  run_all <- function() {
+    seeds <- sample.int(.Machine$integer.max, control$chains)
+    chains <- run_chains(problem, cdf, update, control, seeds)
+    list(seeds = seeds, chains = chains)
+  }
+  out <- if (is.null(seed)) run_all() else with_seed(seed, run_all())
+  fit <- new_griddy_fit(problem, out, update, control, call,
+                        runtime = c(precompute = precompute,
+                                    sampling = proc.time()[["elapsed"]] - start - precompute))
+  warn_single_run(fit)
+  fit
+}
+
+sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
+  n_iter <- assert_count(n_iter, "n_iter")
+  burn_in <- assert_count(burn_in, "burn_in", min = 0L)
+  thin <- assert_count(thin, "thin")
+  chains <- assert_count(chains, "chains")
+  if (burn_in >= n_iter) {
+    stop_no_call("`burn_in` (", burn_in, ") must be smaller than `n_iter` (", n_iter, ").")
+  }
+  if (thin > n_iter - burn_in) {
+    stop_no_call("`thin` (", thin, ") keeps no draw of the ", n_iter - burn_in,
+                 " after the burn-in.")
+  }
+  list(n_iter = n_iter, burn_in = burn_in, thin = thin, chains = chains,
+       progress = assert_flag(progress, "progress"))
+}
+
+# Run every chain from its own seed, so each chain's draws depend only on its
+# seed (not on the order the chains run in), and the whole fit on set.seed().
+run_chains <- function(problem, cdf, update, control, seeds) {
+  n_grid <- ncol(problem$C)
+  chunk <- if (control$progress) max(1L, ceiling(control$n_iter / 50)) else control$n_iter
+  if (control$progress) {
+    bar <- cli::cli_progress_bar("Sampling", total = control$chains * control$n_iter,
+                                 .envir = environment())
+  }
+  lapply(seq_along(seeds), function(ch) {
+    with_seed(seeds[ch], {
+      state <- list(rho = sample.int(n_grid, 1L) - 1L, tau = 1 / stats::var(problem$y_field))
+      if (!is.finite(state$tau)) state$tau <- 1
+      pieces <- list()
+      for (first in seq(1L, control$n_iter, by = chunk)) {
+        n <- min(chunk, control$n_iter - first + 1L)
+        res <- gibbs_chain_cpp(problem$C, cdf, problem$setup$logdet, problem$log_prior_run,
+                               problem$log_prior_rho, problem$n_obs, problem$prior$shape,
+                               problem$prior$rate, update == "collapsed", n, first,
+                               control$burn_in, control$thin, state$rho, state$tau)
+        state <- list(rho = res$rho_state, tau = res$tau_state)
+        pieces[[length(pieces) + 1L]] <- res[c("run", "rho", "tau")]
+        if (control$progress) cli::cli_progress_update(inc = n, id = bar)
+      }
+      lapply(c(run = "run", rho = "rho", tau = "tau"),
+             function(v) unlist(lapply(pieces, `[[`, v), use.names = FALSE))
+    })
+  })
+}
+
+new_griddy_fit <- function(problem, out, update, control, call, runtime) {
+  kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
+  draws <- data.table::rbindlist(lapply(seq_along(out$chains), function(ch) {
+    d <- out$chains[[ch]]
+    list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
+         rho = d$rho, tau = d$tau)
+  }))
+  structure(
+    list(draws = as.data.frame(draws), grid = problem$setup$grid,
+         library = problem$library, y_field = problem$y_field, problem = problem,
+         update = update, control = control, seeds = out$seeds, call = call,
+         runtime = runtime),
+    class = "griddy_fit"
+  )
+}
+
+# Evaluate `code` with the random number stream seeded by `seed`, leaving the
+# caller's stream as it was.
+with_seed <- function(seed, code) {
+  had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
+  if (had_seed) old <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
+  on.exit(if (had_seed) {
+    assign(".Random.seed", old, envir = globalenv())
+  } else if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
+    rm(".Random.seed", envir = globalenv())
+  })
+  set.seed(seed)
+  code
+}

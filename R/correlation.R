@@ -1,0 +1,153 @@
+# The correlation R = R_x (x) R_t of thesis Appendix B and the precomputed
+# quadratic forms C_ig over a grid of correlation parameters.
+#
+# R_x[k, l] = prod_j rho_j ^ (4^(p - 1) |x_kj - x_lj|^p), x scaled to [0, 1] per
+#   column: p = 2 gives eq. 3.14 (rho^(4 d^2)), p = 1 Appendix A's eq. 5 (rho^|d|).
+# R_t[j, m] = rho_t ^ |t_j - t_m|, t scaled to [0, 1]: an AR(1) process, whose
+#   log-determinant is sum_j log(1 - phi_j^2) with phi_j = rho_t^(t_{j+1} - t_j)
+#   (eq. 11-12 on an even grid).
+
+#' Correlation grid of a calibration
+#'
+#' Lists every combination of the correlation parameters that [calibrate()]
+#' and [posterior_exact()] move over: one grid for each x column (all
+#' combinations taken, as the thesis's Appendix A assembles them) and one for
+#' the output coordinate t.
+#'
+#' @param library A [sim_library()].
+#' @param rho_x Correlation over the control settings, in \[0, 1): a vector
+#'   (the same grid for every x column) or a list with one grid per x column.
+#'   0 means independent settings.
+#' @param rho_t Correlation over the output coordinate t (scaled to \[0, 1]),
+#'   in \[0, 1): a vector. On an even grid of `n_t` points, neighbouring
+#'   outputs have correlation `rho_t^(1 / (n_t - 1))`.
+#' @return A data.frame with one row per grid point and one column per
+#'   correlation parameter: `rho_x_<name>` for each x column (when the library
+#'   has more than one x setting) and `rho_t` (when it has more than one
+#'   output per setting).
+#' @examples
+#' lib <- sim_library(data.frame(k = 1:3), matrix(rnorm(18), 3, 6),
+#'                    x = data.frame(height = c(1, 2)))
+#' rho_grid(lib, rho_x = c(0, 0.5), rho_t = c(0, 0.1, 0.9))
+#' @export
+rho_grid <- function(library, rho_x = 0, rho_t = 0) {
+  check_library(library)
+  grids <- rho_grids(library, rho_x, rho_t)
+  grid <- expand.grid(c(grids$x, list(rho_t = grids$t)), KEEP.OUT.ATTRS = FALSE)
+  keep <- c(if (lib_n_x(library) > 1L) names(grids$x), if (lib_n_t(library) > 1L) "rho_t")
+  grid[keep]
+}
+
+check_library <- function(library) {
+  if (!inherits(library, "sim_library")) {
+    stop_no_call("`library` must be a sim_library (see ?sim_library); received ",
+                 class(library)[1], ".")
+  }
+}
+
+# Validated grids: a named list of grids per x column, and the t grid.
+rho_grids <- function(library, rho_x, rho_t) {
+  x_names <- if (is.null(library$x)) "x" else names(library$x)
+  if (is.list(rho_x)) {
+    if (length(rho_x) != length(x_names)) {
+      stop_no_call("`rho_x` must hold one grid per x column (", show_some(x_names),
+                   "); received ", length(rho_x), ".")
+    }
+    if (!is.null(names(rho_x)) && !setequal(names(rho_x), x_names)) {
+      stop_no_call("`rho_x` names (", show_some(names(rho_x)),
+                   ") must be the x columns (", show_some(x_names), ").")
+    }
+    if (!is.null(names(rho_x))) rho_x <- rho_x[x_names]
+  } else {
+    rho_x <- rep(list(rho_x), length(x_names))
+  }
+  names(rho_x) <- paste0("rho_x_", x_names)
+  rho_x <- Map(assert_rho_grid, rho_x, paste0("rho_x$", x_names))
+  rho_t <- assert_rho_grid(rho_t, "rho_t")
+  if (lib_n_x(library) == 1L && any(unlist(rho_x) != 0)) {
+    stop_no_call("`rho_x` must be 0: the library has a single x setting, so there is ",
+                 "nothing to correlate.")
+  }
+  if (lib_n_t(library) == 1L && any(rho_t != 0)) {
+    stop_no_call("`rho_t` must be 0: the library has a single output per x setting, ",
+                 "so there is nothing to correlate.")
+  }
+  list(x = rho_x, t = rho_t)
+}
+
+# Scale each column (or a vector) to [0, 1]; constant columns become 0.
+scale_unit <- function(v) {
+  span <- max(v) - min(v)
+  if (span > 0) (v - min(v)) / span else v * 0
+}
+
+# R_x at one combination of per-column correlations `rho` (one per x column).
+corr_x <- function(x, rho, power = 2) {
+  n_x <- if (is.null(x)) 1L else nrow(x)
+  R <- matrix(1, n_x, n_x)
+  if (n_x == 1L) {
+    return(R)
+  }
+  for (j in seq_along(rho)) {
+    d <- 4^(power - 1) * abs(outer(scale_unit(x[[j]]), scale_unit(x[[j]]), "-"))^power
+    R <- R * if (rho[j] == 0) (d == 0) * 1 else rho[j]^d
+  }
+  R
+}
+
+# Lag coefficients of the AR(1) correlation over t: phi_j = rho^(s_{j+1} - s_j).
+ar1_phi <- function(t, rho) {
+  if (length(t) < 2L) {
+    return(numeric(0))
+  }
+  gaps <- diff(scale_unit(t))
+  if (rho == 0) gaps * 0 else rho^gaps
+}
+
+# Dense R_t, for tests and for drawing correlated noise in small problems.
+corr_t <- function(t, rho) {
+  s <- scale_unit(t)
+  d <- abs(outer(s, s, "-"))
+  if (rho == 0) (d == 0) * 1 else rho^d
+}
+
+# Everything the sampler needs about the correlation: the grid, R_x^{-1} per x
+# combination, phi per rho_t, log|R_g| per grid point (eq. 10, 12-13).
+correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
+  if (!is.numeric(x_power) || length(x_power) != 1L || !is.finite(x_power) ||
+      x_power <= 0 || x_power > 2) {
+    stop_no_call("`x_power` must be a single number in (0, 2]; received ",
+                 paste(format(x_power), collapse = ", "), ".")
+  }
+  grids <- rho_grids(library, rho_x, rho_t)
+  n_x <- lib_n_x(library)
+  n_t <- lib_n_t(library)
+  combos <- expand.grid(grids$x, KEEP.OUT.ATTRS = FALSE)
+  Rx_inv <- array(0, c(n_x, n_x, nrow(combos)))
+  logdet_x <- numeric(nrow(combos))
+  for (gx in seq_len(nrow(combos))) {
+    rho <- unlist(combos[gx, , drop = FALSE])
+    U <- tryCatch(chol(corr_x(library$x, rho, x_power)), error = function(e) NULL)
+    if (is.null(U) || any(diag(U) < 1e-7)) {
+      stop_no_call("R_x is numerically singular at ", paste0(names(rho), " = ", rho,
+                   collapse = ", "), ": the x settings are too close for this ",
+                   "correlation. Use smaller values in `rho_x`.")
+    }
+    Rx_inv[, , gx] <- chol2inv(U)
+    logdet_x[gx] <- 2 * sum(log(diag(U)))
+  }
+  phi <- vapply(grids$t, function(r) ar1_phi(library$t, r), numeric(n_t - 1L))
+  phi <- matrix(phi, nrow = n_t - 1L, ncol = length(grids$t))
+  logdet_t <- colSums(log1p(-phi^2))
+  grid <- rho_grid(library, rho_x, rho_t)
+  gx <- rep(seq_len(nrow(combos)), times = length(grids$t))
+  gt <- rep(seq_along(grids$t), each = nrow(combos))
+  list(grid = grid, Rx_inv = Rx_inv, phi = phi,
+       logdet = n_t * logdet_x[gx] + n_x * logdet_t[gt],
+       x_power = x_power, rho_x = grids$x, rho_t = grids$t)
+}
+
+# The quadratic forms C (runs x grid points) of the field data under each R_g.
+quad_forms <- function(library, y_field, setup) {
+  quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi)
+}

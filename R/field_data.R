@@ -1,0 +1,123 @@
+#' Field measurements to calibrate against
+#'
+#' Holds the measurements at the library's control settings `x` and output
+#' coordinates `t`.
+#'
+#' @param y The measurements: an `n_x x n_t` numeric matrix whose row `k` holds
+#'   the measurements at the `k`-th x setting, or a numeric vector in the
+#'   library's order (blocks of `n_t` values by x setting).
+#' @param x A data.frame of the `n_x` control settings, with the library's
+#'   column names; `NULL` means "the library's settings, in its order". Rows
+#'   may come in another order than the library's: [calibrate()] matches them
+#'   by value.
+#' @param t The `n_t` output coordinates; `NULL` means "the library's".
+#' @return An object of class `griddy_field`: a list with elements `y` (an
+#'   `n_x x n_t` matrix, or a one-row matrix when `y` was a vector and neither
+#'   `x` nor `t` fixes its shape), `x` and `t` as given.
+#' @seealso [sim_library()], [calibrate()]
+#' @examples
+#' field_data(matrix(rnorm(6), nrow = 2), x = data.frame(height = c(10, 20)))
+#' field_data(c(1.2, 0.8, 0.5))
+#' @export
+field_data <- function(y, x = NULL, t = NULL) {
+  x <- as_settings(x, "x")
+  if (!is.null(t)) t <- assert_numeric_vector(t, "t")
+  if (is.null(dim(y))) {
+    y <- assert_numeric_vector(y, "y")
+    n_t <- if (!is.null(t)) length(t) else if (!is.null(x)) length(y) / nrow(x) else length(y)
+    if (n_t != round(n_t) || length(y) %% n_t != 0L) {
+      stop_no_call("`y` has ", length(y), " values, which do not split into ",
+                   if (!is.null(x)) nrow(x) else length(y) / n_t,
+                   " x settings of equal length.")
+    }
+    y <- matrix(y, ncol = n_t, byrow = TRUE)
+  } else {
+    y <- as_numeric_matrix(y, "y")
+  }
+  if (!is.null(x) && nrow(x) != nrow(y)) {
+    stop_no_call("`y` must have one row per x setting: `x` has ", nrow(x),
+                 " rows but `y` has ", nrow(y), ".")
+  }
+  if (!is.null(t)) as_coordinates(t, ncol(y), "t", "columns of `y`")
+  dimnames(y) <- NULL
+  structure(list(y = y, x = x, t = t), class = "griddy_field")
+}
+
+#' @export
+print.griddy_field <- function(x, ...) {
+  cli::cat_line("<griddy_field> ", length(x$y), " measurement(s): ",
+                nrow(x$y), " x setting(s) x ", ncol(x$y), " output(s)")
+  cli::cat_line("  range ", format(min(x$y), digits = 4), " to ",
+                format(max(x$y), digits = 4))
+  invisible(x)
+}
+
+# The field measurements as one vector in the library's order (blocks by x
+# setting), after checking that their x and t are the library's.
+field_vector <- function(library, field) {
+  if (!inherits(library, "sim_library")) {
+    stop_no_call("`library` must be a sim_library (see ?sim_library); received ",
+                 class(library)[1], ".")
+  }
+  if (!inherits(field, "griddy_field")) {
+    stop_no_call("`field` must be a griddy_field (see ?field_data); received ",
+                 class(field)[1], ".")
+  }
+  n_x <- lib_n_x(library)
+  n_t <- lib_n_t(library)
+  y <- field$y
+  if (!is.null(field$t)) match_coordinates(field$t, library$t)
+  if (is.null(field$x)) {
+    if (length(y) != n_x * n_t) {
+      stop_no_call("`field` has ", length(y), " measurements but the library has ",
+                   n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
+    }
+    return(as.vector(t(y)))
+  }
+  order <- match_settings(field$x, library$x)
+  if (ncol(y) != n_t) {
+    stop_no_call("`field` has ", ncol(y), " output(s) per x setting but the library has ",
+                 n_t, ".")
+  }
+  as.vector(t(y[order, , drop = FALSE]))
+}
+
+same_values <- function(a, b) abs(a - b) <= 1e-8 * pmax(1, abs(a), abs(b))
+
+match_coordinates <- function(t_field, t_lib) {
+  if (length(t_field) != length(t_lib) || !all(same_values(t_field, t_lib))) {
+    stop_no_call("`field$t` does not match the library's t: the field has ",
+                 length(t_field), " coordinate(s) from ", format(min(t_field)), " to ",
+                 format(max(t_field)), ", the library ", length(t_lib), " from ",
+                 format(min(t_lib)), " to ", format(max(t_lib)), ".")
+  }
+}
+
+# For each library setting, the row of the field's x holding it.
+match_settings <- function(x_field, x_lib) {
+  if (is.null(x_lib)) {
+    if (nrow(x_field) != 1L) {
+      stop_no_call("`field` has ", nrow(x_field), " x settings but the library has one.")
+    }
+    return(1L)
+  }
+  if (!setequal(names(x_field), names(x_lib))) {
+    stop_no_call("`field$x` has column(s) ", show_some(names(x_field)),
+                 " but the library's x has ", show_some(names(x_lib)), ".")
+  }
+  x_field <- x_field[names(x_lib)]
+  hit <- vapply(seq_len(nrow(x_lib)), function(k) {
+    same <- which(Reduce(`&`, Map(same_values, x_field, x_lib[k, ])))
+    if (length(same) == 0L) NA_integer_ else same[1]
+  }, integer(1))
+  if (anyNA(hit)) {
+    stop_no_call("`field` has no measurements at library x setting(s) ",
+                 show_some(which(is.na(hit))), ".")
+  }
+  extra <- setdiff(seq_len(nrow(x_field)), hit)
+  if (length(extra) > 0L) {
+    stop_no_call("`field` has x setting(s) at row(s) ", show_some(extra),
+                 " that the library does not have.")
+  }
+  hit
+}

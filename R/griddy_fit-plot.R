@@ -1,0 +1,136 @@
+#' Plot a griddy fit
+#'
+#' * `"trace"`: the draws of every parameter against the iteration, one line
+#'   per chain.
+#' * `"posterior"`: the posterior of each \eqn{\theta} column as bars over the
+#'   library's distinct values (the thesis's figures), with the truth marked
+#'   when given.
+#' * `"ppc"`: posterior predictive check: the field data against the
+#'   simulator outputs at the drawn runs (mean and band) and the predictive
+#'   band with the fitted noise, per x setting.
+#'
+#' @param x A `griddy_fit` from [calibrate()].
+#' @param type `"trace"`, `"posterior"` or `"ppc"`.
+#' @param truth Optional named numeric vector of true \eqn{\theta} values,
+#'   marked in red on the `"posterior"` plot.
+#' @param ... Passed to [predict.griddy_fit()] for `"ppc"` (e.g. `ndraws`,
+#'   `seed`).
+#' @return A ggplot object.
+#' @examples
+#' ex <- griddy_example()
+#' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
+#' plot(fit, "posterior", truth = ex$truth)
+#' plot(fit, "ppc", ndraws = 200, seed = 1)
+#' @importFrom ggplot2 .data
+#' @export
+plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc"), truth = NULL, ...) {
+  type <- match.arg(type)
+  switch(type,
+         trace = plot_trace(x),
+         posterior = plot_posterior(x, truth),
+         ppc = plot_ppc(x, ...))
+}
+
+plot_trace <- function(fit) {
+  draws <- parameter_draws(fit)
+  long <- data.frame(iteration = fit$draws$iteration, chain = factor(fit$draws$chain),
+                     parameter = factor(rep(names(draws), each = nrow(draws)),
+                                        levels = names(draws)),
+                     value = unlist(draws, use.names = FALSE))
+  ggplot2::ggplot(long, ggplot2::aes(.data$iteration, .data$value, colour = .data$chain)) +
+    ggplot2::geom_line(linewidth = 0.3) +
+    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), ncol = 1, scales = "free_y") +
+    ggplot2::labs(x = "Iteration", y = "Draw", colour = "Chain",
+                  title = "Trace plots") +
+    ggplot2::theme_bw()
+}
+
+plot_posterior <- function(fit, truth) {
+  theta <- fit$library$theta
+  bars <- do.call(rbind, lapply(names(theta), function(p) {
+    lib_values <- sort(unique(theta[[p]]))
+    gaps <- diff(lib_values)
+    half <- 0.45 * max(if (length(gaps)) min(gaps) else 0, diff(range(lib_values)) / 200,
+                       abs(lib_values[1]) * 1e-3, 1e-12)
+    drawn <- theta[[p]][fit$draws$run]
+    freq <- table(drawn) / length(drawn)
+    v <- as.numeric(names(freq))
+    data.frame(parameter = p, value = v, xmin = v - half, xmax = v + half,
+               prob = as.vector(freq))
+  }))
+  bars$parameter <- factor(bars$parameter, levels = names(theta))
+  p <- ggplot2::ggplot(bars) +
+    ggplot2::geom_rect(ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = 0,
+                                    ymax = .data$prob), fill = "steelblue", colour = NA) +
+    ggplot2::geom_point(data = library_ticks(theta, bars), ggplot2::aes(.data$value, 0),
+                        shape = 15, size = 1, colour = "grey30") +
+    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
+    ggplot2::labs(x = "Library value", y = "Posterior probability",
+                  title = "Posterior over the library's values") +
+    ggplot2::theme_bw()
+  if (!is.null(truth)) {
+    truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
+    if (is.null(names(truth)) || !all(names(truth) %in% names(theta))) {
+      stop_no_call("`truth` must be named by theta columns (", show_some(names(theta)), ").")
+    }
+    marks <- data.frame(parameter = factor(names(truth), levels = names(theta)),
+                        value = unname(truth))
+    p <- p + ggplot2::geom_vline(data = marks, ggplot2::aes(xintercept = .data$value),
+                                 colour = "red", linewidth = 0.7)
+  }
+  p
+}
+
+# The library's distinct values near the visited ones (two steps either side),
+# marked on the axis as the thesis's figures do.
+library_ticks <- function(theta, bars) {
+  do.call(rbind, lapply(names(theta), function(p) {
+    v <- sort(unique(theta[[p]]))
+    seen <- range(bars$value[bars$parameter == p])
+    lo <- max(1L, findInterval(seen[1], v) - 2L)
+    hi <- min(length(v), findInterval(seen[2], v) + 2L)
+    data.frame(parameter = factor(p, levels = names(theta)), value = v[lo:hi])
+  }))
+}
+
+plot_ppc <- function(fit, ...) {
+  pred <- predict(fit, ...)
+  single_t <- lib_n_t(fit$library) == 1L
+  pred$position <- if (single_t) pred$x else pred$t
+  pred$setting <- factor(setting_labels(fit$library)[pred$x], levels = setting_labels(fit$library))
+  p <- ggplot2::ggplot(pred, ggplot2::aes(x = .data$position))
+  if (single_t) {
+    p <- p +
+      ggplot2::geom_linerange(ggplot2::aes(ymin = .data$pred_lower, ymax = .data$pred_upper),
+                              colour = "grey60", linewidth = 2) +
+      ggplot2::geom_pointrange(ggplot2::aes(y = .data$mean, ymin = .data$lower,
+                                            ymax = .data$upper), colour = "steelblue") +
+      ggplot2::geom_point(ggplot2::aes(y = .data$observed), colour = "black", shape = 4,
+                          size = 2.5) +
+      ggplot2::labs(x = "x setting (row of the library's x)")
+  } else {
+    p <- p +
+      ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$pred_lower, ymax = .data$pred_upper),
+                           fill = "grey80") +
+      ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper),
+                           fill = "steelblue", alpha = 0.5) +
+      ggplot2::geom_line(ggplot2::aes(y = .data$mean), colour = "steelblue") +
+      ggplot2::geom_point(ggplot2::aes(y = .data$observed), size = 0.6) +
+      ggplot2::facet_wrap(ggplot2::vars(.data$setting), scales = "free_y") +
+      ggplot2::labs(x = "t")
+  }
+  p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
+                    subtitle = paste("Black: field data. Blue: simulator at the drawn runs",
+                                     "(mean, 95% band). Grey: with fitted noise.")) +
+    ggplot2::theme_bw()
+}
+
+# "height = 10, speed = 20" for each x setting.
+setting_labels <- function(lib) {
+  if (is.null(lib$x)) {
+    return("single setting")
+  }
+  labels <- do.call(paste, c(Map(function(n, v) paste(n, "=", format(v, digits = 4)),
+                                 names(lib$x), lib$x), sep = ", "))
+  make.unique(labels)
+}

@@ -1,0 +1,148 @@
+#' Read the thesis's three calibration inputs
+#'
+#' Reads `design`, `simobs` and `expobs` in the layout of the Los Alamos
+#' `simobs` code that the thesis's R code takes (Appendix A.1), and does its
+#' "rearrange truth & simobs" step: runs that share \eqn{\theta} become one
+#' library row, with their outputs in blocks ordered as `expobs`'s x settings.
+#'
+#' * `design`: one row per simulation run, the `n_x` x columns first and the
+#'   \eqn{\theta} columns after. Each x setting is a separate run.
+#' * `simobs`: one row per `design` row holding that run's `n_t` outputs; the
+#'   transposed layout (one column per run) is accepted when only it fits.
+#' * `expobs`: one row per x setting, the `n_x` x columns first, then the
+#'   `n_t` measurements.
+#'
+#' Files are read with [data.table::fread()] (csv or whitespace-separated,
+#' with a header). Runs at x settings that `expobs` lacks are dropped, with a
+#' message; every \eqn{\theta} must have been run at every setting of
+#' `expobs`.
+#'
+#' @param design,simobs,expobs File paths or data.frames, as above.
+#' @param n_x The number of x columns (control variables) in `design` and
+#'   `expobs`; 0 when there are none.
+#' @param t Optional output coordinates (see [sim_library()]); `NULL` gives
+#'   `1:n_t`.
+#' @return A list with elements `library` (a [sim_library()]) and `field` (a
+#'   [field_data()] object).
+#' @examples
+#' dir <- system.file("extdata", package = "griddy")
+#' inputs <- read_calibration_inputs(
+#'   design = file.path(dir, "oscillator_design.csv"),
+#'   simobs = file.path(dir, "oscillator_simobs.csv"),
+#'   expobs = file.path(dir, "oscillator_expobs.csv"),
+#'   n_x = 1
+#' )
+#' inputs$library
+#' @export
+read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
+  design <- read_table_input(design, "design")
+  simobs <- read_table_input(simobs, "simobs")
+  expobs <- read_table_input(expobs, "expobs")
+  n_x <- assert_count(n_x, "n_x", min = 0L)
+  if (ncol(design) <= n_x) {
+    stop_no_call("`design` must have the ", n_x, " x column(s) and at least one theta ",
+                 "column; it has ", ncol(design), " column(s).")
+  }
+  sim <- orient_simobs(simobs, nrow(design))
+  n_t <- ncol(sim)
+  if (ncol(expobs) != n_x + n_t) {
+    stop_no_call("`expobs` must have the ", n_x, " x column(s) then the ", n_t,
+                 " measurements that `simobs` has per run; it has ", ncol(expobs),
+                 " column(s).")
+  }
+  x_cols <- seq_len(n_x)
+  x_names <- names(design)[x_cols]
+  exp_x <- stats::setNames(as.data.frame(expobs[, x_cols, drop = FALSE]), x_names)
+  if (n_x > 0L && anyDuplicated(exp_x)) {
+    stop_no_call("`expobs` has duplicated x settings at row(s) ",
+                 show_some(which(duplicated(exp_x))), ".")
+  }
+  setting <- design_settings(design[, x_cols, drop = FALSE], exp_x)
+  used <- !is.na(setting)
+  theta <- as.data.frame(design[used, setdiff(seq_len(ncol(design)), x_cols), drop = FALSE])
+  run <- data.table::frankv(data.table::as.data.table(theta), ties.method = "dense")
+  run <- match(run, unique(run))
+  assert_complete_runs(run, setting[used], which(used), nrow(expobs))
+  y <- matrix(NA_real_, max(run), nrow(expobs) * n_t)
+  cols <- outer((setting[used] - 1L) * n_t, seq_len(n_t), "+")
+  y[cbind(rep(run, n_t), as.vector(cols))] <- as.vector(sim[used, , drop = FALSE])
+  lib_x <- if (n_x > 0L) exp_x else NULL
+  library <- sim_library(theta[!duplicated(run), , drop = FALSE], y, x = lib_x, t = t)
+  field <- field_data(as.matrix(expobs[, n_x + seq_len(n_t), drop = FALSE]), x = lib_x, t = t)
+  list(library = library, field = field)
+}
+
+read_table_input <- function(v, arg) {
+  if (is.character(v) && length(v) == 1L) {
+    if (!file.exists(v)) {
+      stop_no_call("`", arg, "` file not found: ", v)
+    }
+    v <- tryCatch(data.table::fread(v, header = TRUE, data.table = FALSE),
+                  error = function(e) stop_no_call("`", arg, "` could not be read from ", v,
+                                                   ": ", conditionMessage(e)))
+  }
+  if (!is.data.frame(v) && !is.matrix(v)) {
+    stop_no_call("`", arg, "` must be a file path, a data.frame or a matrix; received ",
+                 class(v)[1], ".")
+  }
+  v <- as.data.frame(v)
+  if (nrow(v) < 1L || ncol(v) < 1L) {
+    stop_no_call("`", arg, "` is empty.")
+  }
+  as_numeric_matrix(v, arg)
+  v
+}
+
+# simobs as a runs x outputs matrix: one row per design row, or (when only
+# that fits) one column per design row.
+orient_simobs <- function(simobs, n_design) {
+  sim <- as.matrix(simobs)
+  dimnames(sim) <- NULL
+  if (nrow(sim) == n_design) {
+    return(sim)
+  }
+  if (ncol(sim) == n_design) {
+    return(t(sim))
+  }
+  stop_no_call("`simobs` must have one row (or one column) per `design` row (",
+               n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".")
+}
+
+# For each design row, the expobs row holding its x setting (NA: none).
+design_settings <- function(design_x, exp_x) {
+  if (ncol(design_x) == 0L) {
+    return(rep(1L, nrow(design_x)))
+  }
+  key <- function(d) do.call(paste, c(lapply(d, function(v) sprintf("%.10g", v)), sep = "|"))
+  setting <- match(key(design_x), key(exp_x))
+  missing_settings <- setdiff(seq_len(nrow(exp_x)), setting)
+  if (length(missing_settings) > 0L) {
+    stop_no_call("No `design` run has the x setting(s) of `expobs` row(s) ",
+                 show_some(missing_settings), ".")
+  }
+  if (anyNA(setting)) {
+    message(sum(is.na(setting)), " `design` run(s) at x settings that `expobs` lacks ",
+            "were dropped (row(s) ", show_some(which(is.na(setting))), ").")
+  }
+  setting
+}
+
+# Every theta once at every x setting.
+assert_complete_runs <- function(run, setting, rows, n_settings) {
+  pair <- paste(run, setting)
+  dup <- which(duplicated(pair))
+  if (length(dup) > 0L) {
+    stop_no_call("`design` has duplicated (x, theta) rows: row(s) ", show_some(rows[dup]),
+                 " repeat row(s) ", show_some(rows[match(pair[dup], pair)]), ".")
+  }
+  count <- tabulate(run, nbins = max(run))
+  short <- which(count < n_settings)
+  if (length(short) > 0L) {
+    first <- rows[match(short[1], run)]
+    have <- setting[run == short[1]]
+    stop_no_call("Every theta must be run at all ", n_settings, " x settings of `expobs`: ",
+                 length(short), " theta(s) are not, e.g. the theta of `design` row ", first,
+                 " lacks setting(s) ", show_some(setdiff(seq_len(n_settings), have)),
+                 " (rows of `expobs`).")
+  }
+}

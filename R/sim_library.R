@@ -1,0 +1,155 @@
+#' A library of simulation runs
+#'
+#' Collects the runs of a simulator over a design of its unknown parameters
+#' \eqn{\theta}: one row per run, holding the run's outputs at every control
+#' setting `x` and output coordinate `t`, in the layout of the thesis's
+#' Appendix A.1.
+#'
+#' Row `i` of `y` holds run `i`'s outputs in blocks by `x` setting: block `k`
+#' (columns `(k - 1) * n_t + 1` to `k * n_t`) holds the `n_t` outputs at the
+#' `k`-th row of `x`, in the order of `t`. The runs may form a full-factorial
+#' grid, a Latin hypercube or any other design; each row is one point of the
+#' discrete parameter space the sampler moves on.
+#'
+#' @param theta A data.frame, or a numeric matrix with column names, of the
+#'   parameter values: one row per run (`N x p`), at least two runs.
+#' @param y A numeric matrix `N x (n_x * n_t)` of the runs' outputs.
+#' @param x A data.frame (or numeric vector or named matrix) of the `n_x`
+#'   control settings, one row each; `NULL` for a single setting.
+#' @param t The `n_t` output coordinates (time, or a location index), strictly
+#'   increasing; `NULL` gives `1:n_t`.
+#' @return An object of class `sim_library`: a list with elements `theta` (a
+#'   data.frame), `y` (a matrix), `x` (a data.frame or `NULL`) and `t` (a
+#'   numeric vector).
+#' @seealso [field_data()], [read_calibration_inputs()], [calibrate()]
+#' @examples
+#' theta <- expand.grid(k = seq(1, 3, by = 0.5), c = c(0.1, 0.2, 0.3))
+#' t <- seq(0, 2, length.out = 20)
+#' y <- t(apply(theta, 1, function(p) exp(-p[["c"]] * t) * cos(p[["k"]] * t)))
+#' lib <- sim_library(theta, y, t = t)
+#' lib
+#' @export
+sim_library <- function(theta, y, x = NULL, t = NULL) {
+  theta_mat <- as_theta_matrix(theta)
+  n_runs <- nrow(theta_mat)
+  if (n_runs < 2L) {
+    stop_no_call("`theta` must hold at least 2 runs (rows); received ", n_runs, ".")
+  }
+  y <- as_numeric_matrix(y, "y")
+  if (nrow(y) != n_runs) {
+    stop_no_call("`y` must have one row per run: `theta` has ", n_runs,
+                 " rows but `y` has ", nrow(y), ".")
+  }
+  x <- as_settings(x, "x")
+  n_x <- if (is.null(x)) 1L else nrow(x)
+  if (ncol(y) %% n_x != 0L) {
+    stop_no_call("`y` has ", ncol(y), " columns, which is not a multiple of the ",
+                 n_x, " x settings (rows of `x`).")
+  }
+  t <- as_coordinates(t, ncol(y) %/% n_x, "t", "`y` columns per x setting")
+  assert_distinct_runs(theta_mat)
+  warn_constant_columns(theta_mat)
+  structure(
+    list(theta = as.data.frame(theta_mat), y = y, x = x, t = t),
+    class = "sim_library"
+  )
+}
+
+#' @export
+print.sim_library <- function(x, ...) {
+  n_x <- lib_n_x(x)
+  ranges <- vapply(x$theta, function(v) {
+    paste0(format(min(v), digits = 4), " to ", format(max(v), digits = 4))
+  }, "")
+  cli::cat_line("<sim_library> ", nrow(x$y), " runs of ", ncol(x$theta),
+                " parameter(s)")
+  cli::cat_line("  theta: ", paste0(names(ranges), " [", ranges, "]", collapse = ", "))
+  cli::cat_line("  x:     ", if (is.null(x$x)) "one setting" else
+    paste0(n_x, " setting(s) of ", paste(names(x$x), collapse = ", ")))
+  cli::cat_line("  t:     ", length(x$t), " output(s), ",
+                format(min(x$t), digits = 4), " to ", format(max(x$t), digits = 4))
+  cli::cat_line("  y:     ", nrow(x$y), " x ", ncol(x$y), " (runs x outputs, ",
+                format(utils::object.size(x$y), units = "auto"), ")")
+  invisible(x)
+}
+
+# Library dimensions, derived from what the object holds.
+lib_n_x <- function(lib) if (is.null(lib$x)) 1L else nrow(lib$x)
+lib_n_t <- function(lib) length(lib$t)
+
+as_theta_matrix <- function(theta) {
+  if (!is.data.frame(theta) && !is.matrix(theta)) {
+    stop_no_call("`theta` must be a data.frame or a numeric matrix with column names; ",
+                 "received ", class(theta)[1], ".")
+  }
+  if (is.null(colnames(theta)) || any(colnames(theta) == "")) {
+    stop_no_call("`theta` must have a name for every column.")
+  }
+  if (anyDuplicated(colnames(theta))) {
+    stop_no_call("`theta` has duplicated column names: ",
+                 show_some(colnames(theta)[duplicated(colnames(theta))]), ".")
+  }
+  if (ncol(theta) < 1L) {
+    stop_no_call("`theta` must have at least one parameter column.")
+  }
+  as_numeric_matrix(theta, "theta")
+}
+
+# Control settings: a data.frame with named numeric columns and distinct rows.
+as_settings <- function(x, arg) {
+  if (is.null(x)) {
+    return(NULL)
+  }
+  if (is.numeric(x) && is.null(dim(x))) {
+    x <- data.frame(x = x)
+  }
+  if (is.matrix(x)) {
+    if (is.null(colnames(x))) colnames(x) <- paste0("x", seq_len(ncol(x)))
+    x <- as.data.frame(x)
+  }
+  if (!is.data.frame(x) || ncol(x) < 1L || nrow(x) < 1L) {
+    stop_no_call("`", arg, "` must be a data.frame of control settings, one row each; ",
+                 "received ", class(x)[1], ".")
+  }
+  as_numeric_matrix(x, arg)
+  dup <- which(duplicated(x))
+  if (length(dup) > 0L) {
+    stop_no_call("`", arg, "` has duplicated settings at row(s) ", show_some(dup), ".")
+  }
+  rownames(x) <- NULL
+  x
+}
+
+# Output coordinates: strictly increasing and finite, `n` of them.
+as_coordinates <- function(t, n, arg, what) {
+  if (is.null(t)) {
+    return(as.double(seq_len(n)))
+  }
+  t <- assert_numeric_vector(t, arg)
+  if (length(t) != n) {
+    stop_no_call("`", arg, "` must have one value per output: ", n, " ", what,
+                 " but `", arg, "` has ", length(t), ".")
+  }
+  if (n > 1L && any(diff(t) <= 0)) {
+    stop_no_call("`", arg, "` must be strictly increasing; it is not at position(s) ",
+                 show_some(which(diff(t) <= 0) + 1L), ".")
+  }
+  t
+}
+
+assert_distinct_runs <- function(theta_mat) {
+  id <- data.table::frankv(data.table::as.data.table(theta_mat), ties.method = "dense")
+  dup <- which(duplicated(id))
+  if (length(dup) > 0L) {
+    stop_no_call("`theta` has duplicated runs: row(s) ", show_some(dup),
+                 " repeat row(s) ", show_some(match(id[dup], id)), ".")
+  }
+}
+
+warn_constant_columns <- function(theta_mat) {
+  const <- colnames(theta_mat)[apply(theta_mat, 2, function(v) all(v == v[1]))]
+  if (length(const) > 0L) {
+    warn_no_call("`theta` column(s) ", show_some(const), " are constant across runs: ",
+                 "they cannot be calibrated and their interval will be a single value.")
+  }
+}

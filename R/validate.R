@@ -1,0 +1,121 @@
+# Input checks shared by the constructors and fitters. They run in R before
+# any C++ so that the compiled code can trust its inputs.
+
+stop_no_call <- function(...) {
+  stop(paste0(...), call. = FALSE)
+}
+
+warn_no_call <- function(...) {
+  warning(paste0(...), call. = FALSE)
+}
+
+# Show at most `n` items of a vector in a message, e.g. "3, 7, 9, ... (12 in all)".
+show_some <- function(v, n = 5L) {
+  v <- as.character(v)
+  if (length(v) <= n) {
+    return(paste(v, collapse = ", "))
+  }
+  paste0(paste(v[seq_len(n)], collapse = ", "), ", ... (", length(v), " in all)")
+}
+
+# Coerce a data.frame or matrix to a numeric matrix, naming non-numeric
+# columns and non-finite cells in the error.
+as_numeric_matrix <- function(v, arg) {
+  if (is.data.frame(v)) {
+    bad <- names(v)[!vapply(v, is.numeric, logical(1))]
+    if (length(bad) > 0L) {
+      stop_no_call("`", arg, "` must be numeric; column(s) ", show_some(bad),
+                   " are ", show_some(unique(vapply(v[bad], function(z) class(z)[1], ""))), ".")
+    }
+    v <- as.matrix(v)
+  } else if (is.numeric(v) && is.null(dim(v))) {
+    v <- matrix(v, nrow = 1L)
+  }
+  if (!is.matrix(v) || !is.numeric(v)) {
+    stop_no_call("`", arg, "` must be a numeric matrix or data.frame; received ",
+                 class(v)[1], if (is.matrix(v)) paste0(" of type ", typeof(v)), ".")
+  }
+  storage.mode(v) <- "double"
+  assert_finite(v, arg)
+  v
+}
+
+# Error naming the rows and columns of the first non-finite cells.
+assert_finite <- function(v, arg) {
+  bad <- which(!is.finite(v), arr.ind = is.matrix(v))
+  if (length(bad) == 0L) {
+    return(invisible(v))
+  }
+  if (is.matrix(bad)) {
+    cols <- colnames(v)[bad[, 2]]
+    if (is.null(cols)) cols <- bad[, 2]
+    where <- paste0("[", bad[, 1], ", ", cols, "]")
+    what <- v[bad]
+  } else {
+    where <- paste0("[", bad, "]")
+    what <- v[bad]
+  }
+  stop_no_call("`", arg, "` must hold finite numbers; found ", show_some(what),
+               " at ", show_some(where), ".")
+}
+
+assert_numeric_vector <- function(v, arg, min_length = 1L) {
+  if (!is.numeric(v) || !is.null(dim(v)) && length(dim(v)) > 1L && min(dim(v)) > 1L) {
+    stop_no_call("`", arg, "` must be a numeric vector; received ", class(v)[1], ".")
+  }
+  v <- as.double(v)
+  if (length(v) < min_length) {
+    stop_no_call("`", arg, "` must have at least ", min_length, " value(s); received ",
+                 length(v), ".")
+  }
+  assert_finite(v, arg)
+  v
+}
+
+assert_count <- function(v, arg, min = 1L) {
+  if (!is.numeric(v) || length(v) != 1L || !is.finite(v) || v != round(v) || v < min) {
+    stop_no_call("`", arg, "` must be a single whole number >= ", min, "; received ",
+                 paste(format(v), collapse = ", "), ".")
+  }
+  as.integer(v)
+}
+
+assert_flag <- function(v, arg) {
+  if (!is.logical(v) || length(v) != 1L || is.na(v)) {
+    stop_no_call("`", arg, "` must be TRUE or FALSE; received ",
+                 paste(format(v), collapse = ", "), ".")
+  }
+  v
+}
+
+# A correlation grid: values in [0, 1).
+assert_rho_grid <- function(v, arg) {
+  v <- assert_numeric_vector(v, arg)
+  bad <- v < 0 | v >= 1
+  if (any(bad)) {
+    stop_no_call("`", arg, "` must lie in [0, 1) (0 means independence); received ",
+                 show_some(v[bad]), ".")
+  }
+  if (anyDuplicated(v)) {
+    stop_no_call("`", arg, "` holds duplicated values: ", show_some(v[duplicated(v)]), ".")
+  }
+  v
+}
+
+# The Gamma prior on the precision tau.
+assert_prior <- function(prior) {
+  if (!is.list(prior) || is.null(prior$shape) || is.null(prior$rate)) {
+    stop_no_call("`prior` must be a list with elements `shape` and `rate` ",
+                 "(the Gamma prior on the precision tau).")
+  }
+  ok <- function(z) is.numeric(z) && length(z) == 1L && is.finite(z)
+  if (!ok(prior$shape) || prior$shape <= 0) {
+    stop_no_call("`prior$shape` must be a single positive number; received ",
+                 paste(format(prior$shape), collapse = ", "), ".")
+  }
+  if (!ok(prior$rate) || prior$rate < 0) {
+    stop_no_call("`prior$rate` must be a single number >= 0; received ",
+                 paste(format(prior$rate), collapse = ", "), ".")
+  }
+  list(shape = as.double(prior$shape), rate = as.double(prior$rate))
+}

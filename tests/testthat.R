@@ -1,0 +1,4 @@
+library(testthat)
+library(griddy)
+
+test_check("griddy")

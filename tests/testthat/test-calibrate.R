@@ -1,0 +1,92 @@
+rho_t_grid <- c(0, 1e-6, 1e-3, 0.05)
+
+test_that("the collapsed sampler reproduces the exact posterior over runs and rho", {
+  toy <- toy_ar1()
+  exact <- posterior_exact(toy$library, toy$field, rho_t = rho_t_grid)
+  fit <- calibrate(toy$library, toy$field, rho_t = rho_t_grid, n_iter = 12000, burn_in = 1000,
+                   chains = 2, seed = 42)
+  m <- nrow(fit$draws)
+  runs <- tabulate(fit$draws$run, nbins = 500) / m
+  rhos <- tabulate(fit$draws$rho, nbins = 4) / m
+  # Monte Carlo tolerance: 3 times the expected distance of independent draws,
+  # with the draw count halved for autocorrelation (the collapsed theta draw
+  # is exact given rho, so its integrated autocorrelation time is near 1).
+  expect_lt(tv_distance(runs, exact$run), 3 * expected_tv_iid(exact$run, m / 2))
+  expect_lt(tv_distance(rhos, exact$rho$prob), 3 * expected_tv_iid(exact$rho$prob, m / 2))
+})
+
+test_that("the thesis update targets the same posterior when it mixes", {
+  toy <- toy_ar1(n_runs = 200, n_t = 30)
+  exact <- posterior_exact(toy$library, toy$field)
+  fit <- calibrate(toy$library, toy$field, n_iter = 12000, burn_in = 1000, update = "thesis", seed = 7)
+  m <- nrow(fit$draws)
+  runs <- tabulate(fit$draws$run, nbins = 200) / m
+  # tau and theta are coupled in this update: allow an autocorrelation time of 4
+  expect_lt(tv_distance(runs, exact$run), 3 * expected_tv_iid(exact$run, m / 4))
+})
+
+test_that("fits are reproducible and chains have their own streams", {
+  toy <- toy_ar1(n_runs = 100, n_t = 20)
+  run <- function(...) calibrate(toy$library, toy$field, rho_t = c(0, 0.1), n_iter = 500,
+                                 burn_in = 100, chains = 2, ...)
+  a <- run(seed = 1)
+  b <- run(seed = 1)
+  expect_identical(a$draws, b$draws)
+  set.seed(99)
+  c1 <- run()
+  set.seed(99)
+  c2 <- run()
+  expect_identical(c1$draws, c2$draws)
+  expect_false(identical(a$draws, c1$draws))
+  expect_false(identical(a$draws$tau[a$draws$chain == 1], a$draws$tau[a$draws$chain == 2]))
+  # a seed for one call leaves the caller's stream alone
+  set.seed(5)
+  before <- runif(1)
+  set.seed(5)
+  run(seed = 123)
+  expect_identical(runif(1), before)
+  # the progress bar's chunked calls draw the same numbers
+  expect_identical(run(seed = 1, progress = TRUE)$draws, a$draws)
+})
+
+test_that("burn-in and thinning keep the right iterations", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- calibrate(toy$library, toy$field, n_iter = 100, burn_in = 40, thin = 7, chains = 3, seed = 1)
+  expect_identical(fit$draws$iteration, rep(seq(47L, 100L, by = 7L), 3))
+  expect_identical(fit$draws$chain, rep(1:3, each = 8))
+  expect_true(all(fit$draws$tau > 0))
+  expect_identical(fit$runtime[["precompute"]] >= 0, TRUE)
+})
+
+test_that("runs with zero prior weight are never drawn", {
+  toy <- toy_ar1(n_runs = 50, n_t = 20)
+  exact <- posterior_exact(toy$library, toy$field)
+  w <- rep(1, 50)
+  w[order(exact$run, decreasing = TRUE)[1:2]] <- 0
+  for (u in c("collapsed", "thesis")) {
+    fit <- calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 0, seed = 2,
+                     update = u, run_weights = w)
+    expect_false(any(fit$draws$run %in% which(w == 0)))
+  }
+})
+
+test_that("calibrate validates its arguments before any C++ runs", {
+  toy <- toy_ar1(n_runs = 20, n_t = 10)
+  lib <- toy$library
+  f <- toy$field
+  expect_error(calibrate(lib, f, n_iter = 100, burn_in = 100), "`burn_in` \\(100\\) must be smaller than `n_iter` \\(100\\)")
+  expect_error(calibrate(lib, f, n_iter = 100, burn_in = 50, thin = 60), "`thin` \\(60\\) keeps no draw")
+  expect_error(calibrate(lib, f, chains = 0), "`chains`")
+  expect_error(calibrate(lib, f, update = "gibbs"), "'arg' should be one of")
+  expect_error(calibrate(lib, f, progress = "yes"), "`progress` must be TRUE or FALSE")
+  expect_error(calibrate(lib, field_data(1:3)), "3 measurements but the library has")
+  expect_error(calibrate(f, lib), "`library` must be a sim_library")
+  expect_error(calibrate(lib, f, prior = list(shape = -1, rate = 1)), "prior\\$shape")
+  expect_error(calibrate(lib, f, rho_t = -0.1), "`rho_t` must lie in")
+})
+
+test_that("a posterior on one run is flagged", {
+  toy <- toy_ar1(n_runs = 20, n_t = 60, sd = 0.01, lag_cor = 0)
+  expect_warning(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1),
+                 "The posterior sits on one library run: run \\d+ holds 100% of the draws")
+})

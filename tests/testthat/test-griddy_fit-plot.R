@@ -1,0 +1,30 @@
+test_that("each plot type returns a ggplot built from the fit", {
+  toy <- toy_xt(n_per_dim = 5, n_t = 6)
+  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 600, burn_in = 100,
+                   chains = 2, seed = 1)
+  tr <- plot(fit)
+  expect_s3_class(tr, "ggplot")
+  expect_identical(levels(tr$data$parameter), c("a", "b", "tau", "rho_t"))
+  po <- plot(fit, "posterior", truth = c(a = 1.5, b = 0.4))
+  expect_s3_class(po, "ggplot")
+  bars <- po$data
+  expect_equal(sum(bars$prob[bars$parameter == "a"]), 1)
+  expect_true(all(bars$value[bars$parameter == "b"] %in% toy$library$theta$b))
+  expect_s3_class(ggplot2::ggplot_build(po), "ggplot_built")
+  pp <- plot(fit, "ppc", ndraws = 100, seed = 1)
+  expect_s3_class(pp, "ggplot")
+  expect_identical(levels(pp$data$setting), c("load = 1, speed = 10", "load = 2, speed = 10",
+                                              "load = 3, speed = 20"))
+  expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
+  expect_error(plot(fit, "posterior", truth = c(z = 1)), "`truth` must be named by theta columns")
+  expect_error(plot(fit, "density"), "'arg' should be one of")
+})
+
+test_that("the ppc plot handles one output per setting", {
+  lib <- sim_library(data.frame(k = 1:5), outer(1:5, 1:4), x = data.frame(pos = 1:4))
+  fit <- suppressWarnings(calibrate(lib, field_data(c(2.1, 3.9, 6.2, 7.8)), n_iter = 300,
+                                   burn_in = 50, seed = 1))
+  pp <- plot(fit, "ppc", ndraws = 50, seed = 1)
+  expect_identical(pp$data$position, 1:4)
+  expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
+})

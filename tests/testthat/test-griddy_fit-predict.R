@@ -1,0 +1,34 @@
+test_that("predict gives the outputs at the drawn runs and wider noisy bounds", {
+  toy <- toy_xt(n_per_dim = 5, n_t = 6)
+  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 1500, burn_in = 500,
+                   chains = 2, seed = 1)
+  p <- predict(fit, ndraws = 300, seed = 3)
+  expect_identical(names(p), c("x", "load", "speed", "t", "observed", "mean", "lower", "upper",
+                               "pred_lower", "pred_upper"))
+  expect_identical(nrow(p), 18L)
+  expect_identical(p$observed, field_vector(toy$library, toy$field))
+  expect_equal(p$mean, colMeans(toy$library$y[fit$draws$run, ]))
+  expect_true(all(p$lower <= p$upper))
+  expect_true(all(p$pred_lower < p$lower & p$pred_upper > p$upper))
+  # noise of sd 1 in the data: the predictive band should cover most points
+  expect_gt(mean(p$observed >= p$pred_lower & p$observed <= p$pred_upper), 0.75)
+  expect_identical(predict(fit, ndraws = 300, seed = 3), p)
+  expect_error(predict(fit, level = 2), "`level`")
+  expect_error(predict(fit, ndraws = 0), "`ndraws`")
+})
+
+test_that("noisy outputs have the covariance R_x (x) R_t / tau", {
+  toy <- toy_xt(n_per_dim = 2, n_t = 4)
+  fit <- calibrate(toy$library, toy$field, rho_x = list(load = 0.7, speed = 0.4), rho_t = 0.3,
+                   n_iter = 20, burn_in = 0, seed = 1)
+  fit$draws <- fit$draws[rep(1, 20000), ]
+  fit$draws$tau <- 4
+  set.seed(1)
+  noise <- sweep(noisy_outputs(fit, seq_len(20000)), 2, toy$library$y[fit$draws$run[1], ])
+  R <- kronecker(corr_x(toy$library$x, c(0.7, 0.4)), corr_t(toy$library$t, 0.3))
+  expect_lt(max(abs(stats::cov(noise) - R / 4)), 0.02)
+})
+
+test_that("weighted_quantile inverts the weighted CDF", {
+  expect_identical(weighted_quantile(c(3, 1, 2), c(0.2, 0.5, 0.3), c(0.4, 0.5, 0.81)), c(1, 1, 3))
+})

@@ -1,0 +1,42 @@
+test_that("summary has one row per sampled parameter with coda diagnostics", {
+  toy <- toy_ar1(n_runs = 100, n_t = 30)
+  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 1e-3, 0.1), n_iter = 3000, burn_in = 500,
+                   chains = 2, seed = 1)
+  s <- summary(fit)
+  expect_s3_class(s, "griddy_summary")
+  expect_s3_class(s, "data.frame")
+  expect_identical(s$parameter, c("theta", "tau", "rho_t"))
+  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess", "rhat"))
+  d <- as.data.frame(fit)
+  expect_equal(s$mean[1], mean(d$theta))
+  expect_true(all(s$lower <= s$median & s$median <= s$upper))
+  expect_true(all(s$lower[1:2] %in% c(unique(d$theta), d$tau)))
+  expect_true(all(s$ess > 100))
+  expect_true(all(abs(s$rhat - 1) < 0.1))
+  narrow <- summary(fit, level = 0.5)
+  expect_gte(narrow$lower[1], s$lower[1])
+  expect_error(summary(fit, level = 1), "`level` must be a single number in \\(0, 1\\)")
+  a <- attr(s, "adequacy")
+  expect_equal(a$exact$effective_runs, 1 / sum(posterior_exact(toy$library, toy$field,
+                                                                 rho_t = c(0, 1e-3, 0.1))$run^2))
+  expect_lt(a$tv_distance, 0.2)
+})
+
+test_that("one chain gives NA rhat; print shows the table and the adequacy lines", {
+  toy <- toy_ar1(n_runs = 40, n_t = 20)
+  fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1)
+  s <- summary(fit)
+  expect_true(all(is.na(s$rhat)))
+  expect_output(print(s), "collapsed update\\) over 40 runs x 1 correlation grid point")
+  expect_output(print(s), "lower \\(95%\\)")
+  expect_output(print(s), "effective number of runs")
+  expect_output(out <- print(fit), "theta")
+  expect_identical(out, fit)
+})
+
+test_that("print warns about a single-run posterior and edge mass", {
+  toy <- toy_ar1(n_runs = 20, n_t = 60, sd = 0.01, lag_cor = 0, theta_true = 1)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1))
+  expect_output(print(fit), "sits on run 20 \\(100% of draws: theta = 1\\)")
+  expect_output(print(fit), "at the edge of the library")
+})

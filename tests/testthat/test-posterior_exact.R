@@ -1,0 +1,44 @@
+test_that("the exact posterior matches numerical integration over tau", {
+  lib <- sim_library(data.frame(k = c(0.8, 1, 1.3)), rbind(c(0.8, 1.6, 2.4), c(1, 2, 3), c(1.3, 2.6, 3.9)),
+                     t = c(0, 0.5, 1))
+  y <- c(1.1, 1.9, 3.2)
+  prior <- list(shape = 2, rate = 0.5)
+  rho <- 0.4
+  R <- corr_t(lib$t, rho)
+  Rinv <- solve(R)
+  # p(y | run) = integral of N(y | g, R / tau) Gamma(tau | a, b) over tau
+  marginal <- vapply(1:3, function(i) {
+    r <- y - lib$y[i, ]
+    q <- drop(crossprod(r, Rinv %*% r))
+    f <- function(tau) {
+      exp(3 / 2 * log(tau / (2 * pi)) - 0.5 * determinant(R)$modulus - tau / 2 * q +
+            stats::dgamma(tau, prior$shape, prior$rate, log = TRUE))
+    }
+    stats::integrate(f, 0, Inf, rel.tol = 1e-10)$value
+  }, numeric(1))
+  ex <- posterior_exact(lib, field_data(y), rho_t = rho, prior = prior)
+  expect_s3_class(ex, "griddy_exact")
+  expect_equal(ex$run, marginal / sum(marginal), tolerance = 1e-7)
+  expect_equal(ex$log_evidence, log(mean(marginal)), tolerance = 1e-7)
+  expect_identical(ex$rho$prob, 1)
+})
+
+test_that("run and rho marginals sum to one and weights enter the prior", {
+  toy <- toy_ar1(n_runs = 50, n_t = 20)
+  ex <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2))
+  expect_equal(sum(ex$run), 1)
+  expect_equal(sum(ex$rho$prob), 1)
+  expect_equal(rowSums(ex$joint), ex$run)
+  expect_identical(names(ex$rho), c("rho_t", "prob"))
+  w <- rep(1, 50)
+  w[which.max(ex$run)] <- 0
+  exw <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2), run_weights = w)
+  expect_identical(exw$run[which.max(ex$run)], 0)
+  expect_output(print(ex), "exact posterior over 50 runs x 3 correlation grid point")
+})
+
+test_that("an improper prior gives no evidence", {
+  toy <- toy_ar1(n_runs = 10, n_t = 8)
+  expect_identical(posterior_exact(toy$library, toy$field, prior = list(shape = 1, rate = 0))$log_evidence,
+                   NA_real_)
+})
