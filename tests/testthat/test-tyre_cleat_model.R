@@ -119,3 +119,23 @@ test_that("tyre_cleat_model validates its inputs", {
   expect_error(tyre_cleat_model(model = "pac2002", pressure = 1e3,
                                 pac = tyre_pac2002(qpFz1 = 2)), "non-positive stiffness")
 })
+
+test_that("tyre_library draws a reproducible Latin hypercube and wraps it in a sim_library", {
+  set.seed(11)
+  lib <- tyre_library(10, height = c(27.44, 12.13))
+  set.seed(11)
+  lib2 <- tyre_library(10, height = c(27.44, 12.13))
+  expect_identical(lib, lib2)
+  expect_s3_class(lib, "sim_library")
+  expect_identical(names(lib$theta), c("k", "c"))
+  expect_equal(dim(lib$y), c(10, 1000))
+  expect_equal(lib$x$height, c(27.44, 12.13))
+  expect_equal(lib$t, seq_len(500) / 1000)
+  # one point in each of the 10 strata of each parameter
+  expect_setequal(floor((lib$theta$k - 50) / 75), 0:9)
+  expect_setequal(floor(lib$theta$c / 0.5), 0:9)
+  expect_equal(unname(lib$y[3, ]),
+               unname(as.vector(tyre_cleat_model(lib$theta$k[3], lib$theta$c[3],
+                                                 height = c(27.44, 12.13)))))
+  expect_error(tyre_library(1), "`n_runs` must be")
+})
