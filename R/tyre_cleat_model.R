@@ -1,0 +1,363 @@
+# Stand-in for the ADAMS/Car tyre test rig of Stewart (2023), chapter 5:
+# one wheel on a constant-load rig rolling over a cleat.  See
+# /work/shared/notes/physics.md, section 1.
+
+# ---- small validators (R validates, C++ trusts its inputs) -----------------
+tyre_num <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_open = FALSE) {
+  if (!is.numeric(x) || (!is.null(len) && length(x) != len) || length(x) == 0L ||
+      anyNA(x) || any(!is.finite(x)) || any(x < lower) || any(x > upper) ||
+      (lower_open && any(x <= lower))) {
+    what <- if (is.numeric(x)) paste(format(utils::head(x, 5)), collapse = ", ") else class(x)[1]
+    rng <- paste0(if (lower_open) "(" else "[", lower, ", ", upper, "]")
+    stop("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
+         "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
+         "; received ", what, ".", call. = FALSE)
+  }
+  as.numeric(x)
+}
+
+tyre_whole <- function(x, name, lower) {
+  if (!is.numeric(x) || length(x) != 1L || is.na(x) || x != round(x) || x < lower) {
+    stop("`", name, "` must be a whole number >= ", lower, "; received ",
+         paste(format(x), collapse = ", "), ".", call. = FALSE)
+  }
+  as.integer(x)
+}
+
+#' Cleat heights of the tyre rig
+#'
+#' The thesis (section 5.1) lists cleat heights of 412, 274.4 and 121.3 mm
+#' for a 100 mm long cleat.  These exceed the section height of a passenger
+#' tyre (about 123 mm for the 205/60 R15-like tyre used here, unloaded radius
+#' 313.5 mm) and 412 mm exceeds even the unloaded radius, so the wheel would
+#' hit the cleat with its rim or hub; most likely the values slipped by a
+#' factor of 10.  We therefore default to 41.2, 27.44 and 12.13 mm (typical
+#' durability cleats) and keep the literal values as an option.  With the
+#' literal values the tyre deflection exceeds the section height; use them
+#' with `tyre_rig(bottoming = TRUE)` to add a rim-bottoming spring.  This is
+#' a reconstruction decision, not a thesis fact.
+#'
+#' @param which `"rescaled"` (default, 41.2, 27.44, 12.13 mm) or
+#'   `"thesis_literal"` (412, 274.4, 121.3 mm).
+#' @return A numeric vector of three cleat heights in mm, in the thesis's order.
+#' @seealso [tyre_cleat_model()]
+#' @export
+#' @examples
+#' tyre_cleat_heights()
+#' tyre_cleat_heights("thesis_literal")
+tyre_cleat_heights <- function(which = c("rescaled", "thesis_literal")) {
+  which <- match.arg(which)
+  if (which == "rescaled") c(41.2, 27.44, 12.13) else c(412, 274.4, 121.3)
+}
+
+#' Parameter ranges of the tyre calibration (thesis table 5.1)
+#'
+#' @return A data.frame with columns `parameter` (`"k"`, vertical stiffness in
+#'   N/mm; `"c"`, vertical damping in N s/mm), `min` and `max`.
+#' @export
+#' @examples
+#' tyre_param_ranges()
+tyre_param_ranges <- function() {
+  data.frame(parameter = c("k", "c"), min = c(50, 0), max = c(800, 5),
+             stringsAsFactors = FALSE)
+}
+
+#' Settings of the tyre rig and of the PAC2002-style vertical model
+#'
+#' `tyre_rig()` collects the rig, the wheel, the cleat and the numerics;
+#' `tyre_pac2002()` the coefficients of the PAC2002-style vertical force that
+#' the Fiala model does not have.  Defaults and their sources are listed in
+#' [tyre_cleat_model()].
+#'
+#' @param load Constant vertical load of the rig, N (thesis: 3 kN).
+#' @param mass Wheel and tyre mass, kg.
+#' @param R0 Unloaded tyre radius, m.
+#' @param rim_radius Rim radius, m (only used by `bottoming`).
+#' @param cleat_length Cleat length, mm (thesis: 100 mm).
+#' @param edge_length Length over which each cleat edge rises (half-cosine
+#'   ramp), mm; must be > 0 and at most half the cleat length.
+#' @param t_cleat Time at which the wheel centre reaches the cleat's leading
+#'   edge, s.
+#' @param n_samples Number of output samples.
+#' @param sample_interval Time between output samples, s.
+#' @param steps_per_sample Fixed RK4 steps per output sample (the internal
+#'   step is `sample_interval / steps_per_sample`).
+#' @param sample `"mean"` (default): each output is the average of Fz over
+#'   the preceding sample interval; `"instant"`: Fz at the sample time, as a
+#'   simulator would print it.
+#' @param bottoming If `TRUE`, add a rim-bottoming spring of
+#'   `bottom_stiffness` once the deflection exceeds the section height
+#'   `R0 - rim_radius`.
+#' @param bottom_stiffness Rim-bottoming stiffness, N/m.
+#' @return A list of class `tyre_rig` or `tyre_pac2002`.
+#' @seealso [tyre_cleat_model()]
+#' @export
+#' @examples
+#' tyre_rig(sample = "instant")
+#' tyre_pac2002(qFz2 = 0, qV2 = 0)
+tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
+                     cleat_length = 100, edge_length = 10, t_cleat = 0.02,
+                     n_samples = 500, sample_interval = 1e-3, steps_per_sample = 100,
+                     sample = c("mean", "instant"), bottoming = FALSE,
+                     bottom_stiffness = 2e6) {
+  sample <- match.arg(sample)
+  out <- list(load = tyre_num(load, "load", lower = 0, lower_open = TRUE),
+              mass = tyre_num(mass, "mass", lower = 0, lower_open = TRUE),
+              R0 = tyre_num(R0, "R0", lower = 0, lower_open = TRUE),
+              rim_radius = tyre_num(rim_radius, "rim_radius", lower = 0, lower_open = TRUE),
+              cleat_length = tyre_num(cleat_length, "cleat_length", lower = 0, lower_open = TRUE),
+              edge_length = tyre_num(edge_length, "edge_length", lower = 0, lower_open = TRUE),
+              t_cleat = tyre_num(t_cleat, "t_cleat", lower = 0),
+              n_samples = tyre_whole(n_samples, "n_samples", 1),
+              sample_interval = tyre_num(sample_interval, "sample_interval", lower = 0,
+                                         lower_open = TRUE),
+              steps_per_sample = tyre_whole(steps_per_sample, "steps_per_sample", 1),
+              sample = sample,
+              bottoming = isTRUE(bottoming),
+              bottom_stiffness = tyre_num(bottom_stiffness, "bottom_stiffness", lower = 0))
+  if (out$rim_radius >= out$R0) {
+    stop("`rim_radius` must be smaller than `R0`; received ", out$rim_radius, " >= ",
+         out$R0, ".", call. = FALSE)
+  }
+  if (out$edge_length > out$cleat_length / 2) {
+    stop("`edge_length` must be at most half of `cleat_length` (", out$cleat_length / 2,
+         " mm); received ", out$edge_length, ".", call. = FALSE)
+  }
+  class(out) <- "tyre_rig"
+  out
+}
+
+#' @rdname tyre_rig
+#' @param qFz2 Quadratic vertical stiffness coefficient (off: 0).
+#' @param qFz3 Camber dependence of the vertical stiffness (off: 0; only acts
+#'   when `camber` is not 0).
+#' @param qV2 Speed dependence of the vertical stiffness (off: 0).
+#' @param qpFz1 Inflation-pressure dependence of the vertical stiffness (only
+#'   acts when `pressure` differs from `p0`).
+#' @param V0 Reference speed (LONGVL), m/s.
+#' @param p0 Nominal inflation pressure, Pa.
+#' @param Fz0 Nominal wheel load (FNOMIN), N.
+#' @export
+tyre_pac2002 <- function(qFz2 = 15, qFz3 = 0, qV2 = 0.034, qpFz1 = 0.88,
+                         V0 = 16.6, p0 = 2.2e5, Fz0 = 4000) {
+  out <- list(qFz2 = tyre_num(qFz2, "qFz2", lower = 0),
+              qFz3 = tyre_num(qFz3, "qFz3", lower = 0),
+              qV2 = tyre_num(qV2, "qV2", lower = 0),
+              qpFz1 = tyre_num(qpFz1, "qpFz1"),
+              V0 = tyre_num(V0, "V0", lower = 0, lower_open = TRUE),
+              p0 = tyre_num(p0, "p0", lower = 0, lower_open = TRUE),
+              Fz0 = tyre_num(Fz0, "Fz0", lower = 0, lower_open = TRUE))
+  class(out) <- "tyre_pac2002"
+  out
+}
+
+# Flatten everything into the SI list the C++ side reads.
+tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
+  dpi <- (pressure - pac$p0) / pac$p0
+  if (model == "pac2002" && 1 + pac$qpFz1 * dpi <= 0) {
+    stop("`pressure` gives a non-positive stiffness factor 1 + qpFz1 * dpi = ",
+         format(1 + pac$qpFz1 * dpi), "; received pressure = ", pressure, ".", call. = FALSE)
+  }
+  list(model = if (model == "fiala") 0L else 1L,
+       contact = if (contact == "point") 0L else 1L,
+       load = rig$load, speed = speed, mass = rig$mass, r0 = rig$R0, fz0 = pac$Fz0,
+       qfz2 = pac$qFz2, qfz3 = pac$qFz3, qpfz1 = pac$qpFz1, qv2 = pac$qV2, v0 = pac$V0,
+       camber = camber, dpi = dpi,
+       cleat_length = rig$cleat_length / 1000, edge_length = rig$edge_length / 1000,
+       t_cleat = rig$t_cleat, n_samples = rig$n_samples,
+       steps_per_sample = rig$steps_per_sample, sample_interval = rig$sample_interval,
+       sample_mean = rig$sample == "mean",
+       bottom_stiffness = if (rig$bottoming) rig$bottom_stiffness else 0,
+       bottom_deflection = rig$R0 - rig$rim_radius)
+}
+
+#' Tyre normal force on a constant-load rig rolling over a cleat
+#'
+#' A small physical stand-in for the ADAMS/Car Tire Testrig "flat road with
+#' cleat" runs of Stewart (2023, chapter 5): one wheel pressed on the road by
+#' a constant load of 3 kN rolls at 20 m/s over a 100 mm long cleat.  The
+#' vertical motion of the wheel centre is integrated with a fixed-step
+#' fourth-order Runge-Kutta scheme in C++ (`m z'' = Fz - load`, start in
+#' static equilibrium); the output is the vertical force Fz at `n_samples`
+#' (500) samples, 1 ms apart.
+#'
+#' **Force laws.** Fiala: `Fn = k rho + c rho'` for tyre deflection
+#' `rho > 0`, clipped at 0 (no tension), camber and pressure have no effect.
+#' PAC2002-style (physics notes, 1.3):
+#' `Fn = sV ((qFz1 + qFz3 gamma^2) rho/R0 + qFz2 (rho/R0)^2) (1 + qpFz1 dpi) Fz0 + c rho'`,
+#' clipped at 0, with `qFz1 = k R0 / Fz0` (so `k` is the small-deflection
+#' stiffness in both models), `sV = 1 + qV2 V / V0` (spin `|Omega| = V / R0`),
+#' `gamma` the camber (rad) and `dpi = (pressure - p0) / p0`.  With
+#' `qFz2 = 0`, `qV2 = 0`, `camber = 0` (or `qFz3 = 0`), `pressure = p0` and
+#' point contact the PAC2002-style model equals Fiala with the same `k`.
+#'
+#' **Contact.** `"point"`: a point follower under the wheel centre,
+#' `rho = R0 - (z - h(x))`.  `"disc"`: the tyre is a rigid disc; `rho` is
+#' `R0` minus the distance from the wheel centre to the nearest road point,
+#' the force acts along the normal through that point and Fz is its vertical
+#' component (the rig absorbs the longitudinal part).  Defaults: point for
+#' Fiala, disc for PAC2002 (the thesis's PAC2002 model treats the tyre as a
+#' rigid disc).
+#'
+#' **Cleat edges and the damping spike.**  Under point contact the damping
+#' term sees `rho' = V h'(x)`; on a sharp edge that is an impulse of about
+#' `c * height` which a fixed step resolves differently each time, so
+#' outputs would jump with the time step.  We therefore round the cleat
+#' edges (each edge rises over `edge_length` = 10 mm with a half-cosine, so
+#' the profile has a continuous slope) and, by default, report each sample as
+#' the mean force over its 1 ms interval (`tyre_rig(sample = "mean")`), which
+#' integrates the spike instead of sampling it.  The spike is real for a
+#' point follower with large damping (tens to hundreds of kN at
+#' c = 5 N s/mm); disc contact has no such spike.
+#'
+#' **Defaults and sources** (see `physics.md`, 1.4-1.5): R0 = 0.3135 m
+#' (205/60 R15: rim 0.1905 m + 0.6 x 0.205 m sidewall); wheel + tyre mass
+#' 25 kg (tyre 17.45 kg in a public MF 6.1 .tir file, plus a rim; assumption);
+#' Fz0 = 4000 N (between FNOMIN 3800 and 4850 N in public PAC2002 .tir files);
+#' qFz2 = 15 (20.8 in the MF 6.1 file); qV2 = 0.034 and V0 = 16.6 m/s
+#' (MF 6.1 file); qpFz1 = 0.88 (PFZ1 of the MF 6.1 file); p0 = 2.2 bar
+#' (assumption); qFz3 = 0 (no public value; use 1-5 to switch it on,
+#' assumption).  Load 3 kN, speed 20 m/s, cleat length 100 mm and the
+#' ranges k 50-800 N/mm, c 0-5 N s/mm come from the thesis.  Cleat heights:
+#' see [tyre_cleat_heights()].
+#'
+#' @param k Vertical stiffness in N/mm: a numeric vector (one value per run),
+#'   or a matrix / data.frame with columns `k` and `c` (then `c` must be
+#'   missing).
+#' @param c Vertical damping in N s/mm, recycled with `k`.
+#' @param height Cleat heights in mm (one or more); see [tyre_cleat_heights()].
+#' @param model `"fiala"` or `"pac2002"`.
+#' @param contact `"point"` or `"disc"`; `NULL` picks point for Fiala and disc
+#'   for PAC2002.
+#' @param speed Rolling speed, m/s.
+#' @param camber Camber angle, rad (PAC2002 only, via `qFz3`).
+#' @param pressure Inflation pressure, Pa (PAC2002 only, via `qpFz1`).
+#' @param pac PAC2002-style coefficients, see [tyre_pac2002()].
+#' @param rig Rig, cleat and numerical settings, see [tyre_rig()].
+#' @return A numeric matrix of Fz (N) with one row per parameter set and
+#'   `length(height) * n_samples` columns in blocks by height (500 columns
+#'   for one height), with attributes `time` (the `n_samples` sample times in
+#'   s; with `sample = "mean"` sample j is the mean over the interval ending
+#'   at `time[j]`) and `height` (mm).
+#' @references Stewart, T. (2023). Bayesian calibration of computer models
+#'   using Griddy Gibbs sampling. MS thesis, Clemson University.
+#' @seealso [tyre_library()], [tyre_rig()], [tyre_cleat_heights()]
+#' @export
+#' @examples
+#' fz <- tyre_cleat_model(k = c(100, 210, 400), c = 0.5, height = 27.44)
+#' dim(fz)
+#' apply(fz, 1, max)
+#' fz_pac <- tyre_cleat_model(210, 0.5, height = 27.44, model = "pac2002")
+#' plot(attr(fz, "time"), fz[2, ], type = "l", xlab = "time (s)", ylab = "Fz (N)")
+#' lines(attr(fz, "time"), fz_pac[1, ], col = 2)
+tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
+                             model = c("fiala", "pac2002"), contact = NULL,
+                             speed = 20, camber = 0, pressure = NULL,
+                             pac = tyre_pac2002(), rig = tyre_rig()) {
+  model <- match.arg(model)
+  if (is.matrix(k) || is.data.frame(k)) {
+    if (!missing(c)) {
+      stop("`c` must be missing when `k` is a matrix or data.frame of parameter rows.",
+           call. = FALSE)
+    }
+    if (!all(c("k", "c") %in% colnames(k))) {
+      stop("`k` given as a matrix or data.frame needs columns `k` and `c`; received ",
+           paste(colnames(k), collapse = ", "), ".", call. = FALSE)
+    }
+    kk <- k[, "k"]
+    cc <- k[, "c"]
+  } else {
+    kk <- k
+    cc <- c
+  }
+  kk <- tyre_num(kk, "k", len = NULL, lower = 0, lower_open = TRUE)
+  cc <- tyre_num(cc, "c", len = NULL, lower = 0)
+  n <- max(length(kk), length(cc))
+  if (n %% length(kk) != 0L || n %% length(cc) != 0L) {
+    stop("`k` (length ", length(kk), ") and `c` (length ", length(cc),
+         ") must have recyclable lengths.", call. = FALSE)
+  }
+  kk <- rep_len(kk, n)
+  cc <- rep_len(cc, n)
+  height <- tyre_num(height, "height", len = NULL, lower = 0, lower_open = TRUE)
+  if (is.null(contact)) contact <- if (model == "fiala") "point" else "disc"
+  contact <- match.arg(contact, c("point", "disc"))
+  speed <- tyre_num(speed, "speed", lower = 0, lower_open = TRUE)
+  camber <- tyre_num(camber, "camber", lower = -pi / 2, upper = pi / 2)
+  if (!inherits(pac, "tyre_pac2002")) {
+    stop("`pac` must come from tyre_pac2002(); received ", class(pac)[1], ".", call. = FALSE)
+  }
+  if (!inherits(rig, "tyre_rig")) {
+    stop("`rig` must come from tyre_rig(); received ", class(rig)[1], ".", call. = FALSE)
+  }
+  if (is.null(pressure)) pressure <- pac$p0
+  pressure <- tyre_num(pressure, "pressure", lower = 0, lower_open = TRUE)
+  if (max(height) / 1000 >= rig$R0) {
+    warning("`height` ", max(height), " mm is not below the unloaded radius (",
+            rig$R0 * 1000, " mm): the wheel is launched over the cleat.", call. = FALSE)
+  }
+  s <- tyre_settings(model, contact, speed, camber, pressure, pac, rig)
+  out <- tyre_sim_cpp(cbind(kk * 1000, cc * 1000), height / 1000, s)
+  attr(out, "time") <- seq_len(rig$n_samples) * rig$sample_interval
+  attr(out, "height") <- height
+  out
+}
+
+#' @rdname tyre_cleat_model
+#' @return `tyre_static_deflection()`: the static deflection in mm under the
+#'   rig load for each `k`.
+#' @export
+tyre_static_deflection <- function(k = 210, model = c("fiala", "pac2002"), speed = 20,
+                                   camber = 0, pressure = NULL, pac = tyre_pac2002(),
+                                   rig = tyre_rig()) {
+  model <- match.arg(model)
+  k <- tyre_num(k, "k", len = NULL, lower = 0, lower_open = TRUE)
+  if (is.null(pressure)) pressure <- pac$p0
+  s <- tyre_settings(model, "point", speed, camber, pressure, pac, rig)
+  as.numeric(tyre_static_deflection_cpp(k * 1000, s)) * 1000
+}
+
+#' A library of tyre-rig runs over a Latin hypercube of (k, c)
+#'
+#' Draws `n_runs` (k, c) combinations by Latin-hypercube sampling over
+#' table 5.1's ranges (k 50-800 N/mm, c 0-5 N s/mm) with R's random number
+#' generator (so `set.seed()` reproduces it), runs [tyre_cleat_model()] at
+#' each of the cleat heights and returns a griddy `sim_library` with the
+#' heights as control settings x and the sample times as output coordinates t.
+#' The thesis used 2,000 combinations x 3 heights = 6,000 runs.
+#'
+#' @param n_runs Number of (k, c) combinations.
+#' @param height Cleat heights in mm (the x settings).
+#' @param ranges Parameter ranges, a data.frame like [tyre_param_ranges()].
+#' @param ... Further arguments to [tyre_cleat_model()] (`model`, `contact`,
+#'   `speed`, `camber`, `pressure`, `pac`, `rig`).
+#' @return A `sim_library` with `theta = data.frame(k, c)`, `y` an
+#'   `n_runs` x (length(height) * 500) matrix in blocks by height,
+#'   `x = data.frame(height)` and `t` the sample times.
+#' @seealso [tyre_cleat_model()], [sim_library()]
+#' @export
+#' @examples
+#' set.seed(1)
+#' lib <- tyre_library(20)
+tyre_library <- function(n_runs = 2000, height = tyre_cleat_heights(),
+                         ranges = tyre_param_ranges(), ...) {
+  n_runs <- tyre_whole(n_runs, "n_runs", 2)
+  if (!is.data.frame(ranges) || !all(c("parameter", "min", "max") %in% names(ranges)) ||
+      !all(c("k", "c") %in% ranges$parameter)) {
+    stop("`ranges` must be a data.frame like tyre_param_ranges().", call. = FALSE)
+  }
+  lo <- ranges$min[match(c("k", "c"), ranges$parameter)]
+  hi <- ranges$max[match(c("k", "c"), ranges$parameter)]
+  if (any(!is.finite(c(lo, hi))) || any(hi <= lo) || lo[1] <= 0 || lo[2] < 0) {
+    stop("`ranges` must have finite min < max, k > 0 and c >= 0.", call. = FALSE)
+  }
+  # Latin hypercube: one point in each of n_runs equal strata per dimension
+  u <- vapply(1:2, function(j) (sample.int(n_runs) - stats::runif(n_runs)) / n_runs,
+              numeric(n_runs))
+  theta <- data.frame(k = lo[1] + u[, 1] * (hi[1] - lo[1]),
+                      c = lo[2] + u[, 2] * (hi[2] - lo[2]))
+  y <- tyre_cleat_model(as.matrix(theta), height = height, ...)
+  tt <- attr(y, "time")
+  attributes(y) <- list(dim = dim(y))
+  sim_library(theta = theta, y = y, x = data.frame(height = height), t = tt)
+}

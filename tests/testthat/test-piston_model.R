@@ -1,0 +1,129 @@
+truth <- c(1000, 3000, 2000)
+
+test_that("piston_model returns the documented shapes", {
+  y <- piston_model(truth)
+  expect_true(is.matrix(y))
+  expect_identical(dim(y), c(1L, 27L))
+  expect_identical(colnames(y)[c(1, 10, 27)],
+                   c("full:undercrown1", "full:gallery11", "full:gallery29"))
+  h <- rbind(truth, truth * 2, truth / 2)
+  y3 <- piston_model(h)
+  expect_identical(dim(y3), c(3L, 27L))
+  expect_equal(y3[1, ], y[1, ])
+  expect_identical(dim(piston_model(h, locations = piston_location_ids(2))), c(3L, 6L))
+  y54 <- piston_model(h, condition = c("full", "part"))
+  expect_identical(dim(y54), c(3L, 54L))
+  expect_equal(y54[, 1:27], y3)
+  expect_equal(unname(y54[, 28:54]), unname(piston_model(h, condition = "part")))
+  # data.frame input is accepted
+  expect_equal(piston_model(as.data.frame(h)), y3)
+})
+
+test_that("piston locations cover the three surfaces", {
+  loc <- piston_locations()
+  expect_identical(nrow(loc), 27L)
+  expect_identical(names(loc), c("id", "surface", "index", "r_mm", "z_mm", "r", "z"))
+  expect_identical(as.vector(table(loc$surface)[c("undercrown", "gallery1", "gallery2")]),
+                   c(9L, 9L, 9L))
+  expect_false(anyDuplicated(loc[, c("r_mm", "z_mm")]) > 0)
+  expect_true(all(loc$r >= 0 & loc$r <= 1 & loc$z >= 0 & loc$z <= 1))
+  for (n in c(1, 2, 5, 9)) {
+    ids <- piston_location_ids(n)
+    expect_length(ids, 3 * n)
+    expect_setequal(unique(piston_locations(ids)$surface),
+                    c("undercrown", "gallery1", "gallery2"))
+  }
+  expect_true(all(piston_location_ids(2) %in% piston_location_ids(5)))
+  expect_error(piston_location_ids(10), "`n_per_surface` must be")
+})
+
+test_that("temperatures fall as each coefficient rises", {
+  rng <- piston_htc_ranges()
+  grid <- exp(seq(log(15), log(12000), length.out = 8))
+  for (j in 1:3) {
+    for (other in list(c(1000, 3000, 2000), c(100, 100, 100), c(12000, 12000, 12000))) {
+      h <- matrix(other, length(grid), 3, byrow = TRUE)
+      h[, j] <- grid
+      y <- piston_model(h, condition = c("full", "part"))
+      expect_true(all(diff(y) < 0), info = paste("coefficient", j))
+    }
+  }
+})
+
+test_that("each surface responds most to its own coefficient", {
+  # Checked at the truth and at points where no surface is nearly adiabatic;
+  # when a surface's own coefficient is far below its neighbours' its own
+  # sensitivity vanishes (d T / d log h -> 0 as h -> 0) and a neighbour wins.
+  sens <- function(base) {
+    f <- function(h) {
+      y <- piston_model(h)
+      c(mean(y[1:9]), mean(y[10:18]), mean(y[19:27]))
+    }
+    b <- f(base)
+    sapply(1:3, function(j) {
+      h <- base
+      h[j] <- h[j] * 1.1
+      (f(h) - b) / log(1.1)
+    })
+  }
+  for (base in list(truth, c(6000, 6000, 6000), c(100, 100, 100), c(12000, 12000, 12000),
+                    c(2000, 8000, 4000))) {
+    s <- abs(sens(base))                                 # rows: surface, cols: coefficient
+    expect_identical(apply(s, 1, which.max), 1:3, info = paste(base, collapse = ","))
+  }
+})
+
+test_that("temperatures stay bounded and physical over table 3.1's ranges", {
+  rng <- piston_htc_ranges()
+  corners <- as.matrix(expand.grid(c(rng$min[1], rng$max[1]), c(rng$min[2], rng$max[2]),
+                                   c(rng$min[3], rng$max[3])))
+  y <- piston_model(corners, condition = c("full", "part"))
+  expect_true(all(is.finite(y)))
+  expect_true(all(y > 109 & y < 950))                   # between the coolest fluid and the gas
+  y0 <- piston_model(truth)
+  expect_true(all(y0 > 120 & y0 < 420))
+})
+
+test_that("heat in equals heat out", {
+  for (h in list(truth, c(13.85, 8.61, 35.33), c(11984.7, 11977.45, 12002.49))) {
+    for (cond in c("full", "part")) {
+      hb <- piston_heat_balance(h, condition = cond)
+      heat_in <- hb$flows$heat[hb$flows$zone == "gas"]
+      heat_out <- -sum(hb$flows$heat[hb$flows$zone != "gas"])
+      expect_gt(heat_in, 0)
+      expect_equal(heat_out, heat_in, tolerance = 1e-8)
+      # the three oil-cooled surfaces always take heat out (oil is the coolest fluid)
+      htc_zones <- hb$flows$zone %in% c("undercrown", "gallery1", "gallery2")
+      expect_true(all(hb$flows$heat[htc_zones] < 0))
+    }
+  }
+  hb <- piston_heat_balance(truth, field = TRUE)
+  expect_true(max(hb$field$temperature) < 950)
+  # face temperatures of piston_model lie between the adjacent cell and the fluid
+  expect_true(all(hb$field$temperature > 110))
+})
+
+test_that("grid refinement changes the outputs little", {
+  a <- piston_model(truth, cell = 1)
+  b <- piston_model(truth, cell = 0.5)
+  expect_lt(max(abs(a - b)), 10)
+  expect_lt(mean(abs(a - b)), 3)
+})
+
+test_that("aluminium has a cooler crown than steel", {
+  t_al <- piston_heat_balance(truth, material = "aluminium", field = TRUE)$field$temperature
+  t_st <- piston_heat_balance(truth, field = TRUE)$field$temperature
+  expect_lt(max(t_al), max(t_st) - 50)
+})
+
+test_that("piston_model validates its inputs", {
+  expect_error(piston_model(c(1, 2)), "`htc` must have 3 values")
+  expect_error(piston_model("a"), "`htc` must be numeric")
+  expect_error(piston_model(matrix(1, 2, 4)), "`htc` must be an N x 3 matrix")
+  expect_error(piston_model(c(1, -2, 3)), "`htc` must be finite and > 0")
+  expect_error(piston_model(c(1, NA, 3)), "`htc` must be finite and > 0")
+  expect_error(piston_model(truth, locations = 28), "`locations` must be")
+  expect_error(piston_model(truth, condition = "idle"), "`condition` must be")
+  expect_error(piston_model(truth, cell = 2), "`cell` must be")
+  expect_error(piston_heat_balance(rbind(truth, truth)), "single set")
+})

@@ -1,0 +1,141 @@
+peak <- function(fz, block = 1L, n = 500L) apply(fz[, (block - 1L) * n + seq_len(n), drop = FALSE], 1, max)
+
+test_that("tyre_cleat_model returns N x (heights * 500) with time and height", {
+  fz <- tyre_cleat_model(k = c(100, 400), c = 1, height = 27.44)
+  expect_identical(dim(fz), c(2L, 500L))
+  expect_equal(attr(fz, "time"), seq_len(500) / 1000)
+  expect_identical(attr(fz, "height"), 27.44)
+  fz3 <- tyre_cleat_model(k = c(100, 400), c = 1)
+  expect_identical(dim(fz3), c(2L, 1500L))
+  expect_equal(attr(fz3, "height"), tyre_cleat_heights())
+  # blocks by height, in the given order
+  expect_equal(unname(fz3[, 1001:1500]),
+               unname(tyre_cleat_model(k = c(100, 400), c = 1, height = 12.13)[, 1:500]),
+               ignore_attr = TRUE)
+  # a matrix of parameter rows gives the same as k and c vectors
+  m <- cbind(k = c(100, 400), c = c(1, 2))
+  expect_equal(tyre_cleat_model(m, height = 12.13), tyre_cleat_model(c(100, 400), c(1, 2), height = 12.13))
+  expect_true(all(is.finite(fz3)) && all(fz3 >= 0))
+})
+
+test_that("the rig starts in static equilibrium and the static deflection is load / k", {
+  k <- c(50, 210, 800)
+  expect_equal(tyre_static_deflection(k), 3000 / k, tolerance = 1e-9)
+  fz <- tyre_cleat_model(k, 0.5, height = 27.44)
+  expect_equal(unname(fz[, 1:15]), matrix(3000, 3, 15), tolerance = 1e-9)  # before the cleat
+  # PAC2002-style static deflection solves its own polynomial
+  rho <- tyre_static_deflection(210, model = "pac2002") / 1000
+  p <- tyre_pac2002()
+  x <- rho / 0.3135
+  f <- (1 + p$qV2 * 20 / p$V0) * ((210e3 * 0.3135 / p$Fz0) * x + p$qFz2 * x^2) * p$Fz0
+  expect_equal(f, 3000, tolerance = 1e-8)
+})
+
+test_that("peak force rises with stiffness and cleat height", {
+  k <- seq(50, 800, length.out = 6)
+  for (ct in c("point", "disc")) {
+    fz <- tyre_cleat_model(k, 0.5, contact = ct)
+    for (b in 1:3) expect_true(all(diff(peak(fz, b)) > 0), info = paste(ct, b))
+    # heights are 41.2, 27.44, 12.13 mm: peaks fall with the height
+    expect_true(all(peak(fz, 1) > peak(fz, 2) & peak(fz, 2) > peak(fz, 3)))
+  }
+})
+
+test_that("damping makes the free decay die out faster", {
+  fz <- tyre_cleat_model(210, c(0.2, 2), height = 27.44, contact = "disc")
+  late <- 300:500                                 # 0.3 - 0.5 s, long after the cleat
+  dev <- apply(abs(fz[, late] - 3000), 1, max)
+  expect_lt(dev[2], dev[1])
+  expect_lt(dev[2], 1)                            # heavily damped: back to the static load
+})
+
+test_that("output is insensitive to halving the internal time step", {
+  k <- c(50, 210, 800)
+  c <- c(0, 0.5, 5)
+  for (ct in c("point", "disc")) {
+    a <- tyre_cleat_model(k, c, contact = ct)
+    b <- tyre_cleat_model(k, c, contact = ct, rig = tyre_rig(steps_per_sample = 200))
+    expect_lt(max(abs(a - b)) / max(a), 0.01)
+    # at moderate damping the difference is a few newtons
+    expect_lt(max(abs(a[2, ] - b[2, ])), 50)
+  }
+})
+
+test_that("each PAC2002 effect switched off reproduces the simpler model", {
+  k <- c(80, 210, 600)
+  c <- c(0.1, 0.5, 3)
+  off <- tyre_pac2002(qFz2 = 0, qV2 = 0)
+  fiala <- tyre_cleat_model(k, c, model = "fiala", contact = "point")
+  pac_off <- tyre_cleat_model(k, c, model = "pac2002", contact = "point", pac = off)
+  expect_equal(pac_off, fiala, tolerance = 1e-9)
+  # camber without qFz3 and pressure without qpFz1 change nothing
+  expect_equal(tyre_cleat_model(k, c, model = "pac2002", contact = "point", camber = 0.05,
+                                pac = off), fiala, tolerance = 1e-9)
+  expect_equal(tyre_cleat_model(k, c, model = "pac2002", contact = "point",
+                                pac = tyre_pac2002(qFz2 = 0, qV2 = 0, qpFz1 = 0),
+                                pressure = 2.6e5), fiala, tolerance = 1e-9)
+  # Fiala ignores camber and pressure
+  expect_equal(tyre_cleat_model(k, c, camber = 0.05, pressure = 2.6e5), fiala, tolerance = 1e-12)
+  # each effect switched on changes the signal
+  on <- list(tyre_cleat_model(k, c, model = "pac2002", contact = "point", pac = tyre_pac2002(qV2 = 0)),
+             tyre_cleat_model(k, c, model = "pac2002", contact = "point", pac = tyre_pac2002(qFz2 = 0)),
+             tyre_cleat_model(k, c, model = "pac2002", contact = "point", camber = 0.05,
+                              pac = tyre_pac2002(qFz2 = 0, qV2 = 0, qFz3 = 3)),
+             tyre_cleat_model(k, c, model = "pac2002", contact = "point", pressure = 2.6e5, pac = off),
+             tyre_cleat_model(k, c, model = "pac2002", contact = "disc", pac = off))
+  for (i in seq_along(on)) expect_gt(max(abs(on[[i]] - fiala)), 100, label = paste("effect", i))
+  # qV2 at one speed is a pure stiffness scale: equals Fiala with k * sV
+  sv <- 1 + 0.034 * 20 / 16.6
+  expect_equal(tyre_cleat_model(k, c, model = "pac2002", contact = "point",
+                                pac = tyre_pac2002(qFz2 = 0)),
+               tyre_cleat_model(k * sv, c, contact = "point"), tolerance = 1e-8)
+  # default contact: point for Fiala, disc for PAC2002
+  expect_equal(tyre_cleat_model(210, 0.5, model = "pac2002"),
+               tyre_cleat_model(210, 0.5, model = "pac2002", contact = "disc"))
+})
+
+test_that("cleat heights: rescaled by default, literal on request", {
+  expect_equal(tyre_cleat_heights(), c(41.2, 27.44, 12.13))
+  expect_equal(tyre_cleat_heights("thesis_literal"), c(412, 274.4, 121.3))
+  expect_warning(fz <- tyre_cleat_model(210, 0.5, height = 412, rig = tyre_rig(bottoming = TRUE)),
+                 "not below the unloaded radius")
+  expect_true(all(is.finite(fz)))
+  fz <- tyre_cleat_model(210, 0.5, height = 121.3, rig = tyre_rig(bottoming = TRUE, sample = "instant"))
+  fz0 <- tyre_cleat_model(210, 0.5, height = 121.3, rig = tyre_rig(sample = "instant"))
+  expect_gt(max(fz), max(fz0))                    # the rim bottoms out
+})
+
+test_that("tyre_cleat_model validates its inputs", {
+  expect_error(tyre_cleat_model(k = -1), "`k` must be")
+  expect_error(tyre_cleat_model(k = 100, c = NA), "`c` must be")
+  expect_error(tyre_cleat_model(k = 1:3, c = 1:2), "recyclable")
+  expect_error(tyre_cleat_model(cbind(k = 1, c = 1), c = 1), "`c` must be missing")
+  expect_error(tyre_cleat_model(cbind(a = 1, b = 1)), "columns `k` and `c`")
+  expect_error(tyre_cleat_model(height = 0), "`height` must be")
+  expect_error(tyre_cleat_model(contact = "cams"), "should be one of")
+  expect_error(tyre_cleat_model(rig = list()), "`rig` must come from tyre_rig")
+  expect_error(tyre_rig(edge_length = 60), "`edge_length` must be at most half")
+  expect_error(tyre_rig(steps_per_sample = 0.5), "`steps_per_sample` must be a whole number")
+  expect_error(tyre_cleat_model(model = "pac2002", pressure = 1e3,
+                                pac = tyre_pac2002(qpFz1 = 2)), "non-positive stiffness")
+})
+
+test_that("tyre_library draws a reproducible Latin hypercube and wraps it in a sim_library", {
+  set.seed(11)
+  lib <- tyre_library(10, height = c(27.44, 12.13))
+  set.seed(11)
+  lib2 <- tyre_library(10, height = c(27.44, 12.13))
+  expect_identical(lib, lib2)
+  expect_s3_class(lib, "sim_library")
+  expect_identical(names(lib$theta), c("k", "c"))
+  expect_equal(dim(lib$y), c(10, 1000))
+  expect_equal(lib$x$height, c(27.44, 12.13))
+  expect_equal(lib$t, seq_len(500) / 1000)
+  # one point in each of the 10 strata of each parameter
+  expect_setequal(floor((lib$theta$k - 50) / 75), 0:9)
+  expect_setequal(floor(lib$theta$c / 0.5), 0:9)
+  expect_equal(unname(lib$y[3, ]),
+               unname(as.vector(tyre_cleat_model(lib$theta$k[3], lib$theta$c[3],
+                                                 height = c(27.44, 12.13)))))
+  expect_error(tyre_library(1), "`n_runs` must be")
+})
