@@ -9,7 +9,23 @@ gibbs_chain_cpp <- function(C, cdf, logdet, log_prior_run, log_prior_rho, n_obs,
     .Call(`_griddy_gibbs_chain_cpp`, C, cdf, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, n_iter, first_iter, burn_in, thin, rho_start, tau_start)
 }
 
+piston_precompute_cpp <- function(n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells) {
+    .Call(`_griddy_piston_precompute_cpp`, n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells)
+}
+
+piston_eval_cpp <- function(zss, t0s, face_cell, face_surface, face_area, face_rhalf, t_fluid, htc, out_faces) {
+    .Call(`_griddy_piston_eval_cpp`, zss, t0s, face_cell, face_surface, face_area, face_rhalf, t_fluid, htc, out_faces)
+}
+
 quad_forms_cpp <- function(Y, y_field, Rx_inv, phi) {
     .Call(`_griddy_quad_forms_cpp`, Y, y_field, Rx_inv, phi)
+}
+
+tyre_sim_cpp <- function(par, heights, settings) {
+    .Call(`_griddy_tyre_sim_cpp`, par, heights, settings)
+}
+
+tyre_static_deflection_cpp <- function(k, settings) {
+    .Call(`_griddy_tyre_static_deflection_cpp`, k, settings)
 }
 

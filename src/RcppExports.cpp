@@ -50,6 +50,43 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// piston_precompute_cpp
+Rcpp::List piston_precompute_cpp(int n, int bw, const arma::uvec& pair_i, const arma::uvec& pair_j, const arma::vec& pair_g, const arma::vec& diag_fixed, const arma::vec& rhs_fixed, const arma::uvec& s_cells);
+RcppExport SEXP _griddy_piston_precompute_cpp(SEXP nSEXP, SEXP bwSEXP, SEXP pair_iSEXP, SEXP pair_jSEXP, SEXP pair_gSEXP, SEXP diag_fixedSEXP, SEXP rhs_fixedSEXP, SEXP s_cellsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< int >::type n(nSEXP);
+    Rcpp::traits::input_parameter< int >::type bw(bwSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type pair_i(pair_iSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type pair_j(pair_jSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type pair_g(pair_gSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type diag_fixed(diag_fixedSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type rhs_fixed(rhs_fixedSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type s_cells(s_cellsSEXP);
+    rcpp_result_gen = Rcpp::wrap(piston_precompute_cpp(n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells));
+    return rcpp_result_gen;
+END_RCPP
+}
+// piston_eval_cpp
+arma::mat piston_eval_cpp(const arma::mat& zss, const arma::vec& t0s, const arma::uvec& face_cell, const arma::uvec& face_surface, const arma::vec& face_area, const arma::vec& face_rhalf, const arma::vec& t_fluid, const arma::mat& htc, const arma::uvec& out_faces);
+RcppExport SEXP _griddy_piston_eval_cpp(SEXP zssSEXP, SEXP t0sSEXP, SEXP face_cellSEXP, SEXP face_surfaceSEXP, SEXP face_areaSEXP, SEXP face_rhalfSEXP, SEXP t_fluidSEXP, SEXP htcSEXP, SEXP out_facesSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type zss(zssSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type t0s(t0sSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type face_cell(face_cellSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type face_surface(face_surfaceSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type face_area(face_areaSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type face_rhalf(face_rhalfSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type t_fluid(t_fluidSEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type htc(htcSEXP);
+    Rcpp::traits::input_parameter< const arma::uvec& >::type out_faces(out_facesSEXP);
+    rcpp_result_gen = Rcpp::wrap(piston_eval_cpp(zss, t0s, face_cell, face_surface, face_area, face_rhalf, t_fluid, htc, out_faces));
+    return rcpp_result_gen;
+END_RCPP
+}
 // quad_forms_cpp
 arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
 RcppExport SEXP _griddy_quad_forms_cpp(SEXP YSEXP, SEXP y_fieldSEXP, SEXP Rx_invSEXP, SEXP phiSEXP) {
@@ -64,11 +101,40 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// tyre_sim_cpp
+arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights, const Rcpp::List& settings);
+RcppExport SEXP _griddy_tyre_sim_cpp(SEXP parSEXP, SEXP heightsSEXP, SEXP settingsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type par(parSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type heights(heightsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type settings(settingsSEXP);
+    rcpp_result_gen = Rcpp::wrap(tyre_sim_cpp(par, heights, settings));
+    return rcpp_result_gen;
+END_RCPP
+}
+// tyre_static_deflection_cpp
+arma::vec tyre_static_deflection_cpp(const arma::vec& k, const Rcpp::List& settings);
+RcppExport SEXP _griddy_tyre_static_deflection_cpp(SEXP kSEXP, SEXP settingsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::vec& >::type k(kSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type settings(settingsSEXP);
+    rcpp_result_gen = Rcpp::wrap(tyre_static_deflection_cpp(k, settings));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_collapsed_cdf_cpp", (DL_FUNC) &_griddy_collapsed_cdf_cpp, 4},
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 15},
+    {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
+    {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 4},
+    {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
+    {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
     {NULL, NULL, 0}
 };
 
