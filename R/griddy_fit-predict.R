@@ -23,10 +23,7 @@
 #' head(predict(fit, ndraws = 200, seed = 1))
 #' @export
 predict.griddy_fit <- function(object, level = 0.95, ndraws = 1000, seed = NULL, ...) {
-  if (!is.numeric(level) || length(level) != 1L || level <= 0 || level >= 1) {
-    stop_no_call("`level` must be a single number in (0, 1); received ",
-                 paste(format(level), collapse = ", "), ".")
-  }
+  assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   lib <- object$library
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)

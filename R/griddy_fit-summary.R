@@ -30,10 +30,7 @@
 #' s[s$parameter == "k", c("lower", "upper")]
 #' @export
 summary.griddy_fit <- function(object, level = 0.95, ...) {
-  if (!is.numeric(level) || length(level) != 1L || level <= 0 || level >= 1) {
-    stop_no_call("`level` must be a single number in (0, 1); received ",
-                 paste(format(level), collapse = ", "), ".")
-  }
+  assert_level(level)
   draws <- parameter_draws(object)
   chains <- split(draws, object$draws$chain)
   tail <- (1 - level) / 2

@@ -119,3 +119,12 @@ assert_prior <- function(prior) {
   }
   list(shape = as.double(prior$shape), rate = as.double(prior$rate))
 }
+
+assert_level <- function(level) {
+  if (!is.numeric(level) || length(level) != 1L || !is.finite(level) || level <= 0 ||
+      level >= 1) {
+    stop_no_call("`level` must be a single number in (0, 1); received ",
+                 paste(format(level), collapse = ", "), ".")
+  }
+  level
+}

@@ -20,13 +20,7 @@ arma::mat collapsed_cdf_cpp(const arma::mat& C, const arma::vec& log_prior_run,
   arma::vec log_w(C.n_rows);
   for (arma::uword g = 0; g < C.n_cols; ++g) {
     log_w = log_prior_run - shape_post * arma::log(rate + 0.5 * C.col(g));
-    const double top = log_w.max();
-    double total = 0.0;
-    for (arma::uword i = 0; i < C.n_rows; ++i) {
-      const double d = log_w[i] - top;
-      if (d > griddy::negligible_log_weight) total += std::exp(d);
-      cdf(i, g) = total;
-    }
+    griddy::cumulative_weights(log_w.memptr(), C.n_rows, cdf.colptr(g));
   }
   return cdf;
 }

@@ -23,15 +23,19 @@ constexpr double negligible_log_weight = -700.0;
 
 // Shift log weights by their maximum (so the largest weight is 1 and nothing
 // overflows), exponentiate, accumulate into `work`, then draw.
-inline arma::uword draw_from_log_weights(const double* log_w, arma::uword n,
-                                         double* work) {
+inline void cumulative_weights(const double* log_w, arma::uword n, double* cdf) {
   const double top = *std::max_element(log_w, log_w + n);
   double total = 0.0;
   for (arma::uword i = 0; i < n; ++i) {
     const double d = log_w[i] - top;
     if (d > negligible_log_weight) total += std::exp(d);
-    work[i] = total;
+    cdf[i] = total;
   }
+}
+
+inline arma::uword draw_from_log_weights(const double* log_w, arma::uword n,
+                                         double* work) {
+  cumulative_weights(log_w, n, work);
   return draw_from_cdf(work, n);
 }
 

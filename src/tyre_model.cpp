@@ -221,9 +221,8 @@ double get_num(const Rcpp::List& l, const char* name) {
 
 // par: N x 2 matrix of (k [N/m], c [N s/m]); heights [m]; settings: named list.
 // Returns N x (length(heights) * n_samples), blocks by height.
-// [[Rcpp::export]]
-arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights,
-                       const Rcpp::List& settings) {
+// Unpacks the settings list built by tyre_settings() in R.
+static TyreSettings read_settings(const Rcpp::List& settings) {
   TyreSettings s;
   s.model = Rcpp::as<int>(settings["model"]);
   s.contact = Rcpp::as<int>(settings["contact"]);
@@ -248,6 +247,13 @@ arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights,
   s.sample_mean = Rcpp::as<bool>(settings["sample_mean"]);
   s.bottom_stiffness = get_num(settings, "bottom_stiffness");
   s.bottom_deflection = get_num(settings, "bottom_deflection");
+  return s;
+}
+
+// [[Rcpp::export]]
+arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights,
+                       const Rcpp::List& settings) {
+  const TyreSettings s = read_settings(settings);
 
   const arma::uword nrun = par.n_rows, nh = heights.n_elem;
   const arma::uword ns = static_cast<arma::uword>(s.n_samples);
@@ -271,21 +277,7 @@ arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights,
 // Static deflection [m] for each stiffness k [N/m] (used by the R side and tests).
 // [[Rcpp::export]]
 arma::vec tyre_static_deflection_cpp(const arma::vec& k, const Rcpp::List& settings) {
-  TyreSettings s;
-  s.model = Rcpp::as<int>(settings["model"]);
-  s.load = get_num(settings, "load");
-  s.speed = get_num(settings, "speed");
-  s.r0 = get_num(settings, "r0");
-  s.fz0 = get_num(settings, "fz0");
-  s.qfz2 = get_num(settings, "qfz2");
-  s.qfz3 = get_num(settings, "qfz3");
-  s.qpfz1 = get_num(settings, "qpfz1");
-  s.qv2 = get_num(settings, "qv2");
-  s.v0 = get_num(settings, "v0");
-  s.camber = get_num(settings, "camber");
-  s.dpi = get_num(settings, "dpi");
-  s.bottom_stiffness = get_num(settings, "bottom_stiffness");
-  s.bottom_deflection = get_num(settings, "bottom_deflection");
+  const TyreSettings s = read_settings(settings);
   arma::vec out(k.n_elem);
   for (arma::uword i = 0; i < k.n_elem; ++i) out(i) = static_deflection(s, k(i));
   return out;
