@@ -64,11 +64,18 @@ piston_library <- function(n_per_dim = 7, locations = 1:27, condition = "full",
   names(axes) <- rng$parameter
   theta <- expand.grid(axes, KEEP.OUT.ATTRS = FALSE)
   y <- piston_model(as.matrix(theta), locations = locations, condition = condition, ...)
+  sim_library(theta = theta, y = unname(y),
+              x = piston_library_settings(locations, condition), t = NULL)
+}
+
+# The x settings of a piston library: scaled (r, z) of each location, plus the
+# condition's number when there is more than one condition.
+piston_library_settings <- function(locations, condition) {
   loc <- piston_locations(locations)
-  x <- do.call(rbind, lapply(condition, function(cond) {
+  all_cond <- piston_conditions()$condition
+  do.call(rbind, lapply(condition, function(cond) {
     out <- data.frame(r = loc$r, z = loc$z)
     if (length(condition) > 1L) out$condition <- match(cond, all_cond)
     out
   }))
-  sim_library(theta = theta, y = unname(y), x = x, t = NULL)
 }
