@@ -103,9 +103,13 @@ for (n in sizes) {
   }
 }
 
+# Smallest ESS over the three coefficients (not tau); parameters whose kept
+# draws are all one value have no ESS and are counted in n_constant.
 min_ess <- function(s) if (all(is.na(s$ess))) NA_real_ else min(s$ess, na.rm = TRUE)
+htc <- names(lib39_all$theta)
 bench <- rbindlist(lapply(results, function(r) {
   s <- r$summary
+  s <- s[s$parameter %in% htc, ]
   kept <- nrow(r$fit$draws)
   data.table(method = r$method, n_points = r$n_points, seconds = r$seconds,
              iterations = if (inherits(r$fit, "griddy_fit")) griddy_iter else koh_iter,
