@@ -59,3 +59,27 @@ test_that("koh_calibrate() validates its arguments", {
   expect_error(koh_calibrate(toy$library, toy$field, discrepancy = "GP"), "should be one of")
   expect_error(koh_calibrate(toy$library, list()), "must be a griddy_field")
 })
+
+test_that("the shipped chapter-4 comparison has the thesis's tables 4.1-4.5", {
+  path <- system.file("extdata", "chapter4.rds", package = "griddy")
+  skip_if(path == "", "chapter4.rds not installed")
+  ch4 <- readRDS(path)
+  htc <- c("htc_undercrown", "htc_gallery1", "htc_gallery2")
+  tab <- ch4$tables[ch4$tables$parameter %in% htc, ]
+  methods <- c("Griddy Gibbs", "KOH (GaSP)", "KOH (S-GaSP)")
+  for (n in c(6, 15, 27, 54)) {
+    d <- tab[tab$n_points == n & tab$method %in% methods, ]
+    expect_equal(nrow(d), 9)
+    expect_setequal(d$method, methods)
+    expect_true(all(c("lower", "estimate", "truth", "upper") %in% names(d)))
+    # (a discrete posterior's mean may lie outside an interval collapsed to
+    # one library value, as in the thesis's tables, so only lower <= upper)
+    expect_true(all(d$lower <= d$upper))
+    expect_equal(unname(d$truth[match(htc, d$parameter)]), c(1000, 3000, 2000))
+  }
+  rt <- ch4$runtime
+  expect_setequal(unique(rt$n_points), c(6, 15, 27, 54))
+  expect_true(all(c("seconds", "ratio_to_griddy", "ess_per_s") %in% names(rt)))
+  expect_equal(as.vector(table(rt$method)), rep(4L, 4))
+  expect_true(all(rt$seconds > 0))
+})
