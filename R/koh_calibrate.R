@@ -1,0 +1,279 @@
+#' Traditional Kennedy-O'Hagan calibration as a baseline (RobustCalibration)
+#'
+#' Runs the calibration a user would choose instead of Griddy Gibbs: a
+#' Gaussian-process emulator of the simulator trained on a (small) library,
+#' a Gaussian-process discrepancy and random-walk Metropolis within Gibbs,
+#' as implemented by the CRAN package 'RobustCalibration' (Gu), with the
+#' emulator from 'RobustGaSP'. Both packages are optional (Suggests); this is
+#' the baseline of the thesis's chapter 4, see `vignette("chapter4")`.
+#'
+#' The emulator is one parallel partial Gaussian process
+#' ([RobustGaSP::ppgasp()], no nugget) from the library's parameters to all
+#' its outputs, fitted once and passed to [RobustCalibration::rcalibration()]
+#' as the math model, so the sampler evaluates the emulator's predictive mean
+#' at each proposed \eqn{\theta}. The discrepancy is a GP (`"GaSP"`), a scaled
+#' GP (`"S-GaSP"`, Gu and Wang 2018) or absent (`"none"`) over the
+#' observations' inputs: the library's x settings (and t, if any). The prior
+#' on \eqn{\theta} is uniform on the range of the library's parameters.
+#'
+#' Proposal scale. 'RobustCalibration' proposes all of \eqn{\theta} at once
+#' with standard deviations given as fractions of the parameter ranges (its
+#' default, 0.05 times the range, is meant for parameters on \[0, 1\]; on
+#' other scales it is multiplied by the range twice). With `proposal_sd =
+#' NULL` this function tunes the fractions by `tune_rounds` pilot runs of
+#' `tune_iter` iterations each, starting at 2% of the range: after each round
+#' the fractions become \eqn{2.38/\sqrt{p}} times the pilot's posterior
+#' standard deviations (or a fifth of the previous ones if the round accepted
+#' under 5% of the moves). The main run starts from the last pilot draw.
+#'
+#' @param library A [sim_library()]: the emulator's training runs (the thesis
+#'   used 7 values per parameter, 343 runs).
+#' @param field A [field_data()] object at the library's x and t.
+#' @param discrepancy `"GaSP"`, `"S-GaSP"` or `"none"`.
+#' @param n_iter Total MCMC iterations, burn-in included.
+#' @param burn_in Iterations discarded at the start.
+#' @param proposal_sd `NULL` (tune, see Details) or the proposal standard
+#'   deviations of \eqn{\theta} as fractions of each parameter's range.
+#' @param tune_rounds,tune_iter Number and length of the pilot runs.
+#' @param kernel Discrepancy kernel: `"matern_5_2"`, `"matern_3_2"` or
+#'   `"pow_exp"`.
+#' @param seed `NULL`, or a seed for this call only (the global random number
+#'   stream is left as it was).
+#' @param quiet Silence the two packages' console output.
+#' @return An object of class `griddy_koh`: a list holding the kept `draws` (a
+#'   data.frame with `iteration`, one column per parameter, and the
+#'   discrepancy's `sigma2`), the `parameters`' names, the fitted `emulator` (a list: the [RobustGaSP::ppgasp()] fit
+#'   `gp` of the outputs that vary over the runs, `vary`, and `constant`),
+#'   the `discrepancy`, the `proposal_sd` used, the `acceptance` rates of
+#'   the \eqn{\theta} and kernel moves, `y_field`, the `design` of the
+#'   observations, and the `runtime` in seconds (`emulator`, `tuning`,
+#'   `sampling`). Use [summary()][summary.griddy_koh] and
+#'   [predict()][predict.griddy_koh] on it.
+#' @references Kennedy, M. C. and O'Hagan, A. (2001). Bayesian calibration of
+#'   computer models. JRSS B 63(3), 425-464.
+#'
+#'   Gu, M. and Wang, L. (2018). Scaled Gaussian stochastic process for
+#'   computer model calibration and prediction. SIAM/ASA JUQ 6(4), 1555-1583.
+#' @seealso [calibrate()] for Griddy Gibbs on the same objects.
+#' @examplesIf requireNamespace("RobustCalibration", quietly = TRUE)
+#' f <- piston_field_data(15, seed = 1)
+#' lib <- piston_library(4, locations = attr(f, "locations"))
+#' koh <- koh_calibrate(lib, f, n_iter = 1500, burn_in = 500, tune_iter = 300,
+#'                      seed = 1)
+#' koh
+#' summary(koh)
+#' @export
+koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "none"),
+                          n_iter = 35000, burn_in = 15000, proposal_sd = NULL,
+                          tune_rounds = 3, tune_iter = 1000, kernel = "matern_5_2",
+                          seed = NULL, quiet = TRUE) {
+  for (pkg in c("RobustCalibration", "RobustGaSP")) {
+    if (!requireNamespace(pkg, quietly = TRUE)) {
+      stop_no_call("koh_calibrate() needs the package '", pkg,
+                   "': install.packages(\"RobustCalibration\").")
+    }
+  }
+  discrepancy <- match.arg(discrepancy)
+  kernel <- match.arg(kernel, c("matern_5_2", "matern_3_2", "pow_exp"))
+  n_iter <- assert_count(n_iter, "n_iter", min = 2L)
+  burn_in <- assert_count(burn_in, "burn_in", min = 0L)
+  if (burn_in >= n_iter) {
+    stop_no_call("`burn_in` must be smaller than `n_iter`; received ", burn_in,
+                 " and ", n_iter, ".")
+  }
+  tune_rounds <- assert_count(tune_rounds, "tune_rounds", min = 0L)
+  tune_iter <- assert_count(tune_iter, "tune_iter", min = 10L)
+  assert_flag(quiet, "quiet")
+  y <- field_vector(library, field)
+  theta <- as.matrix(library$theta)
+  p <- ncol(theta)
+  if (!is.null(proposal_sd)) {
+    proposal_sd <- assert_numeric_vector(proposal_sd, "proposal_sd")
+    if (length(proposal_sd) != p || any(proposal_sd <= 0)) {
+      stop_no_call("`proposal_sd` must hold ", p, " positive fractions of the ranges; received ",
+                   paste(format(proposal_sd), collapse = ", "), ".")
+    }
+  }
+  theta_range <- cbind(apply(theta, 2, min), apply(theta, 2, max))
+  if (any(theta_range[, 2] <= theta_range[, 1])) {
+    stop_no_call("Every library parameter must vary for koh_calibrate(); constant: ",
+                 show_some(colnames(theta)[theta_range[, 2] <= theta_range[, 1]]), ".")
+  }
+  design <- koh_design(library)
+  type <- if (discrepancy == "none") "no-discrepancy" else discrepancy
+  n_x <- ncol(design)
+  run <- function() {
+    t0 <- proc.time()[["elapsed"]]
+    emulator <- koh_emulator(theta, library$y, quiet)
+    t1 <- proc.time()[["elapsed"]]
+    math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))
+    sampler <- function(sd_frac, S, S_0, start) {
+      sd_all <- if (type == "no-discrepancy") sd_frac else c(sd_frac, rep(0.25, n_x), 0.25)
+      koh_quietly(quiet, RobustCalibration::rcalibration(
+        design = design, observations = y, p_theta = p, simul_type = 1,
+        math_model = math_model, theta_range = theta_range, sd_proposal = sd_all,
+        S = S, S_0 = S_0, discrepancy_type = type, kernel_type = kernel,
+        initial_values = start))
+    }
+    start <- rowMeans(theta_range)
+    sd_frac <- if (is.null(proposal_sd)) rep(0.02, p) else proposal_sd
+    if (is.null(proposal_sd)) {
+      for (r in seq_len(tune_rounds)) {
+        pilot <- sampler(sd_frac, tune_iter, 0L, start)
+        draws <- as.matrix(pilot@post_sample)[, seq_len(p), drop = FALSE]
+        start <- draws[nrow(draws), ]
+        half <- draws[-seq_len(nrow(draws) %/% 2L), , drop = FALSE]
+        accepted <- pilot@accept_S[1] / tune_iter
+        spread <- apply(half, 2, stats::sd) / (theta_range[, 2] - theta_range[, 1])
+        sd_frac <- if (accepted < 0.05 || any(spread <= 0)) {
+          sd_frac / 5
+        } else {
+          2.38 / sqrt(p) * spread
+        }
+      }
+    }
+    t2 <- proc.time()[["elapsed"]]
+    main <- sampler(sd_frac, n_iter, burn_in, start)
+    t3 <- proc.time()[["elapsed"]]
+    list(emulator = emulator, fit = main, sd_frac = sd_frac,
+         runtime = c(emulator = t1 - t0, tuning = t2 - t1, sampling = t3 - t2))
+  }
+  res <- if (is.null(seed)) run() else with_seed(seed, run())
+  post <- as.matrix(res$fit@post_sample)
+  draws <- data.frame(iteration = seq(burn_in + 1L, length.out = nrow(post)),
+                      post[, seq_len(p), drop = FALSE])
+  names(draws)[-1] <- colnames(theta)
+  draws$sigma2 <- post[, ncol(post)]
+  structure(list(draws = draws, parameters = colnames(theta), emulator = res$emulator,
+                 discrepancy = discrepancy, kernel = kernel,
+                 proposal_sd = stats::setNames(res$sd_frac, colnames(theta)),
+                 acceptance = c(theta = res$fit@accept_S[1],
+                                kernel = if (type == "no-discrepancy") NA else
+                                  res$fit@accept_S[2]) / n_iter,
+                 y_field = y, design = design, theta_range = theta_range,
+                 n_runs = nrow(theta), control = list(n_iter = n_iter, burn_in = burn_in),
+                 runtime = res$runtime),
+            class = "griddy_koh")
+}
+
+# Inputs of the observations, in the library's order (blocks by x setting).
+koh_design <- function(library) {
+  n_x <- lib_n_x(library)
+  n_t <- lib_n_t(library)
+  x <- if (is.null(library$x)) matrix(0, n_x, 0) else as.matrix(library$x)
+  out <- x[rep(seq_len(n_x), each = n_t), , drop = FALSE]
+  if (n_t > 1L) out <- cbind(out, t = rep(library$t, n_x))
+  if (ncol(out) == 0L) out <- matrix(1, n_x * n_t, 1L, dimnames = list(NULL, "x"))
+  out <- matrix(as.numeric(out), nrow(out), dimnames = list(NULL, colnames(out)))
+  keep <- apply(out, 2, function(v) length(unique(v)) > 1L)
+  if (!any(keep)) keep[1] <- TRUE
+  out[, keep, drop = FALSE]
+}
+
+# A ppgasp emulator of the outputs that vary over the runs; the constant ones
+# (e.g. a boundary value) are returned as they are.
+koh_emulator <- function(theta, y, quiet) {
+  vary <- apply(y, 2, function(v) max(v) > min(v))
+  gp <- if (any(vary)) {
+    koh_quietly(quiet, RobustGaSP::ppgasp(design = theta, response = y[, vary, drop = FALSE],
+                                          nugget.est = FALSE))
+  }
+  list(gp = gp, vary = vary, constant = y[1, ])
+}
+
+# Emulator mean at the rows of th: one row per parameter set.
+koh_emulate <- function(emulator, th) {
+  out <- matrix(emulator$constant, nrow(th), length(emulator$constant), byrow = TRUE)
+  if (any(emulator$vary)) {
+    pred <- RobustGaSP::predict.ppgasp(emulator$gp, th)$mean
+    out[, emulator$vary] <- matrix(pred, nrow(th))
+  }
+  out
+}
+
+koh_quietly <- function(quiet, expr) {
+  if (!quiet) return(expr)
+  out <- NULL
+  utils::capture.output(out <- expr)
+  out
+}
+
+#' Summarise a Kennedy-O'Hagan baseline fit
+#'
+#' @param object A `griddy_koh` fit from [koh_calibrate()].
+#' @param level Credible level of the equal-tailed interval.
+#' @param ... Unused.
+#' @return A data.frame (class `griddy_koh_summary`) with one row per
+#'   parameter: `parameter`, `mean`, `median`, `lower`, `upper` and `ess`
+#'   (effective sample size, [coda::effectiveSize()]).
+#' @examplesIf requireNamespace("RobustCalibration", quietly = TRUE)
+#' f <- piston_field_data(15, seed = 1)
+#' lib <- piston_library(4, locations = attr(f, "locations"))
+#' koh <- koh_calibrate(lib, f, n_iter = 1500, burn_in = 500, tune_iter = 300,
+#'                      seed = 1)
+#' summary(koh)
+#' @export
+summary.griddy_koh <- function(object, level = 0.95, ...) {
+  assert_level(level)
+  tail <- (1 - level) / 2
+  rows <- lapply(object$parameters, function(p) {
+    v <- object$draws[[p]]
+    q <- stats::quantile(v, c(tail, 0.5, 1 - tail), names = FALSE)
+    data.frame(parameter = p, mean = mean(v), median = q[2], lower = q[1], upper = q[3],
+               ess = if (all(v == v[1])) NA_real_ else unname(coda::effectiveSize(v)))
+  })
+  structure(do.call(rbind, rows), class = c("griddy_koh_summary", "data.frame"),
+            level = level)
+}
+
+#' @export
+print.griddy_koh_summary <- function(x, digits = 4, ...) {
+  cli::cat_line("Kennedy-O'Hagan baseline, ", 100 * attr(x, "level"),
+                "% equal-tailed intervals")
+  print(as.data.frame(unclass(x)), digits = digits, row.names = FALSE)
+  invisible(x)
+}
+
+#' @export
+print.griddy_koh <- function(x, digits = 4, ...) {
+  cli::cat_line("<griddy_koh> Kennedy-O'Hagan calibration (RobustCalibration), ",
+                x$discrepancy, " discrepancy")
+  cli::cat_line("  emulator: ppgasp on ", x$n_runs, " runs; ", nrow(x$draws),
+                " kept draws of ", x$control$n_iter)
+  cli::cat_line("  acceptance: theta ", format(x$acceptance[["theta"]], digits = 2),
+                ", kernel ", format(x$acceptance[["kernel"]], digits = 2))
+  cli::cat_line("  runtime (s): ", paste(names(x$runtime), format(x$runtime, digits = 3),
+                                         sep = " ", collapse = ", "))
+  invisible(x)
+}
+
+#' Calibrated simulator output of a Kennedy-O'Hagan baseline fit
+#'
+#' The emulator's mean output at posterior draws of \eqn{\theta}, without the
+#' discrepancy: the counterpart of the `mean`, `lower` and `upper` columns of
+#' [predict.griddy_fit()], for a posterior predictive check.
+#'
+#' @param object A `griddy_koh` fit from [koh_calibrate()].
+#' @param level Credible level of the band.
+#' @param ndraws Number of draws (evenly spaced over the chain) to evaluate.
+#' @param ... Unused.
+#' @return A data.frame with one row per observation: its inputs, `observed`,
+#'   and the emulated output's posterior `mean`, `lower` and `upper`.
+#' @examplesIf requireNamespace("RobustCalibration", quietly = TRUE)
+#' f <- piston_field_data(15, seed = 1)
+#' lib <- piston_library(4, locations = attr(f, "locations"))
+#' koh <- koh_calibrate(lib, f, n_iter = 1500, burn_in = 500, tune_iter = 300,
+#'                      seed = 1)
+#' head(predict(koh, ndraws = 200))
+#' @export
+predict.griddy_koh <- function(object, level = 0.95, ndraws = 1000, ...) {
+  assert_level(level)
+  ndraws <- assert_count(ndraws, "ndraws")
+  pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
+  th <- as.matrix(object$draws[pick, object$parameters, drop = FALSE])
+  out <- koh_emulate(object$emulator, th)
+  probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
+  bounds <- apply(out, 2, stats::quantile, probs = probs, names = FALSE)
+  data.frame(object$design, observed = object$y_field, mean = colMeans(out),
+             lower = bounds[1, ], upper = bounds[2, ])
+}

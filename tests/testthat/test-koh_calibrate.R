@@ -1,0 +1,85 @@
+# A tiny problem: outputs linear in two parameters at 8 x settings, so a
+# 25-run emulator is essentially exact and the posterior must sit at the truth.
+koh_toy <- function(noise_sd = 0.02, seed = 3) {
+  x <- seq(0, 1, length.out = 8)
+  g <- function(th) th[1] * sin(3 * x) + th[2] * x^2
+  theta <- expand.grid(a = seq(0, 2, length.out = 5), b = seq(1, 3, length.out = 5))
+  y <- t(apply(as.matrix(theta), 1, g))
+  lib <- sim_library(theta, y, x = data.frame(x = x))
+  set.seed(seed)
+  obs <- g(c(1.3, 2.2)) + stats::rnorm(8, sd = noise_sd)
+  list(library = lib, field = field_data(matrix(obs), x = data.frame(x = x)),
+       truth = c(a = 1.3, b = 2.2))
+}
+
+test_that("koh_calibrate() recovers the truth of a tiny problem (GaSP and no discrepancy)", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  for (d in c("GaSP", "none")) {
+    fit <- koh_calibrate(toy$library, toy$field, discrepancy = d, n_iter = 3000,
+                         burn_in = 1000, tune_iter = 300, seed = 11)
+    expect_s3_class(fit, "griddy_koh")
+    expect_equal(nrow(fit$draws), 2000)
+    s <- summary(fit)
+    expect_equal(s$parameter, c("a", "b"))
+    expect_true(all(s$lower <= s$mean & s$mean <= s$upper))
+    expect_equal(s$mean, unname(toy$truth), tolerance = 0.05)
+    expect_true(all(s$lower < toy$truth & toy$truth < s$upper))
+    expect_true(all(s$ess > 20))
+    expect_true(all(fit$runtime >= 0))
+    p <- predict(fit, ndraws = 100)
+    expect_equal(nrow(p), 8)
+    expect_equal(p$observed, drop(toy$field$y))
+    expect_lt(max(abs(p$mean - p$observed)), 0.2)
+  }
+})
+
+test_that("koh_calibrate() is reproducible with a seed and keeps the global stream", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  set.seed(5)
+  before <- stats::runif(1)
+  set.seed(5)
+  a <- koh_calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100,
+                     tune_rounds = 1, tune_iter = 50, seed = 2)
+  after <- stats::runif(1)
+  b <- koh_calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100,
+                     tune_rounds = 1, tune_iter = 50, seed = 2)
+  expect_identical(a$draws, b$draws)
+  expect_identical(before, after)
+})
+
+test_that("koh_calibrate() validates its arguments", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  expect_error(koh_calibrate(toy$library, toy$field, n_iter = 100, burn_in = 100),
+               "`burn_in` must be smaller")
+  expect_error(koh_calibrate(toy$library, toy$field, proposal_sd = c(0.1, -1)),
+               "`proposal_sd` must hold 2 positive")
+  expect_error(koh_calibrate(toy$library, toy$field, discrepancy = "GP"), "should be one of")
+  expect_error(koh_calibrate(toy$library, list()), "must be a griddy_field")
+})
+
+test_that("the shipped chapter-4 comparison has the thesis's tables 4.1-4.5", {
+  path <- system.file("extdata", "chapter4.rds", package = "griddy")
+  skip_if(path == "", "chapter4.rds not installed")
+  ch4 <- readRDS(path)
+  htc <- c("htc_undercrown", "htc_gallery1", "htc_gallery2")
+  tab <- ch4$tables[ch4$tables$parameter %in% htc, ]
+  methods <- c("Griddy Gibbs", "KOH (GaSP)", "KOH (S-GaSP)")
+  for (n in c(6, 15, 27, 54)) {
+    d <- tab[tab$n_points == n & tab$method %in% methods, ]
+    expect_equal(nrow(d), 9)
+    expect_setequal(d$method, methods)
+    expect_true(all(c("lower", "estimate", "truth", "upper") %in% names(d)))
+    # (a discrete posterior's mean may lie outside an interval collapsed to
+    # one library value, as in the thesis's tables, so only lower <= upper)
+    expect_true(all(d$lower <= d$upper))
+    expect_equal(unname(d$truth[match(htc, d$parameter)]), c(1000, 3000, 2000))
+  }
+  rt <- ch4$runtime
+  expect_setequal(unique(rt$n_points), c(6, 15, 27, 54))
+  expect_true(all(c("seconds", "ratio_to_griddy", "ess_per_s") %in% names(rt)))
+  expect_equal(as.vector(table(rt$method)), rep(4L, 4))
+  expect_true(all(rt$seconds > 0))
+})
