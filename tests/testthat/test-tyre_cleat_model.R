@@ -139,3 +139,25 @@ test_that("tyre_library draws a reproducible Latin hypercube and wraps it in a s
                                                  height = c(27.44, 12.13)))))
   expect_error(tyre_library(1), "`n_runs` must be")
 })
+
+test_that("end to end: a small tyre library calibrates to within one library step", {
+  # A 16 x 11 grid (steps 50 N/mm and 0.5 N s/mm) at two heights and 150
+  # samples; the truth (460, 1.6) lies between grid points and is held out.
+  rig <- tyre_rig(n_samples = 150)
+  heights <- c(27.44, 12.13)
+  theta <- expand.grid(k = seq(50, 800, by = 50), c = seq(0, 5, by = 0.5))
+  y <- tyre_cleat_model(as.matrix(theta), height = heights, rig = rig)
+  lib <- sim_library(theta, unclass(y)[, , drop = FALSE], x = data.frame(height = heights),
+                     t = attr(y, "time"))
+  f <- tyre_field_data(k = 460, c = 1.6, height = heights, noise_sd = 60, seed = 1, rig = rig)
+  # 300 data points put (nearly) all the mass on one run, and calibrate() says so
+  expect_warning(fit <- calibrate(lib, f, n_iter = 3000, burn_in = 1000, seed = 2),
+                 "sits on one library run")
+  s <- summary(fit)
+  expect_lte(abs(s$median[s$parameter == "k"] - 460), 50)
+  expect_lte(abs(s$median[s$parameter == "c"] - 1.6), 0.5)
+  # the fitted misfit is at least the noise we added
+  expect_gt(stats::median(1 / sqrt(fit$draws$tau)), 50)
+  # the sampler agrees with the exact posterior over runs
+  expect_lt(attr(s, "adequacy")$tv_distance, 0.05)
+})
