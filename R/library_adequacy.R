@@ -29,7 +29,7 @@ run_adequacy <- function(p, theta) {
 # Posterior probability of each run: sampled frequencies, and exact values
 # from the stored quadratic forms.
 run_probabilities <- function(fit) {
-  n_runs <- nrow(fit$library$y)
+  n_runs <- lib_n_runs(fit$library)
   sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
   exact <- exact_from_problem(fit$problem)$run
   list(sampled = sampled, exact = exact)

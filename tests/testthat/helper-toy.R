@@ -53,3 +53,4 @@ installed_griddy_is_current <- function(fun = "run_chain") {
     stdout = TRUE, stderr = FALSE, env = paste0("R_LIBS=", paste(.libPaths(), collapse = ":"))))
   identical(out, "TRUE")
 }
+
