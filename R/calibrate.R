@@ -180,7 +180,9 @@ run_chains <- function(problem, tables, update, control, seeds) {
 # TRUE when future.apply is installed and the user's future plan has more
 # than one worker.
 parallel_plan <- function() {
-  requireNamespace("future.apply", quietly = TRUE) && future::nbrOfWorkers() > 1L
+  # a plan needs future loaded: otherwise skip loading it (it takes time)
+  isNamespaceLoaded("future") && requireNamespace("future.apply", quietly = TRUE) &&
+    future::nbrOfWorkers() > 1L
 }
 
 run_chain <- function(seed, inputs, control, bar) {
