@@ -14,6 +14,16 @@ peak_mb <- function() {
   as.numeric(sub("[^0-9]*([0-9]+).*", "\\1", grep("^VmHWM", s, value = TRUE))) / 1024
 }
 
+# Current resident memory in MB, and a reset of the peak (Linux >= 4.0), so
+# that a later peak_mb() measures what came after.
+rss_mb <- function() {
+  s <- readLines("/proc/self/status")
+  as.numeric(sub("[^0-9]*([0-9]+).*", "\\1", grep("^VmRSS", s, value = TRUE))) / 1024
+}
+reset_peak <- function() {
+  invisible(try(writeLines("5", "/proc/self/clear_refs"), silent = TRUE))
+}
+
 machine_note <- function() {
   paste0(R.version.string, "; ", parallel::detectCores(), " cores; load average ",
          trimws(sub(".*load average: ", "", system("uptime", intern = TRUE))))

@@ -102,7 +102,7 @@ BEGIN_RCPP
 END_RCPP
 }
 // quad_forms_cpp
-arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
+Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
 RcppExport SEXP _griddy_quad_forms_cpp(SEXP YSEXP, SEXP y_fieldSEXP, SEXP Rx_invSEXP, SEXP phiSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;

@@ -25,8 +25,9 @@ void ar1_innovations(const arma::mat& E, const arma::vec& phi,
 // run's outputs are contiguous (Y is column-major: a row is strided), and the
 // innovations are plain loops over raw memory. With R_x not the identity,
 // M = W'W (a matrix product, BLAS-3) is formed once per run and rho_t.
+// C is written straight into R's memory (no copy on return).
 // [[Rcpp::export]]
-arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
+Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
                          const arma::cube& Rx_inv, const arma::mat& phi) {
   const arma::uword n_runs = Y.n_rows;
   const arma::uword n = y_field.n_elem;
@@ -45,7 +46,8 @@ arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
     all_identity = all_identity && identity[gx];
   }
 
-  arma::mat C(n_runs, G_x * G_t);
+  Rcpp::NumericMatrix C_out(n_runs, G_x * G_t);
+  arma::mat C(C_out.begin(), n_runs, G_x * G_t, false, true);
   const arma::uword block = 256;
   arma::mat Yt;
   arma::mat E(n_t, n_x), W(n_t, n_x), M(n_x, n_x);
@@ -80,5 +82,5 @@ arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
       }
     }
   }
-  return C;
+  return C_out;
 }
