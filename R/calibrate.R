@@ -42,7 +42,9 @@
 #' of probability above \eqn{1 - tol}: their total-variation distance is
 #' below `tol`, and below `n_iter * tol` for a whole chain. Set
 #' `options(griddy.draw_tol = 0)` for the full draw over all \eqn{N} runs.
-#' `fit$head_length` reports the mean number of runs a draw visited.
+#' `fit$head_length` reports the mean length of the head per draw: the runs
+#' a thesis-update draw weighed, or those a collapsed draw (a binary search
+#' over their precomputed cumulative weights) could reach.
 #'
 #' The chains run one after another, or on the workers of a parallel
 #' [future][future::plan] plan when the package future.apply is installed
@@ -74,8 +76,8 @@
 #'   measurements `y_field`, the precomputed `problem` (priors, correlation
 #'   setup and the quadratic forms `C`), the settings of the call, the chains'
 #'   `seeds`, the `runtime` in seconds (`precompute` and `sampling`) and
-#'   `head_length`, the mean number of runs each chain's \eqn{\theta} draws
-#'   visited. Use [summary()][summary.griddy_fit],
+#'   `head_length`, the mean head length of each chain's \eqn{\theta} draws
+#'   (see Details). Use [summary()][summary.griddy_fit],
 #'   [plot()][plot.griddy_fit], [predict()][predict.griddy_fit],
 #'   [as.data.frame()][as.data.frame.griddy_fit] and [coda::as.mcmc.list()]
 #'   on it.
