@@ -139,26 +139,30 @@ print.disk_library <- function(x, ...) {
 }
 
 # C of a disk library: one quad_forms_cpp() call per chunk, mapped over the
-# future plan's workers; the chunk results are stacked in run order.
+# future plan's workers in waves of one chunk per worker, each wave's results
+# copied into C at once: memory holds C and one wave of chunk results.
 disk_quad_forms <- function(library, y_field, setup) {
   chunk_C <- function(file, y_field, Rx_inv, phi) {
     quad_forms_cpp(readRDS(file), y_field, Rx_inv, phi)
   }
-  map <- if (requireNamespace("future.apply", quietly = TRUE)) {
+  environment(chunk_C) <- asNamespace("griddy")
+  parallel <- requireNamespace("future.apply", quietly = TRUE)
+  map <- if (parallel) {
     function(...) future.apply::future_lapply(..., future.seed = NULL,
                                               future.packages = "griddy")
   } else {
     lapply
   }
-  environment(chunk_C) <- asNamespace("griddy")
-  pieces <- map(library$files, chunk_C, y_field = y_field, Rx_inv = setup$Rx_inv,
-                phi = setup$phi)
-  C <- matrix(0, sum(library$rows), ncol(pieces[[1]]))
-  at <- 0L
-  for (k in seq_along(pieces)) {
-    C[at + seq_len(nrow(pieces[[k]])), ] <- pieces[[k]]
-    at <- at + nrow(pieces[[k]])
-    pieces[k] <- list(NULL)
+  per_wave <- if (parallel) max(1L, as.integer(future::nbrOfWorkers())) else 1L
+  ends <- cumsum(library$rows)
+  C <- matrix(0, sum(library$rows), dim(setup$Rx_inv)[3] * ncol(setup$phi))
+  for (wave in split(seq_along(library$files), (seq_along(library$files) - 1L) %/% per_wave)) {
+    pieces <- map(library$files[wave], chunk_C, y_field = y_field, Rx_inv = setup$Rx_inv,
+                  phi = setup$phi)
+    for (j in seq_along(wave)) {
+      k <- wave[j]
+      C[ends[k] - library$rows[k] + seq_len(library$rows[k]), ] <- pieces[[j]]
+    }
   }
   C
 }

@@ -36,6 +36,7 @@ one_config <- function(label, lib, field, y_obs, rho_t, n_iter, burn_in, plain_i
     list(secs = secs, fit = fit)
   })
   modal <- function(r) which.max(tabulate(r, nrow(lib$y)))
+  exact_modal <- which.max(posterior_exact(lib, field, rho_t = rho_t)$run)
   data.frame(
     config = label, runs = nrow(lib$y), data_points = n, grid_points = length(rho_t),
     iterations = n_iter, plain_iterations = plain_iter,
@@ -47,7 +48,11 @@ one_config <- function(label, lib, field, y_obs, rho_t, n_iter, burn_in, plain_i
     speedup_collapsed = t_plain_scaled / fits$collapsed$secs,
     thesis_head_runs = mean(fits$thesis$fit$head_length),
     modal_run_agrees = modal(fits$thesis$fit$draws$run) == modal(plain) &&
-      modal(fits$collapsed$fit$draws$run) == modal(plain)
+      modal(fits$collapsed$fit$draws$run) == modal(plain),
+    # the most probable run of the exact posterior (posterior_exact())
+    plain_modal_is_exact = modal(plain) == exact_modal,
+    griddy_modal_is_exact = modal(fits$thesis$fit$draws$run) == exact_modal &&
+      modal(fits$collapsed$fit$draws$run) == exact_modal
   )
 }
 
@@ -78,7 +83,7 @@ results$machine <- note
 results$date <- format(Sys.Date())
 print(results[, c("config", "runs", "data_points", "plain_r_s", "thesis_s", "collapsed_s",
                   "speedup_thesis", "speedup_collapsed", "thesis_head_runs",
-                  "modal_run_agrees")], digits = 3, row.names = FALSE)
+                  "modal_run_agrees", "plain_modal_is_exact", "griddy_modal_is_exact")], digits = 3, row.names = FALSE)
 cat("tyre library generation:", round(t_lib, 1), "s\n", note, "\n")
 dir.create("bench/results", showWarnings = FALSE, recursive = TRUE)
 data.table::fwrite(results, "bench/results/thesis-configs.csv")
