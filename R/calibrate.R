@@ -30,6 +30,27 @@
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'
+#' **Speed.** The weights of the \eqn{\theta} draw fall monotonically with
+#' \eqn{C_{ig}}, so each column of `C` is sorted once and a draw runs over the
+#' head of the sorted list only (its end found by binary search): the runs
+#' left out hold less than a fraction `tol` of the total weight, where `tol`
+#' is the option `griddy.draw_tol` (default \eqn{2^{-53} \approx 1.1
+#' \times 10^{-16}}, double precision relative to the total). Precisely,
+#' with \eqn{w_{(1)}} the weight of the run with the smallest \eqn{C_{ig}},
+#' every run with \eqn{\pi_{\max} f(C_{ig}) < (tol / N) w_{(1)}} is left out,
+#' so each truncated draw is the exact conditional draw restricted to an event
+#' of probability above \eqn{1 - tol}: their total-variation distance is
+#' below `tol`, and below `n_iter * tol` for a whole chain. Set
+#' `options(griddy.draw_tol = 0)` for the full draw over all \eqn{N} runs.
+#' `fit$head_length` reports the mean length of the head per draw: the runs
+#' a thesis-update draw weighed, or those a collapsed draw (a binary search
+#' over their precomputed cumulative weights) could reach.
+#'
+#' The chains run one after another, or on the workers of a parallel
+#' [future][future::plan] plan when the package future.apply is installed
+#' (for example `future::plan("multisession", workers = 2)`). Each chain has
+#' its own seed, so the draws are the same either way.
+#'
 #' @param library A [sim_library()].
 #' @param field A [field_data()] object at the library's x and t.
 #' @param rho_x,rho_t Correlation grids over x settings and output coordinate,
@@ -54,7 +75,9 @@
 #'   `grid`) and `tau`), the correlation `grid`, the `library`, the field
 #'   measurements `y_field`, the precomputed `problem` (priors, correlation
 #'   setup and the quadratic forms `C`), the settings of the call, the chains'
-#'   `seeds` and the `runtime` in seconds. Use [summary()][summary.griddy_fit],
+#'   `seeds`, the `runtime` in seconds (`precompute` and `sampling`) and
+#'   `head_length`, the mean head length of each chain's \eqn{\theta} draws
+#'   (see Details). Use [summary()][summary.griddy_fit],
 #'   [plot()][plot.griddy_fit], [predict()][predict.griddy_fit],
 #'   [as.data.frame()][as.data.frame.griddy_fit] and [coda::as.mcmc.list()]
 #'   on it.
@@ -78,16 +101,11 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
-  cdf <- if (update == "collapsed") {
-    collapsed_cdf_cpp(problem$C, problem$log_prior_run,
-                      problem$prior$shape + problem$n_obs / 2, problem$prior$rate)
-  } else {
-    matrix(0, 0, 0)
-  }
+  tables <- sampler_tables(problem, update)
   precompute <- proc.time()[["elapsed"]] - start
   run_all <- function() {
     seeds <- sample.int(.Machine$integer.max, control$chains)
-    chains <- run_chains(problem, cdf, update, control, seeds)
+    chains <- run_chains(problem, tables, update, control, seeds)
     list(seeds = seeds, chains = chains)
   }
   out <- if (is.null(seed)) run_all() else with_seed(seed, run_all())
@@ -114,33 +132,84 @@ sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
        progress = assert_flag(progress, "progress"))
 }
 
-# Run every chain from its own seed, so each chain's draws depend only on its
-# seed (not on the order the chains run in), and the whole fit on set.seed().
-run_chains <- function(problem, cdf, update, control, seeds) {
-  n_grid <- ncol(problem$C)
-  chunk <- if (control$progress) max(1L, ceiling(control$n_iter / 50)) else control$n_iter
-  if (control$progress) {
-    bar <- cli::cli_progress_bar("Sampling", total = control$chains * control$n_iter,
-                                 .envir = environment())
+# What the theta draws need besides C, computed once before any chain runs:
+# the run order of every grid column (thesis update) or the truncated CDF of
+# every column (collapsed update); see the Details of calibrate().
+sampler_tables <- function(problem, update, tol = draw_tolerance()) {
+  if (update == "collapsed") {
+    list(order = matrix(0L, 0, 0), tol = tol,
+         heads = collapsed_heads_cpp(problem$C, problem$log_prior_run,
+                                     problem$prior$shape + problem$n_obs / 2,
+                                     problem$prior$rate, tol))
+  } else {
+    list(order = run_order_cpp(problem$C), heads = list(), tol = tol)
   }
-  lapply(seq_along(seeds), function(ch) {
-    with_seed(seeds[ch], {
-      state <- list(rho = sample.int(n_grid, 1L) - 1L, tau = 1 / stats::var(problem$y_field))
-      if (!is.finite(state$tau)) state$tau <- 1
-      pieces <- list()
-      for (first in seq(1L, control$n_iter, by = chunk)) {
-        n <- min(chunk, control$n_iter - first + 1L)
-        res <- gibbs_chain_cpp(problem$C, cdf, problem$setup$logdet, problem$log_prior_run,
-                               problem$log_prior_rho, problem$n_obs, problem$prior$shape,
-                               problem$prior$rate, update == "collapsed", n, first,
-                               control$burn_in, control$thin, state$rho, state$tau)
-        state <- list(rho = res$rho_state, tau = res$tau_state)
-        pieces[[length(pieces) + 1L]] <- res[c("run", "rho", "tau")]
-        if (control$progress) cli::cli_progress_update(inc = n, id = bar)
-      }
-      lapply(c(run = "run", rho = "rho", tau = "tau"),
-             function(v) unlist(lapply(pieces, `[[`, v), use.names = FALSE))
-    })
+}
+
+# The bound on the total-variation distance between a truncated theta draw
+# and the full one: option griddy.draw_tol, 2^-53 by default.
+draw_tolerance <- function() {
+  tol <- getOption("griddy.draw_tol", 2^-53)
+  if (!is.numeric(tol) || length(tol) != 1L || is.na(tol) || tol < 0 || tol >= 1) {
+    stop_no_call("Option `griddy.draw_tol` must be a single number in [0, 1); received ",
+                 paste(format(tol), collapse = ", "), ".")
+  }
+  tol
+}
+
+# Run every chain from its own seed, so each chain's draws depend only on its
+# seed (not on the order the chains run in, nor on where they run), and the
+# whole fit on set.seed(). Under a parallel future plan (see
+# future::plan()) the chains run on its workers; otherwise one after another.
+run_chains <- function(problem, tables, update, control, seeds) {
+  inputs <- list(C = problem$C, order = tables$order, heads = tables$heads,
+                 tol = tables$tol, logdet = problem$setup$logdet,
+                 log_prior_run = problem$log_prior_run, log_prior_rho = problem$log_prior_rho,
+                 n_obs = problem$n_obs, prior = problem$prior,
+                 tau_start = 1 / stats::var(problem$y_field), collapsed = update == "collapsed")
+  if (parallel_plan()) {
+    return(future.apply::future_lapply(seeds, run_chain, inputs = inputs,
+                                       control = control, bar = NULL,
+                                       future.seed = NULL, future.packages = "griddy"))
+  }
+  bar <- if (control$progress) {
+    cli::cli_progress_bar("Sampling", total = control$chains * control$n_iter,
+                          .envir = environment())
+  }
+  lapply(seeds, run_chain, inputs = inputs, control = control, bar = bar)
+}
+
+# TRUE when future.apply is installed and the user's future plan has more
+# than one worker.
+parallel_plan <- function() {
+  # a plan needs future loaded: otherwise skip loading it (it takes time)
+  isNamespaceLoaded("future") && requireNamespace("future.apply", quietly = TRUE) &&
+    future::nbrOfWorkers() > 1L
+}
+
+run_chain <- function(seed, inputs, control, bar) {
+  chunk <- if (!is.null(bar)) max(1L, ceiling(control$n_iter / 50)) else control$n_iter
+  with_seed(seed, {
+    state <- list(rho = sample.int(ncol(inputs$C), 1L) - 1L, tau = inputs$tau_start)
+    if (!is.finite(state$tau)) state$tau <- 1
+    pieces <- list()
+    head_total <- 0
+    for (first in seq(1L, control$n_iter, by = chunk)) {
+      n <- min(chunk, control$n_iter - first + 1L)
+      res <- gibbs_chain_cpp(inputs$C, inputs$order, inputs$heads, inputs$logdet,
+                             inputs$log_prior_run, inputs$log_prior_rho, inputs$n_obs,
+                             inputs$prior$shape, inputs$prior$rate, inputs$collapsed,
+                             inputs$tol, n, first, control$burn_in, control$thin,
+                             state$rho, state$tau)
+      state <- list(rho = res$rho_state, tau = res$tau_state)
+      head_total <- head_total + res$head_total
+      pieces[[length(pieces) + 1L]] <- res[c("run", "rho", "tau")]
+      if (!is.null(bar)) cli::cli_progress_update(inc = n, id = bar)
+    }
+    out <- lapply(c(run = "run", rho = "rho", tau = "tau"),
+                  function(v) unlist(lapply(pieces, `[[`, v), use.names = FALSE))
+    out$head_length <- head_total / control$n_iter
+    out
   })
 }
 
@@ -155,7 +224,8 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
     list(draws = as.data.frame(draws), grid = problem$setup$grid,
          library = problem$library, y_field = problem$y_field, problem = problem,
          update = update, control = control, seeds = out$seeds, call = call,
-         runtime = runtime),
+         runtime = runtime,
+         head_length = vapply(out$chains, function(d) d$head_length, numeric(1))),
     class = "griddy_fit"
   )
 }

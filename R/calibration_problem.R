@@ -6,7 +6,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   check_library(library)
   y_field <- field_vector(library, field)
   prior <- assert_prior(prior)
-  log_prior_run <- log_run_weights(run_weights, nrow(library$y))
+  log_prior_run <- log_run_weights(run_weights, lib_n_runs(library))
   setup <- correlation_setup(library, rho_x, rho_t, x_power)
   C <- quad_forms(library, y_field, setup)
   if (prior$rate == 0 && any(C == 0)) {

@@ -38,9 +38,10 @@ rho_grid <- function(library, rho_x = 0, rho_t = 0) {
   grid[keep]
 }
 
-check_library <- function(library) {
-  if (!inherits(library, "sim_library")) {
-    stop_no_call("`library` must be a sim_library (see ?sim_library); received ",
+check_library <- function(library, disk = TRUE) {
+  if (!inherits(library, "sim_library") && !(disk && inherits(library, "disk_library"))) {
+    stop_no_call("`library` must be a sim_library (see ?sim_library)",
+                 if (disk) " or a disk_library (see ?disk_library)", "; received ",
                  class(library)[1], ".")
   }
 }
@@ -149,5 +150,8 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
 
 # The quadratic forms C (runs x grid points) of the field data under each R_g.
 quad_forms <- function(library, y_field, setup) {
+  if (inherits(library, "disk_library")) {
+    return(disk_quad_forms(library, y_field, setup))
+  }
   quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi)
 }

@@ -55,10 +55,7 @@ print.griddy_field <- function(x, ...) {
 # The field measurements as one vector in the library's order (blocks by x
 # setting), after checking that their x and t are the library's.
 field_vector <- function(library, field) {
-  if (!inherits(library, "sim_library")) {
-    stop_no_call("`library` must be a sim_library (see ?sim_library); received ",
-                 class(library)[1], ".")
-  }
+  check_library(library)
   if (!inherits(field, "griddy_field")) {
     stop_no_call("`field` must be a griddy_field (see ?field_data); received ",
                  class(field)[1], ".")

@@ -67,7 +67,7 @@ potential_scale_reduction <- function(chains) {
 
 fit_description <- function(fit) {
   ctrl <- fit$control
-  paste0("Griddy Gibbs (", fit$update, " update) over ", nrow(fit$library$y),
+  paste0("Griddy Gibbs (", fit$update, " update) over ", lib_n_runs(fit$library),
          " runs x ", nrow(fit$grid), " correlation grid point(s); ", length(fit$y_field),
          " data points; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",

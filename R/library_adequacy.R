@@ -29,7 +29,7 @@ run_adequacy <- function(p, theta) {
 # Posterior probability of each run: sampled frequencies, and exact values
 # from the stored quadratic forms.
 run_probabilities <- function(fit) {
-  n_runs <- nrow(fit$library$y)
+  n_runs <- lib_n_runs(fit$library)
   sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
   exact <- exact_from_problem(fit$problem)$run
   list(sampled = sampled, exact = exact)
@@ -45,7 +45,8 @@ library_adequacy <- function(fit) {
 single_run_threshold <- 0.9
 
 warn_single_run <- function(fit) {
-  p <- run_probabilities(fit)$sampled
+  # sampled frequencies only: the exact posterior would take several copies of C
+  p <- tabulate(fit$draws$run, nbins = lib_n_runs(fit$library)) / nrow(fit$draws)
   top <- which.max(p)
   if (p[top] >= single_run_threshold) {
     warn_no_call("The posterior sits on one library run: run ", top, " holds ",

@@ -80,6 +80,14 @@ assert_count <- function(v, arg, min = 1L) {
   as.integer(v)
 }
 
+assert_string <- function(v, arg) {
+  if (!is.character(v) || length(v) != 1L || is.na(v) || !nzchar(v)) {
+    stop_no_call("`", arg, "` must be a single non-empty string; received ",
+                 paste(format(v), collapse = ", "), ".")
+  }
+  v
+}
+
 assert_flag <- function(v, arg) {
   if (!is.logical(v) || length(v) != 1L || is.na(v)) {
     stop_no_call("`", arg, "` must be TRUE or FALSE; received ",

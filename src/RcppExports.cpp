@@ -11,9 +11,20 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
-// collapsed_cdf_cpp
-arma::mat collapsed_cdf_cpp(const arma::mat& C, const arma::vec& log_prior_run, double shape_post, double rate);
-RcppExport SEXP _griddy_collapsed_cdf_cpp(SEXP CSEXP, SEXP log_prior_runSEXP, SEXP shape_postSEXP, SEXP rateSEXP) {
+// run_order_cpp
+Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C);
+RcppExport SEXP _griddy_run_order_cpp(SEXP CSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
+    rcpp_result_gen = Rcpp::wrap(run_order_cpp(C));
+    return rcpp_result_gen;
+END_RCPP
+}
+// collapsed_heads_cpp
+Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run, double shape_post, double rate, double tol);
+RcppExport SEXP _griddy_collapsed_heads_cpp(SEXP CSEXP, SEXP log_prior_runSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP tolSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -21,18 +32,20 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const arma::vec& >::type log_prior_run(log_prior_runSEXP);
     Rcpp::traits::input_parameter< double >::type shape_post(shape_postSEXP);
     Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
-    rcpp_result_gen = Rcpp::wrap(collapsed_cdf_cpp(C, log_prior_run, shape_post, rate));
+    Rcpp::traits::input_parameter< double >::type tol(tolSEXP);
+    rcpp_result_gen = Rcpp::wrap(collapsed_heads_cpp(C, log_prior_run, shape_post, rate, tol));
     return rcpp_result_gen;
 END_RCPP
 }
 // gibbs_chain_cpp
-Rcpp::List gibbs_chain_cpp(const arma::mat& C, const arma::mat& cdf, const arma::vec& logdet, const arma::vec& log_prior_run, const arma::vec& log_prior_rho, double n_obs, double shape, double rate, bool collapsed, int n_iter, int first_iter, int burn_in, int thin, int rho_start, double tau_start);
-RcppExport SEXP _griddy_gibbs_chain_cpp(SEXP CSEXP, SEXP cdfSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_rhoSEXP, SEXP n_obsSEXP, SEXP shapeSEXP, SEXP rateSEXP, SEXP collapsedSEXP, SEXP n_iterSEXP, SEXP first_iterSEXP, SEXP burn_inSEXP, SEXP thinSEXP, SEXP rho_startSEXP, SEXP tau_startSEXP) {
+Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::IntegerMatrix& order, const Rcpp::List& heads, const arma::vec& logdet, const arma::vec& log_prior_run, const arma::vec& log_prior_rho, double n_obs, double shape, double rate, bool collapsed, double tol, int n_iter, int first_iter, int burn_in, int thin, int rho_start, double tau_start);
+RcppExport SEXP _griddy_gibbs_chain_cpp(SEXP CSEXP, SEXP orderSEXP, SEXP headsSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_rhoSEXP, SEXP n_obsSEXP, SEXP shapeSEXP, SEXP rateSEXP, SEXP collapsedSEXP, SEXP tolSEXP, SEXP n_iterSEXP, SEXP first_iterSEXP, SEXP burn_inSEXP, SEXP thinSEXP, SEXP rho_startSEXP, SEXP tau_startSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
-    Rcpp::traits::input_parameter< const arma::mat& >::type cdf(cdfSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerMatrix& >::type order(orderSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type heads(headsSEXP);
     Rcpp::traits::input_parameter< const arma::vec& >::type logdet(logdetSEXP);
     Rcpp::traits::input_parameter< const arma::vec& >::type log_prior_run(log_prior_runSEXP);
     Rcpp::traits::input_parameter< const arma::vec& >::type log_prior_rho(log_prior_rhoSEXP);
@@ -40,13 +53,14 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< double >::type shape(shapeSEXP);
     Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
     Rcpp::traits::input_parameter< bool >::type collapsed(collapsedSEXP);
+    Rcpp::traits::input_parameter< double >::type tol(tolSEXP);
     Rcpp::traits::input_parameter< int >::type n_iter(n_iterSEXP);
     Rcpp::traits::input_parameter< int >::type first_iter(first_iterSEXP);
     Rcpp::traits::input_parameter< int >::type burn_in(burn_inSEXP);
     Rcpp::traits::input_parameter< int >::type thin(thinSEXP);
     Rcpp::traits::input_parameter< int >::type rho_start(rho_startSEXP);
     Rcpp::traits::input_parameter< double >::type tau_start(tau_startSEXP);
-    rcpp_result_gen = Rcpp::wrap(gibbs_chain_cpp(C, cdf, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, n_iter, first_iter, burn_in, thin, rho_start, tau_start));
+    rcpp_result_gen = Rcpp::wrap(gibbs_chain_cpp(C, order, heads, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, tol, n_iter, first_iter, burn_in, thin, rho_start, tau_start));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -88,7 +102,7 @@ BEGIN_RCPP
 END_RCPP
 }
 // quad_forms_cpp
-arma::mat quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
+Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
 RcppExport SEXP _griddy_quad_forms_cpp(SEXP YSEXP, SEXP y_fieldSEXP, SEXP Rx_invSEXP, SEXP phiSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
@@ -128,8 +142,9 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
-    {"_griddy_collapsed_cdf_cpp", (DL_FUNC) &_griddy_collapsed_cdf_cpp, 4},
-    {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 15},
+    {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 1},
+    {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 5},
+    {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 17},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 4},

@@ -5,6 +5,8 @@
 
 #include <RcppArmadillo.h>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace griddy {
 
@@ -37,6 +39,37 @@ inline arma::uword draw_from_log_weights(const double* log_w, arma::uword n,
                                          double* work) {
   cumulative_weights(log_w, n, work);
   return draw_from_cdf(work, n);
+}
+
+// Truncation of a draw over runs sorted by C (ascending), whose weights
+// w_i = pi_i f(C_i) fall with C. With w_(1) the weight of the first run in
+// sorted order and pi_max the largest prior weight, every run whose weight
+// bound pi_max f(C_i) is below tol / N * w_(1) is left out: together they
+// hold less than tol * w_(1) <= tol * (total weight), so the truncated draw
+// is the exact draw conditioned on an event of probability > 1 - tol, and
+// their total-variation distance is below tol. `log_budget` is
+// log(N / tol) + log(pi_max / pi_(1)): how far (in log weight) below the
+// first run a run may fall and still be kept. Infinite when tol is 0 or the
+// first run has prior weight 0 (no truncation).
+inline double log_budget(arma::uword n, double tol, double log_prior_max,
+                         double log_prior_first) {
+  if (!(tol > 0.0) || !std::isfinite(log_prior_first)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return std::log(static_cast<double>(n)) - std::log(tol) + log_prior_max - log_prior_first;
+}
+
+// Number of leading entries of the sorted column (values c[order[k]]) that
+// are <= cut: a binary search, so a draw touches only the head of the list.
+inline arma::uword head_length(const double* c, const int* order, arma::uword n,
+                               double cut) {
+  if (!(cut < std::numeric_limits<double>::infinity())) return n;
+  arma::uword lo = 0, hi = n;  // answer in [lo, hi]
+  while (lo < hi) {
+    const arma::uword mid = lo + (hi - lo) / 2;
+    if (c[order[mid]] <= cut) lo = mid + 1; else hi = mid;
+  }
+  return std::max<arma::uword>(lo, 1);
 }
 
 }  // namespace griddy

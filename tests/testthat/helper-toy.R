@@ -40,3 +40,17 @@ expected_tv_iid <- function(p, m) {
 }
 
 tv_distance <- function(p, q) sum(abs(p - q)) / 2
+
+# Parallel future workers load griddy from the library, not from the source
+# tree: run those tests only when the installed griddy has this tree's code.
+installed_griddy_is_current <- function(fun = "run_chain") {
+  if (length(find.package("griddy", lib.loc = .libPaths(), quiet = TRUE)) == 0L) {
+    return(FALSE)
+  }
+  out <- suppressWarnings(system2(
+    file.path(R.home("bin"), "Rscript"),
+    c("-e", shQuote(sprintf("cat(exists('%s', envir = asNamespace('griddy')))", fun))),
+    stdout = TRUE, stderr = FALSE, env = paste0("R_LIBS=", paste(.libPaths(), collapse = ":"))))
+  identical(out, "TRUE")
+}
+

@@ -90,3 +90,68 @@ test_that("a posterior on one run is flagged", {
   expect_warning(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1),
                  "The posterior sits on one library run: run \\d+ holds 100% of the draws")
 })
+
+test_that("truncated theta draws equal the full draws for the same seed", {
+  toy <- toy_ar1(n_runs = 500, n_t = 60, sd = 0.05)
+  w <- rep(c(1, 2), 250)
+  for (u in c("collapsed", "thesis")) for (weights in list(NULL, w)) {
+    run <- function(tol) {
+      withr_tol <- options(griddy.draw_tol = tol)
+      on.exit(options(withr_tol))
+      calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 3000, burn_in = 500,
+                update = u, seed = 4, run_weights = weights)
+    }
+    full <- run(0)
+    cut <- run(2^-53)
+    # the truncation is real: draws reach fewer runs than the library holds ...
+    expect_equal(unname(full$head_length), 500)
+    expect_lt(max(cut$head_length), 400)
+    # ... and is exact to 2^-53 per draw: identical chains (they could differ
+    # with probability below 3000 * 2^-53 per chain)
+    expect_identical(cut$draws, full$draws)
+  }
+})
+
+test_that("the runs a collapsed draw leaves out hold less than the tolerance", {
+  toy <- toy_ar1(n_runs = 500, n_t = 60, sd = 0.05)
+  p <- calibration_problem(toy$library, toy$field, 0, c(0, 0.5, 0.9),
+                           list(shape = 1e-9, rate = 1e-9), 2, NULL)
+  shape_post <- 1e-9 + p$n_obs / 2
+  for (tol in c(1e-3, 1e-8, 2^-53)) {
+    h <- collapsed_heads_cpp(p$C, p$log_prior_run, shape_post, 1e-9, tol)
+    for (g in seq_len(ncol(p$C))) {
+      lw <- p$log_prior_run - shape_post * log(1e-9 + p$C[, g] / 2)
+      w <- exp(lw - max(lw))
+      head <- h$run[seq(h$start[g] + 1, h$start[g + 1])] + 1L
+      # the head is a prefix of the runs sorted by C, with every run above tol / N
+      expect_identical(head, order(p$C[, g])[seq_along(head)])
+      expect_lt(sum(w[-head]) / sum(w), tol)
+      cdf <- h$cdf[seq(h$start[g] + 1, h$start[g + 1])]
+      expect_equal(cdf / cdf[length(cdf)], cumsum(w[head]) / sum(w[head]))
+    }
+  }
+  # a loose tolerance gives shorter heads
+  expect_lt(length(collapsed_heads_cpp(p$C, p$log_prior_run, shape_post, 1e-9, 1e-3)$run),
+            length(collapsed_heads_cpp(p$C, p$log_prior_run, shape_post, 1e-9, 2^-53)$run))
+})
+
+test_that("the draw tolerance option is validated", {
+  toy <- toy_ar1(n_runs = 20, n_t = 10)
+  old <- options(griddy.draw_tol = -1)
+  on.exit(options(old))
+  expect_error(calibrate(toy$library, toy$field, n_iter = 100, burn_in = 10),
+               "griddy.draw_tol")
+})
+
+test_that("chains on parallel future workers give the same draws", {
+  skip_on_cran()
+  skip_if_not_installed("future.apply")
+  skip_if_not(installed_griddy_is_current(), "the installed griddy is not this version")
+  toy <- toy_ar1(n_runs = 100, n_t = 20)
+  run <- function() calibrate(toy$library, toy$field, rho_t = c(0, 0.1), n_iter = 500,
+                              burn_in = 100, chains = 2, seed = 8)
+  serial <- run()
+  old <- future::plan(future::multisession, workers = 2)
+  on.exit(future::plan(old))
+  expect_identical(run()$draws, serial$draws)
+})

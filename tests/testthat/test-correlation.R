@@ -45,7 +45,8 @@ test_that("the AR(1) log-determinant matches dense algebra, even and uneven t", 
 })
 
 test_that("quadratic forms and log-determinants match the dense Kronecker product", {
-  toy <- toy_xt(n_per_dim = 3, n_t = 5)
+  # 17 x 17 = 289 runs: more than one block of 256 runs in quad_forms_cpp()
+  toy <- toy_xt(n_per_dim = 17, n_t = 5)
   lib <- toy$library
   lib$t <- c(0, 0.2, 0.3, 1.1, 2) # uneven spacing
   toy$field$t <- NULL
@@ -53,7 +54,7 @@ test_that("quadratic forms and log-determinants match the dense Kronecker produc
   setup <- correlation_setup(lib, rho_x = list(load = c(0, 0.6), speed = 0.3),
                              rho_t = c(0, 0.5), x_power = 2)
   C <- quad_forms(lib, y, setup)
-  expect_identical(dim(C), c(9L, 4L))
+  expect_identical(dim(C), c(289L, 4L))
   for (g in seq_len(nrow(setup$grid))) {
     gr <- setup$grid[g, ]
     R <- kronecker(corr_x(lib$x, c(gr$rho_x_load, gr$rho_x_speed)), corr_t(lib$t, gr$rho_t))
