@@ -22,7 +22,7 @@
 #   Rscript bench/koh-vs-griddy.R            # KOH_ITER=12000 by default
 #   KOH_ITER=35000 KOH_BURN=15000 Rscript bench/koh-vs-griddy.R
 # Writes bench/results/koh-vs-griddy.csv and prints it. Single-threaded; about
-# 10-20 minutes on a shared 2-core machine. data-raw/chapter4.R sources this
+# 10-20 minutes on a shared 2-core machine. data-raw/ch4.R sources this
 # file and ships the posterior summaries for vignette("chapter4").
 suppressPackageStartupMessages({
   if (file.exists("DESCRIPTION") && requireNamespace("pkgload", quietly = TRUE) &&

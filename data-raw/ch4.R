@@ -7,7 +7,7 @@
 #
 # Usage, from the package root with griddy and RobustCalibration installed
 # (or GRIDDY_LOAD_ALL=true to use pkgload::load_all()):
-#   Rscript data-raw/chapter4.R
+#   Rscript data-raw/ch4.R
 source("bench/koh-vs-griddy.R")
 
 truth <- c(htc_undercrown = 1000, htc_gallery1 = 3000, htc_gallery2 = 2000)
