@@ -311,7 +311,7 @@ ar1_whitener <- function(phi, n_t) {
 
 # Whiten rows (vectors in library order, blocks by x) so that squared norms
 # are quadratic forms in R_g^{-1}.
-gap_whiten <- function(M, node, n_x, n_t) {
+gap_whiten <- function(M, node, n_x, n_t, mix = TRUE) {
   J <- nrow(M)
   if (n_t > 1L) {
     s <- 1 / sqrt(1 - node$phi^2)
@@ -323,7 +323,7 @@ gap_whiten <- function(M, node, n_x, n_t) {
       M[, cols] <- X
     }
   }
-  if (n_x > 1L) {
+  if (n_x > 1L && mix) {
     M <- matrix(matrix(M, J * n_t, n_x) %*% t(node$A_x), J, n_x * n_t)
   }
   M
@@ -334,18 +334,20 @@ gap_whiten <- function(M, node, n_x, n_t) {
 gap_terms <- function(ctx, Y, log_prior_run) {
   n_x <- ctx$n_x
   n_t <- ctx$n_t
+  J <- nrow(Y)
   G <- length(ctx$nodes)
   E <- -sweep(Y, 2, ctx$y, "-")                       # residuals y - eta, runs in rows
-  Q <- matrix(0, nrow(Y), G)
-  D <- array(0, c(nrow(Y), G, n_x))
+  Q <- matrix(0, J, G)
+  D <- array(0, c(J, G, n_x))
   for (g in seq_len(G)) {
     node <- ctx$nodes[[g]]
     Q[, g] <- rowSums(gap_whiten(E, node, n_x, n_t)^2)
-    EP <- lapply(seq_len(n_x), function(k) E[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE] %*%
-                   node$Pt)
+    # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = Px (x) Pt it is
+    # v_k' Pt v_k / Px_kk, v_k = sum_l Px_lk e_l (the AR(1) innovations of v_k).
+    V <- matrix(matrix(E, J * n_t, n_x) %*% node$Px, J, n_x * n_t)
+    W <- gap_whiten(V, list(phi = node$phi), n_x, n_t, mix = FALSE)
     for (k in seq_len(n_x)) {
-      H <- Reduce(`+`, lapply(seq_len(n_x), function(l) node$Px[l, k] * EP[[l]]))
-      D[, g, k] <- rowSums((H %*% node$Rt) * H) / node$Px[k, k]
+      D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Px[k, k]
     }
   }
   list(Y = Y, E = E, Q = Q, D = D, log_prior_run = log_prior_run)

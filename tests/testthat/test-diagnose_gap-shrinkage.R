@@ -32,3 +32,21 @@ test_that("shrinkage pools the folds", {
   # with the right effect the 90% intervals cover about 90% of held-out points
   expect_gt(sh$cover90_after, 0.75)
 })
+
+test_that("leaving out a setting is exact with correlation across settings too", {
+  toy <- toy_gap(0.2)
+  fit <- suppressWarnings(calibrate(toy$lib, toy$field, rho_x = 0.5, rho_t = 0.3,
+                                    n_iter = 200, burn_in = 50, seed = 1))
+  gap <- diagnose_gap(fit, list(quadratic = toy$quad))
+  full <- posterior_exact(toy$lib, toy$field, rho_x = 0.5, rho_t = 0.3)$log_evidence
+  # the middle setting: leaving it out keeps the range that scales x
+  cols <- 30 + 1:30
+  red_lib <- sim_library(toy$lib$theta, toy$lib$y[, -cols], x = toy$x[-2, , drop = FALSE],
+                         t = toy$t)
+  red_field <- field_data(toy$field$y[-2, ], x = toy$x[-2, , drop = FALSE], t = toy$t)
+  ex <- posterior_exact(red_lib, red_field, rho_x = 0.5, rho_t = 0.3)
+  fold <- gap$folds[gap$folds$model == "none" & gap$folds$x == 2, ]
+  expect_equal(fold$lpd, full - ex$log_evidence, tolerance = 1e-8)
+  expect_equal(fold$rmse, sqrt(mean((toy$field$y[2, ] - drop(ex$run %*% toy$lib$y[, cols]))^2)),
+               tolerance = 1e-8)
+})
