@@ -38,12 +38,16 @@
 #' **Confounding.** For each non-zero strength, the candidate run nearest
 #' the base posterior mode is compared with the base library: the effect's
 #' change \eqn{\Delta} (against the zero-strength run with the nearest
-#' theta) and the part of the candidate output that no base run can
+#' theta) and the part \eqn{e} of the candidate output that no base run can
 #' reproduce (the best base run, refined by a local linear fit on its
-#' neighbours in theta), both in the fitted noise metric. Their ratio
-#' `separable` is near 0 when a shift of theta imitates the effect; below
-#' `confounding_threshold` (at some strength) the candidate is reported as
-#' confounded, and the theta column that absorbs it is named.
+#' neighbours in theta), both in the fitted noise metric. The library's own
+#' resolution \eqn{e_0} is measured the same way, by imitating base runs near
+#' the mode with the other runs. `separable` \eqn{= \sqrt{e^2 - e_0^2} /
+#' |\Delta|} is near 0 when a shift of theta imitates the effect; when it is
+#' below `confounding_threshold` at some strength whose effect is large enough
+#' to judge (\eqn{|\Delta| > 3 e_0}), the candidate is reported as
+#' confounded, and the theta column that absorbs it is named. `separable` is
+#' `NA` when no strength is large enough to judge.
 #'
 #' **Where.** For block \eqn{B}, with \eqn{h = R_g^{-1} r} and
 #' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B}, the statistic
@@ -423,26 +427,38 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   zero <- rowSums(abs(strength)) == 0
   Wb <- gap_whiten(base_terms$Y, node, ctx$n_x, ctx$n_t)
   near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
-  m <- min(nrow(tb) - 1L, 3L * ncol(tb) + 3L)
+  m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
+  # the part of output w that no base run (best one, refined linearly on its
+  # theta neighbours) reproduces, leaving out base run `drop`
+  imitate <- function(w, drop = 0L) {
+    d2 <- rowSums(sweep(Wb, 2, w, "-")^2)
+    d2[drop] <- Inf
+    j <- which.min(d2)
+    dist <- colSums((t(tb) - tb[j, ])^2)
+    dist[c(j, drop)] <- Inf
+    nb <- order(dist)[seq_len(m)]
+    Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
+    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j)
+  }
+  # the library's own resolution: how well the other runs imitate runs near the mode
+  around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
+  e_grid <- sqrt(mean(vapply(around, function(j) imitate(Wb[j, ], j)$e^2, numeric(1))))
   res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
     i1 <- near(tb[top[1], ], which(level == lv))
     i0 <- near(tc[i1, ], which(zero))
     w <- gap_whiten(cand$y[c(i1, i0), , drop = FALSE], node, ctx$n_x, ctx$n_t)
     delta <- sqrt(sum((w[1, ] - w[2, ])^2))
-    j <- which.min(rowSums(sweep(Wb, 2, w[1, ], "-")^2))
-    nb <- order(colSums((t(tb) - tb[j, ])^2))[seq_len(m) + 1L]
-    Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
-    e <- w[1, ] - Wb[j, ]
-    fit_ls <- stats::lm.fit(Dm, e)
-    e_perp <- sqrt(sum(fit_ls$residuals^2))
-    shift <- abs(tb[j, ] - tc[i0, ])
-    list(separable = if (delta > 0) e_perp / delta else 1,
-         detectable = e_perp * sqrt(tau_hat),
+    im <- imitate(w[1, ])
+    shift <- abs(tb[im$j, ] - tc[i0, ])
+    list(separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
+         judged = delta > 3 * e_grid, detectable = im$e * sqrt(tau_hat),
          absorbed_by = base_cols[which.max(shift)], strength_size = sum(abs(strength[i1, ])))
   })
+  judged <- vapply(res, `[[`, logical(1), "judged")
   sep <- vapply(res, `[[`, numeric(1), "separable")
   biggest <- which.max(vapply(res, `[[`, numeric(1), "strength_size"))
-  list(separable = min(sep), confounded = any(sep < threshold),
-       detectable = res[[biggest]]$detectable,
-       absorbed_by = res[[which.min(sep)]]$absorbed_by)
+  best <- if (any(judged)) which(judged)[which.min(sep[judged])] else biggest
+  list(separable = if (any(judged)) sep[best] else NA_real_,
+       confounded = any(judged) && sep[best] < threshold,
+       detectable = res[[biggest]]$detectable, absorbed_by = res[[best]]$absorbed_by)
 }
