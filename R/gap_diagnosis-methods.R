@@ -52,8 +52,10 @@ print.gap_diagnosis <- function(x, ...) {
     cli::cat_line("Where: no block departs from the fitted noise (FDR ", pct(x$settings$fdr), ").")
   }
   for (a in v$advice) cli::cat_line(strwrap(a, width = 90))
-  cli::cat_line("Models: ", paste0(x$which$effect, " ", format(round(x$which$prob, 3)),
-                                   collapse = ", "))
+  p <- ifelse(x$which$prob < 0.001, "<0.001", sprintf("%.3f", x$which$prob))
+  cli::cat_line("Models (posterior probability): ",
+                paste0(x$which$effect, ifelse(x$which$confounded, " [confounded]", ""), " ",
+                       p, collapse = ", "))
   invisible(x)
 }
 
