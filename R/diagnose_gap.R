@@ -36,7 +36,10 @@
 #' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). Model probabilities use `prior_models`
 #' (default: equal). **Decision rule:** the answer is the most probable model
 #' that is not confounded with theta; "none" means no detectable gap,
-#' "other" a gap that no candidate explains.
+#' "other" a gap that no candidate explains. When that model is "none" but
+#' `$where` flags blocks (the base model fails its own check), the answer is
+#' "other" too: the gap is real but too local or rough for the smooth
+#' discrepancy (`verdict$reason` is then `"blocks"`, else `"evidence"`).
 #'
 #' **Confounding.** For each non-zero strength, the candidate run nearest
 #' the base posterior mode is compared with the base library: the effect's
@@ -99,7 +102,8 @@
 #'   * `folds`: the same per left-out x setting;
 #'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
 #'     residual / fitted noise sd) under the base posterior;
-#'   * `verdict`: a list with `answer`, `prob`, `confounded` and `advice`.
+#'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
+#'     `advice`, `n_flagged` and `prob_none`.
 #' @seealso [posterior_exact()], [calibrate()]
 #' @examples
 #' t <- seq(0, 1, length.out = 30)

@@ -3,6 +3,15 @@
 gap_verdict <- function(which_tab, screen, base, where) {
   ok <- !which_tab$confounded
   answer <- which_tab$effect[ok][1]
+  prob <- which_tab$prob[ok][1]
+  # the base model fails its own check: a gap is there even if no smooth
+  # discrepancy beats it in evidence (e.g. a gap too local or too rough)
+  n_flagged <- sum(where$blocks$flagged)
+  reason <- if (answer == "none" && n_flagged > 0L) "blocks" else "evidence"
+  if (reason == "blocks") {
+    answer <- "other"
+    prob <- which_tab$prob[which_tab$effect == "other"]
+  }
   conf <- which_tab$effect[which_tab$confounded]
   x_names <- if (is.null(base$x)) "a control setting" else paste(names(base$x), collapse = "/")
   advice <- vapply(conf, function(nm) {
@@ -12,8 +21,9 @@ gap_verdict <- function(which_tab, screen, base, where) {
            "). To separate them, measure at further values of ", x_names,
            " where the effect changes the output differently from ", by, ".")
   }, character(1))
-  list(answer = answer, prob = which_tab$prob[ok][1], confounded = conf,
-       advice = unname(advice), n_flagged = sum(where$blocks$flagged))
+  list(answer = answer, prob = prob, reason = reason, confounded = conf,
+       advice = unname(advice), n_flagged = n_flagged,
+       prob_none = which_tab$prob[which_tab$effect == "none"])
 }
 
 #' @export
@@ -26,8 +36,15 @@ print.gap_diagnosis <- function(x, ...) {
   headline <- switch(v$answer,
     none = paste0("No detectable gap: the base model explains the data (P(none) = ",
                   pct(v$prob), ")."),
-    other = paste0("There is a gap that no candidate explains: a generic smooth ",
-                   "discrepancy does best (P(other) = ", pct(v$prob), ")."),
+    other = if (identical(v$reason, "blocks")) {
+      paste0("There is a gap that no candidate explains: ", v$n_flagged, " block(s) depart ",
+             "from the fitted noise, though no candidate or smooth discrepancy beats the ",
+             "base model in evidence (P(none) = ", pct(v$prob_none), "); the gap is local ",
+             "or rough.")
+    } else {
+      paste0("There is a gap that no candidate explains: a generic smooth ",
+             "discrepancy does best (P(other) = ", pct(v$prob), ").")
+    },
     paste0("The gap is best explained by '", v$answer, "' (P = ", pct(v$prob), ")."))
   sh <- x$shrinkage[x$shrinkage$effect == v$answer, ]
   if (nrow(sh) == 1L) {

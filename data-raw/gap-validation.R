@@ -129,7 +129,8 @@ trial_row <- function(gap, system, scenario, truth, strength, offered, seed, bum
   decoys <- setdiff(sh$effect, truth)
   data.table(system = system, scenario = scenario, seed = seed, truth = truth,
              strength = strength, offered = paste(offered, collapse = "+"),
-             answer = gap$verdict$answer, top = w$effect[1], prob_top = w$prob[1],
+             answer = gap$verdict$answer, reason = gap$verdict$reason, top = w$effect[1],
+             prob_top = w$prob[1],
              prob_none = p[["none"]], prob_other = p[["other"]],
              prob_truth = if (truth %in% names(p)) p[[truth]] else NA_real_,
              confounded = paste(names(conf)[conf], collapse = "+"),

@@ -29,3 +29,18 @@ test_that("plot draws a map of the gap with flagged blocks outlined", {
   expect_equal(nrow(g1$where), 4)
   expect_s3_class(plot(g1), "ggplot")
 })
+
+test_that("a gap the base model's block check flags is 'other' even when evidence says none", {
+  toy <- toy_gap(0, bump = 0.3)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 6)
+  expect_true(any(gap$where$flagged))
+  top <- gap$which$effect[!gap$which$confounded][1]
+  if (top == "none") {
+    expect_identical(gap$verdict$answer, "other")
+    expect_identical(gap$verdict$reason, "blocks")
+    expect_match(paste(capture.output(print(gap)), collapse = " "), "local or rough")
+  } else {
+    expect_identical(gap$verdict$reason, "evidence")
+  }
+  expect_false(gap$verdict$answer %in% c("none", "quadratic"))
+})
