@@ -1,5 +1,21 @@
 # The verdict of a gap diagnosis, and its print() and plot() methods.
 
+# One sentence per confounded candidate: what absorbs it, what design change
+# would separate them.
+gap_advice <- function(which_tab, x) {
+  conf <- which_tab[which_tab$confounded, ]
+  x_names <- if (is.null(x)) "the control settings" else paste(names(x), collapse = "/")
+  vapply(seq_len(nrow(conf)), function(i) {
+    by <- conf$absorbed_by[i]
+    paste0("'", conf$effect[i], "' is confounded with theta: a shift of ", by,
+           " imitates it at these settings (separable fraction ",
+           format(round(conf$separable[i], 3)), "). To separate them, measure where the ",
+           "effect and ", by, " act differently: at a second value of the condition the ",
+           "effect depends on (e.g. another speed or pressure), or at further values of ",
+           x_names, " if the effect depends on them otherwise than ", by, " does.")
+  }, character(1))
+}
+
 gap_verdict <- function(which_tab, screen, base, where) {
   ok <- !which_tab$confounded
   answer <- which_tab$effect[ok][1]
@@ -13,14 +29,7 @@ gap_verdict <- function(which_tab, screen, base, where) {
     prob <- which_tab$prob[which_tab$effect == "other"]
   }
   conf <- which_tab$effect[which_tab$confounded]
-  x_names <- if (is.null(base$x)) "a control setting" else paste(names(base$x), collapse = "/")
-  advice <- vapply(conf, function(nm) {
-    by <- screen[[nm]]$absorbed_by
-    paste0("'", nm, "' is confounded with theta: a shift of ", by, " imitates it at these ",
-           "settings (separable fraction ", format(screen[[nm]]$separable, digits = 2),
-           "). To separate them, measure at further values of ", x_names,
-           " where the effect changes the output differently from ", by, ".")
-  }, character(1))
+  advice <- gap_advice(which_tab, base$x)
   list(answer = answer, prob = prob, reason = reason, confounded = conf,
        advice = unname(advice), n_flagged = n_flagged,
        prob_none = which_tab$prob[which_tab$effect == "none"])
@@ -34,8 +43,18 @@ print.gap_diagnosis <- function(x, ...) {
   cli::cat_line("<gap_diagnosis> ", nrow(x$which) - 2L, " candidate effect(s), ",
                 nrow(wh), " block(s)")
   headline <- switch(v$answer,
-    none = paste0("No detectable gap: the base model explains the data (P(none) = ",
-                  pct(v$prob), ")."),
+    none = {
+      conf <- x$which[x$which$confounded, ]
+      if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
+        paste0("No gap that theta cannot absorb: the base model and the confounded ",
+               "candidate(s) ", paste0("'", conf$effect, "'", collapse = ", "),
+               " fit alike once theta is recalibrated (P(none) = ", pct(v$prob),
+               ", confounded ", pct(sum(conf$prob)), ").")
+      } else {
+        paste0("No detectable gap: the base model explains the data (P(none) = ",
+               pct(v$prob), ").")
+      }
+    },
     other = if (identical(v$reason, "blocks")) {
       paste0("There is a gap that no candidate explains: ", v$n_flagged, " block(s) depart ",
              "from the fitted noise, though no candidate or smooth discrepancy beats the ",
@@ -68,7 +87,7 @@ print.gap_diagnosis <- function(x, ...) {
   } else {
     cli::cat_line("Where: no block departs from the fitted noise (FDR ", pct(x$settings$fdr), ").")
   }
-  for (a in v$advice) cli::cat_line(strwrap(a, width = 90))
+  for (a in gap_advice(x$which, x$x)) cli::cat_line(strwrap(a, width = 90))
   p <- ifelse(x$which$prob < 0.001, "<0.001", sprintf("%.3f", x$which$prob))
   cli::cat_line("Models (posterior probability): ",
                 paste0(x$which$effect, ifelse(x$which$confounded, " [confounded]", ""), " ",
