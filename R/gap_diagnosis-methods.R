@@ -158,5 +158,6 @@ plot.gap_diagnosis <- function(x, ...) {
 
 gap_x_labels <- function(x) {
   if (is.null(x$x)) return("1")
+  if (nrow(x$x) > 12L) return(as.character(seq_len(nrow(x$x))))
   apply(x$x, 1, function(r) paste0(names(x$x), "=", format(r, digits = 3), collapse = ", "))
 }
