@@ -389,6 +389,21 @@ piston_location_ids <- function(n_per_surface = 9) {
 #'   `"full"`, `"part"` or both.
 #' @param material `"steel"` (default) or `"aluminium"`.
 #' @param cell Grid cell size in mm: 1 (default), 0.5 or 0.25.
+#' @param gallery_gradient Optional effect (off: 0): the coefficient of
+#'   cooling gallery 1 varies linearly along the gallery wall,
+#'   \eqn{h(s) = h_{gallery1} (1 + \beta (2 s / L - 1))} with `s` the arc
+#'   length from the gallery floor's inner corner (see [piston_locations()])
+#'   and `L` the wall's perimeter, so the mean coefficient is unchanged. A
+#'   single value or one per row of `htc`, in (-1, 1).
+#' @param conductivity_slope Optional effect (off: 0): a conductivity that
+#'   varies with temperature, \eqn{k(T) = k_0 (1 + \alpha (T - 20))}, with
+#'   \eqn{\alpha} in 1/K (steel: about -3e-4). It is applied through the
+#'   Kirchhoff transform \eqn{U = T + \alpha (T - 20)^2 / 2}: the
+#'   constant-conductivity solution is read as U and mapped back to T. This
+#'   is exact for the conduction in the solid and for fixed-temperature
+#'   boundaries, and an approximation at the convective boundaries (which act
+#'   on T, not U); it is a stand-in for the effect, not a nonlinear solver. A
+#'   single value or one per row of `htc`.
 #' @return An N x (length(locations) * length(condition)) matrix of surface
 #'   temperatures in deg C, one row per row of `htc`; columns in blocks by
 #'   condition, locations in the given order within a block, named
@@ -403,8 +418,13 @@ piston_location_ids <- function(n_per_surface = 9) {
 #' htc <- cbind(c(500, 1000, 2000), 3000, 2000)
 #' piston_model(htc, locations = 1:3)
 piston_model <- function(htc, locations = 1:27, condition = "full",
-                         material = "steel", cell = 1) {
+                         material = "steel", cell = 1, gallery_gradient = 0,
+                         conductivity_slope = 0) {
   htc <- piston_check_htc(htc)
+  gallery_gradient <- piston_check_effect(gallery_gradient, "gallery_gradient", nrow(htc),
+                                          -1, 1)
+  conductivity_slope <- piston_check_effect(conductivity_slope, "conductivity_slope",
+                                            nrow(htc), -1e-3, 1e-3)
   locations <- piston_check_locations(locations)
   condition <- piston_check_choice(condition, "condition", piston_conditions()$condition)
   material <- piston_check_choice(material, "material", c("steel", "aluminium"))
@@ -413,8 +433,14 @@ piston_model <- function(htc, locations = 1:27, condition = "full",
   blocks <- lapply(condition, function(cond) {
     st <- piston_setup(cond, cell, material)
     hf <- st$htc_faces
-    piston_eval_cpp(st$Zss, st$T0s, hf$s_index - 1L, hf$surface - 1L, hf$area,
-                    hf$rhalf, st$t_fluid, htc, st$out_faces[locations] - 1L)
+    out <- piston_eval_cpp(st$Zss, st$T0s, hf$s_index - 1L, hf$surface - 1L, hf$area,
+                           hf$rhalf, st$t_fluid, htc, st$out_faces[locations] - 1L)
+    graded <- which(gallery_gradient != 0)
+    if (length(graded) > 0L) {
+      out[graded, ] <- piston_eval_graded(st, htc[graded, , drop = FALSE],
+                                          gallery_gradient[graded], locations)
+    }
+    kirchhoff_to_temperature(out, conductivity_slope)
   })
   out <- do.call(cbind, blocks)
   loc <- paste0(rep(c("undercrown", "gallery1", "gallery2"), each = 9), rep(1:9, 3))[locations]
@@ -480,4 +506,50 @@ piston_heat_balance <- function(htc, condition = "full", material = "steel",
     rownames(out$field) <- NULL
   }
   out
+}
+
+# ---------------------------------------------------------------------------
+# Optional effects of piston_model(); off (0) leaves the base model untouched.
+
+piston_check_effect <- function(v, name, n, lower, upper) {
+  if (!is.numeric(v) || !(length(v) %in% c(1L, n)) || anyNA(v) || any(!is.finite(v)) ||
+      any(v <= lower) || any(v >= upper)) {
+    stop("`", name, "` must be one value or one per row of `htc` (", n, "), in (", lower,
+         ", ", upper, "); received ", paste(format(utils::head(v, 5)), collapse = ", "),
+         if (length(v) > 5L) ", ...", ".", call. = FALSE)
+  }
+  rep_len(as.double(v), n)
+}
+
+# Face temperatures with the gallery-1 coefficient graded along the wall: the
+# same surface-cell solve as piston_eval_cpp(), with one coefficient per face.
+piston_eval_graded <- function(st, htc, beta, locations) {
+  hf <- st$htc_faces
+  g1 <- hf$surface == 2L
+  len <- max(hf$arc[g1])
+  shape <- ifelse(g1, 2 * hf$arc / len - 1, 0)
+  ns <- length(st$s_cells)
+  of <- st$out_faces[locations]
+  t(vapply(seq_len(nrow(htc)), function(r) {
+    h <- htc[r, hf$surface] * (1 + beta[r] * shape)
+    g <- hf$area / (hf$rhalf + 1 / h)
+    gcell <- piston_accumulate(hf$s_index, g, ns)
+    wcell <- piston_accumulate(hf$s_index, g * st$t_fluid[hf$surface], ns)
+    a <- st$Zss
+    diag(a) <- diag(a) + 1 / gcell
+    u <- solve(a, st$T0s + drop(st$Zss %*% wcell))
+    ts <- u / gcell
+    gk <- 1 / hf$rhalf[of]
+    (gk * ts[hf$s_index[of]] + h[of] * st$t_fluid[hf$surface[of]]) / (gk + h[of])
+  }, numeric(length(of))))
+}
+
+# Kirchhoff transform back from U = T + alpha (T - 20)^2 / 2 to T, per row.
+kirchhoff_to_temperature <- function(U, alpha) {
+  on <- which(alpha != 0)
+  if (length(on) == 0L) return(U)
+  a <- alpha[on]
+  du <- U[on, , drop = FALSE] - 20
+  U[on, ] <- 20 + (sqrt(pmax(1 + 2 * a * du, 0)) - 1) / a
+  U
 }

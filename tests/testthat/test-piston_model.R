@@ -127,3 +127,34 @@ test_that("piston_model validates its inputs", {
   expect_error(piston_model(truth, cell = 2), "`cell` must be")
   expect_error(piston_heat_balance(rbind(truth, truth)), "single set")
 })
+
+test_that("the optional effects are off by default and reproduce the base model at 0", {
+  htc <- rbind(c(1000, 3000, 2000), c(500, 8000, 300))
+  base <- piston_model(htc)
+  expect_identical(piston_model(htc, gallery_gradient = 0, conductivity_slope = 0), base)
+  # the graded-gallery solver in R agrees with the C++ one when the grade is ~0
+  st <- piston_setup("full", 1, "steel")
+  expect_equal(unname(piston_eval_graded(st, htc, c(0, 0), 1:27)), unname(base),
+               tolerance = 1e-10)
+})
+
+test_that("a graded gallery coefficient and a temperature-dependent conductivity act", {
+  htc <- c(1000, 3000, 2000)
+  base <- piston_model(htc)
+  graded <- piston_model(htc, gallery_gradient = 0.5)
+  g1 <- grepl("gallery1", colnames(base))
+  expect_gt(max(abs(graded - base)[g1]), 1)
+  # the mean coefficient is unchanged, so gallery-1 temperatures move both ways
+  d <- (graded - base)[g1]
+  expect_true(any(d > 0) && any(d < 0))
+  soft <- piston_model(htc, conductivity_slope = -3e-4)
+  # k falls with T: U = T + alpha (T - 20)^2 / 2 < T, so the hot points get hotter
+  expect_true(all(soft >= base))
+  expect_equal(soft[1, ] + (-3e-4) * (soft[1, ] - 20)^2 / 2, base[1, ], tolerance = 1e-10)
+  both <- piston_model(rbind(htc, htc), gallery_gradient = c(0, 0.5),
+                       conductivity_slope = c(-3e-4, 0))
+  expect_equal(both[1, ], soft[1, ])
+  expect_equal(both[2, ], graded[1, ])
+  expect_error(piston_model(htc, gallery_gradient = 1.5), "gallery_gradient")
+  expect_error(piston_model(htc, conductivity_slope = c(0, 0)), "conductivity_slope")
+})

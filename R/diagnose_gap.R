@@ -1,0 +1,484 @@
+#' Diagnose the gap between a calibrated simulator and the field data
+#'
+#' After a calibration, asks three questions of the residual gap, all answered
+#' exactly on the library grid (no refits, no sampling):
+#'
+#' * **where** the data depart from what the fitted noise explains: every
+#'   block (one x setting times one window of t) gets an exact
+#'   leave-block-out predictive check under the fitted model;
+#' * **which** of the offered candidate effects explains the gap, by exact
+#'   marginal likelihoods of the base model ("none"), of each candidate, and
+#'   of a generic smooth discrepancy ("other");
+#' * **how much** each candidate shrinks the gap on data it has not seen:
+#'   each x setting is left out in turn and predicted from the others.
+#'
+#' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
+#' whose `theta` holds the base library's columns plus one or more strength
+#' columns; the runs whose strength columns are all 0 must be the base
+#' model (they are checked against base runs with the same theta where such
+#' runs exist). Its prior is uniform over the distinct strength values
+#' (including 0) and, within each, uniform over the runs, so a candidate nests
+#' the base model and its Bayes factor pays for its extra dimension through
+#' the prior. Best practice is to cross every base theta with every strength.
+#'
+#' **Models and evidence.** All models share the fit's noise model
+#' \eqn{\tau^{-1} R_g} (its correlation grid, its Gamma prior on \eqn{\tau}
+#' integrated out) and its prior over base runs. "none" is the fitted
+#' library itself; "other" adds a generic smooth discrepancy
+#' \eqn{\delta \sim N(0, s \tau^{-1} K_\ell)} to it, with \eqn{K_\ell} a
+#' squared-exponential correlation over the scaled (x, t) (length-scale
+#' \eqn{\ell} from `other_scales`) and \eqn{s \in \{4, 16, 64, 256\}}
+#' the discrepancy's variance relative to the noise (a gap at least twice the
+#' noise standard deviation: smaller ones are not "detectable"), both with
+#' uniform priors (length-scales too short to correlate neighbouring points
+#' are dropped: such a "discrepancy" is white noise, which the base model
+#' already has); its evidence is exact too (one dense Cholesky factor per
+#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). Model probabilities use `prior_models`
+#' (default: equal). **Decision rule:** the answer is the most probable model
+#' that is not confounded with theta; "none" means no detectable gap,
+#' "other" a gap that no candidate explains. When that model is "none" but
+#' `$where` flags blocks (the base model fails its own check), the answer is
+#' "other" too: the gap is real but too local or rough for the smooth
+#' discrepancy (`verdict$reason` is then `"blocks"`, else `"evidence"`).
+#'
+#' **Confounding.** For each non-zero strength, the candidate run nearest
+#' the base posterior mode is compared with the base library: the effect's
+#' change \eqn{\Delta} (against the zero-strength run with the nearest
+#' theta) and the part \eqn{e} of the candidate output that no base run can
+#' reproduce (the best base run, refined by a local linear fit on its
+#' neighbours in theta), both in the fitted noise metric. The library's own
+#' resolution \eqn{e_0} is measured the same way, by imitating base runs near
+#' the mode with the other runs. `separable` \eqn{= \sqrt{e^2 - e_0^2} /
+#' |\Delta|} is near 0 when a shift of theta imitates the effect; when it is
+#' below `confounding_threshold` at some strength whose effect is large enough
+#' to judge (\eqn{|\Delta| > 3 e_0}), the candidate is reported as
+#' confounded, and the theta column that absorbs it is named, unless the data
+#' separate it anyway (Bayes factor against "none" above 100: then the local
+#' screen was too pessimistic, or the effect pushes theta out of the
+#' library's range). `separable` is
+#' `NA` when no strength is large enough to judge.
+#'
+#' **Where.** For block \eqn{B}, with \eqn{h = R_g^{-1} r} and
+#' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B}, the statistic
+#' \eqn{F = (D/|B|) / ((2b + r'R_g^{-1}r - D)/\nu)}, \eqn{\nu = 2a + n - |B|},
+#' is \eqn{F(|B|, \nu)} under the fitted model at fixed (run, correlation);
+#' `score` is its mean and `p_value` its tail probability, both averaged over
+#' the exact leave-block-out posterior (computed on the runs holding 99.9%
+#' of the posterior mass). Benjamini-Hochberg at level `fdr` across blocks
+#' gives `flagged`.
+#'
+#' **How much.** For each x setting B, the exact leave-B-out posterior of the
+#' base model and of each candidate predicts the held-out outputs from the
+#' simulator alone (no residual transfer): `before`/`after` are the pooled
+#' RMSEs of the posterior-mean prediction, `lpd_*` the summed exact
+#' leave-B-out log predictive densities \eqn{\log p(y_B \mid y_{-B})} and
+#' `cover90_*` the fraction of held-out points inside the central 90%
+#' predictive interval (simulator plus fitted noise).
+#'
+#' @param fit A `griddy_fit` from [calibrate()].
+#' @param candidates A named list of candidate effects, each a [sim_library()]
+#'   as described in Details.
+#' @param windows Blocks over t: `NULL` (default) picks windows at least one
+#'   fitted correlation length long (at most 8 per setting); a single whole
+#'   number gives that many equal windows; a vector of more than one value
+#'   gives the window breaks in units of t.
+#' @param fdr False discovery rate for flagging blocks.
+#' @param prior_models Prior probabilities of the models, a named vector over
+#'   `"none"`, the candidate names and `"other"`; `NULL` is equal.
+#' @param other_scales Length-scales (on coordinates scaled to \[0, 1]) of the
+#'   generic smooth discrepancy "other".
+#' @param confounding_threshold Threshold on `separable` below which a
+#'   candidate is reported as confounded with theta.
+#' @return An object of class `gap_diagnosis`, a list with
+#'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
+#'     (t range), `n` (points), `score`, `p_value`, `flagged`;
+#'   * `which`: one row per model, sorted by `prob` decreasing: `effect`,
+#'     `prob`, `log_evidence`, `confounded`, `separable`, `detectable` (the
+#'     irreducible part of the largest-strength effect in noise standard
+#'     deviations), `absorbed_by` (the theta column that imitates it);
+#'   * `shrinkage`: one row per candidate: `effect`, `before`, `after`,
+#'     `shrink`, `lpd_before`, `lpd_after`, `cover90_before`,
+#'     `cover90_after`;
+#'   * `folds`: the same per left-out x setting;
+#'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
+#'     residual / fitted noise sd) under the base posterior;
+#'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
+#'     `advice`, `n_flagged` and `prob_none`.
+#' @seealso [posterior_exact()], [calibrate()]
+#' @examples
+#' t <- seq(0, 1, length.out = 30)
+#' x <- data.frame(load = c(1, 2, 3))
+#' sim <- function(a, s) unlist(lapply(x$load, function(l) a * l * sin(3 * t) + s * l^2 * t^2))
+#' base <- data.frame(a = seq(0.5, 1.5, length.out = 41))
+#' lib <- sim_library(base, t(vapply(base$a, sim, numeric(90), s = 0)), x = x, t = t)
+#' grid <- expand.grid(a = base$a, s = c(0, 0.1, 0.2, 0.3))
+#' quad <- sim_library(grid, t(mapply(sim, grid$a, grid$s)), x = x, t = t)
+#' set.seed(1)
+#' field <- field_data(matrix(sim(1, 0.2) + rnorm(90, sd = 0.05), 3, byrow = TRUE), x = x, t = t)
+#' fit <- calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1)
+#' gap <- diagnose_gap(fit, list(quadratic = quad))
+#' gap
+#' gap$which
+#' @export
+diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
+                         other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05) {
+  if (!inherits(fit, "griddy_fit")) {
+    stop_no_call("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
+  }
+  base <- fit$library
+  candidates <- check_candidates(candidates, base)
+  fdr <- assert_level_arg(fdr, "fdr")
+  other_scales <- assert_numeric_vector(other_scales, "other_scales")
+  if (any(other_scales <= 0)) stop_no_call("`other_scales` must be positive.")
+  confounding_threshold <- assert_level_arg(confounding_threshold, "confounding_threshold")
+  models <- c("none", names(candidates), "other")
+  log_prior_model <- model_prior(prior_models, models)
+
+  ctx <- gap_context(fit)
+  base_terms <- gap_terms(ctx, base$y, fit$problem$log_prior_run)
+  cand_terms <- lapply(candidates, function(cand) {
+    gap_terms(ctx, cand$y, candidate_log_prior(cand, names(base$theta)))
+  })
+  other <- other_log_evidence(ctx, base_terms, other_scales)
+
+  log_ev <- c(none = terms_log_evidence(ctx, base_terms),
+              vapply(cand_terms, function(tm) terms_log_evidence(ctx, tm), numeric(1)),
+              other = other)
+  post <- log_ev + log_prior_model
+  prob <- exp(post - log_sum_exp(post))
+  screen <- lapply(names(candidates), function(nm) {
+    sc <- confounding_screen(ctx, base_terms, candidates[[nm]], names(base$theta),
+                             confounding_threshold)
+    # the data themselves separate it: the screen's local view was too pessimistic
+    if (log_ev[[nm]] - log_ev[["none"]] > log(100)) sc$confounded <- FALSE
+    sc
+  })
+  names(screen) <- names(candidates)
+  which_tab <- data.frame(
+    effect = models, prob = unname(prob), log_evidence = unname(log_ev),
+    confounded = c(FALSE, vapply(screen, `[[`, logical(1), "confounded"), FALSE),
+    separable = c(NA, vapply(screen, `[[`, numeric(1), "separable"), NA),
+    detectable = c(NA, vapply(screen, `[[`, numeric(1), "detectable"), NA),
+    absorbed_by = c(NA, vapply(screen, `[[`, character(1), "absorbed_by"), NA),
+    stringsAsFactors = FALSE)
+  which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
+  rownames(which_tab) <- NULL
+
+  where <- gap_where(ctx, base_terms, windows, fdr)
+  folds <- gap_folds(ctx, base_terms, cand_terms)
+  shrink <- summarise_folds(folds, names(candidates))
+  verdict <- gap_verdict(which_tab, screen, base, where)
+  structure(list(where = where$blocks, which = which_tab, shrinkage = shrink,
+                 folds = folds, map = where$map, verdict = verdict,
+                 settings = list(fdr = fdr, windows = where$breaks,
+                                 other_scales = other_scales,
+                                 confounding_threshold = confounding_threshold),
+                 x = base$x, t = base$t),
+            class = "gap_diagnosis")
+}
+
+assert_level_arg <- function(v, arg) {
+  if (!is.numeric(v) || length(v) != 1L || !is.finite(v) || v <= 0 || v >= 1) {
+    stop_no_call("`", arg, "` must be a single number in (0, 1); received ",
+                 paste(format(v), collapse = ", "), ".")
+  }
+  v
+}
+
+# ---- candidates --------------------------------------------------------------
+
+check_candidates <- function(candidates, base) {
+  if (inherits(candidates, "sim_library") || !is.list(candidates) || length(candidates) == 0L) {
+    stop_no_call("`candidates` must be a named list of sim_library objects (one per ",
+                 "effect); received ", class(candidates)[1], ".")
+  }
+  nm <- names(candidates)
+  if (is.null(nm) || any(nm == "") || anyDuplicated(nm)) {
+    stop_no_call("`candidates` must have distinct, non-empty names.")
+  }
+  if (any(nm %in% c("none", "other"))) {
+    stop_no_call("`candidates` names must not be \"none\" or \"other\" (reserved answers).")
+  }
+  base_cols <- names(base$theta)
+  for (k in nm) {
+    cand <- candidates[[k]]
+    what <- paste0("Candidate `", k, "`")
+    if (!inherits(cand, "sim_library")) {
+      stop_no_call(what, " must be a sim_library; received ", class(cand)[1], ".")
+    }
+    if (lib_n_x(cand) != lib_n_x(base) ||
+        (!is.null(base$x) && (!identical(names(cand$x), names(base$x)) ||
+                              !all(same_values(as.matrix(cand$x), as.matrix(base$x)))))) {
+      stop_no_call(what, " must have the fit's x settings (", lib_n_x(base), " row(s) of ",
+                   show_some(names(base$x)), ", in the same order); it has ", lib_n_x(cand),
+                   " row(s) of ", show_some(names(cand$x)), ".")
+    }
+    if (length(cand$t) != length(base$t) || !all(same_values(cand$t, base$t))) {
+      stop_no_call(what, " must have the fit's t (", length(base$t), " value(s) from ",
+                   format(min(base$t)), " to ", format(max(base$t)), "); it has ",
+                   length(cand$t), " from ", format(min(cand$t)), " to ",
+                   format(max(cand$t)), ".")
+    }
+    missing_cols <- setdiff(base_cols, names(cand$theta))
+    if (length(missing_cols) > 0L) {
+      stop_no_call(what, " lacks the base theta column(s) ", show_some(missing_cols), ".")
+    }
+    strength <- setdiff(names(cand$theta), base_cols)
+    if (length(strength) == 0L) {
+      stop_no_call(what, " has no strength column: its theta must hold the base columns (",
+                   show_some(base_cols), ") plus at least one column for the effect's ",
+                   "strength, 0 meaning off.")
+    }
+    zero <- rowSums(abs(as.matrix(cand$theta[strength]))) == 0
+    if (!any(zero)) {
+      stop_no_call(what, " has no zero-strength runs (", show_some(strength),
+                   " all 0): it must nest the base model.")
+    }
+    if (all(zero)) {
+      stop_no_call(what, " has only zero-strength runs: its strength column(s) ",
+                   show_some(strength), " must take non-zero values too.")
+    }
+    check_zero_strength(cand, base, zero, what)
+  }
+  candidates
+}
+
+# Zero-strength runs that share a base run's theta must reproduce its outputs.
+check_zero_strength <- function(cand, base, zero, what) {
+  cols <- names(base$theta)
+  key_b <- do.call(paste, c(lapply(base$theta, signif, 10), sep = "\r"))
+  key_c <- do.call(paste, c(lapply(cand$theta[zero, cols, drop = FALSE], signif, 10),
+                            sep = "\r"))
+  hit <- match(key_c, key_b)
+  ok <- !is.na(hit)
+  if (!any(ok)) return(invisible())
+  yc <- cand$y[which(zero)[ok], , drop = FALSE]
+  yb <- base$y[hit[ok], , drop = FALSE]
+  scale <- max(abs(base$y), 1e-300)
+  worst <- max(abs(yc - yb)) / scale
+  if (worst > 1e-6) {
+    stop_no_call(what, "'s zero-strength runs do not reproduce the base library: at the ",
+                 "same theta the outputs differ by up to ", format(worst, digits = 3),
+                 " (relative). Strength 0 must switch the effect off.")
+  }
+}
+
+# Prior over a candidate's runs: uniform over the distinct strength values,
+# uniform over the runs within each.
+candidate_log_prior <- function(cand, base_cols) {
+  strength <- as.matrix(cand$theta[setdiff(names(cand$theta), base_cols)])
+  level <- strength_levels(strength)
+  count <- tabulate(level)
+  -log(max(level)) - log(count[level])
+}
+
+strength_levels <- function(strength) {
+  key <- do.call(paste, c(as.data.frame(signif(strength, 12)), sep = "\r"))
+  match(key, unique(key))
+}
+
+model_prior <- function(prior_models, models) {
+  if (is.null(prior_models)) return(stats::setNames(rep(-log(length(models)), length(models)),
+                                                    models))
+  p <- assert_numeric_vector(prior_models, "prior_models")
+  if (is.null(names(prior_models)) || !setequal(names(prior_models), models)) {
+    stop_no_call("`prior_models` must be named by the models ", show_some(models, 10), ".")
+  }
+  if (any(p < 0) || sum(p) <= 0) stop_no_call("`prior_models` must be >= 0 with a positive sum.")
+  p <- p[match(models, names(prior_models))]
+  stats::setNames(log(p / sum(p)), models)
+}
+
+# ---- the fitted noise model, per correlation grid point ------------------------
+
+gap_context <- function(fit) {
+  pr <- fit$problem
+  lib <- fit$library
+  setup <- pr$setup
+  n_x <- lib_n_x(lib)
+  n_t <- lib_n_t(lib)
+  combos <- expand.grid(setup$rho_x, KEEP.OUT.ATTRS = FALSE)
+  G_x <- nrow(combos)
+  nodes <- lapply(seq_len(ncol(pr$C)), function(g) {
+    gx <- (g - 1L) %% G_x + 1L
+    gt <- (g - 1L) %/% G_x + 1L
+    Rx <- corr_x(lib$x, unlist(combos[gx, , drop = FALSE]), setup$x_power)
+    U <- chol(Rx)
+    A_x <- t(backsolve(U, diag(n_x)))
+    phi <- if (n_t > 1L) setup$phi[, gt] else numeric(0)
+    A_t <- ar1_whitener(phi, n_t)
+    list(phi = phi, A_x = A_x, Px = crossprod(A_x), Pt = crossprod(A_t),
+         Rt = if (n_t > 1L) solve(crossprod(A_t)) else matrix(1, 1, 1),
+         logdet = setup$logdet[g], log_prior = pr$log_prior_rho[g])
+  })
+  list(n_x = n_x, n_t = n_t, n = pr$n_obs, y = pr$y_field, a = pr$prior$shape,
+       b = pr$prior$rate, nodes = nodes, x = lib$x, t = lib$t, theta = lib$theta)
+}
+
+ar1_whitener <- function(phi, n_t) {
+  A <- diag(n_t)
+  if (n_t > 1L) {
+    s <- 1 / sqrt(1 - phi^2)
+    for (j in seq_along(phi)) {
+      A[j + 1L, j + 1L] <- s[j]
+      A[j + 1L, j] <- -phi[j] * s[j]
+    }
+  }
+  A
+}
+
+# Whiten rows (vectors in library order, blocks by x) so that squared norms
+# are quadratic forms in R_g^{-1}.
+gap_whiten <- function(M, node, n_x, n_t, mix = TRUE) {
+  J <- nrow(M)
+  if (n_t > 1L) {
+    s <- 1 / sqrt(1 - node$phi^2)
+    for (k in seq_len(n_x)) {
+      cols <- (k - 1L) * n_t + seq_len(n_t)
+      X <- M[, cols, drop = FALSE]
+      X[, -1L] <- (X[, -1L, drop = FALSE] - X[, -n_t, drop = FALSE] *
+                     rep(node$phi, each = J)) * rep(s, each = J)
+      M[, cols] <- X
+    }
+  }
+  if (n_x > 1L && mix) {
+    M <- matrix(matrix(M, J * n_t, n_x) %*% t(node$A_x), J, n_x * n_t)
+  }
+  M
+}
+
+# Per model: Q (runs x nodes), the leave-setting-out pieces D (runs x nodes x
+# settings) and the outputs.
+gap_terms <- function(ctx, Y, log_prior_run) {
+  n_x <- ctx$n_x
+  n_t <- ctx$n_t
+  J <- nrow(Y)
+  G <- length(ctx$nodes)
+  E <- -sweep(Y, 2, ctx$y, "-")                       # residuals y - eta, runs in rows
+  Q <- matrix(0, J, G)
+  D <- array(0, c(J, G, n_x))
+  for (g in seq_len(G)) {
+    node <- ctx$nodes[[g]]
+    Q[, g] <- rowSums(gap_whiten(E, node, n_x, n_t)^2)
+    # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = Px (x) Pt it is
+    # v_k' Pt v_k / Px_kk, v_k = sum_l Px_lk e_l (the AR(1) innovations of v_k).
+    V <- matrix(matrix(E, J * n_t, n_x) %*% node$Px, J, n_x * n_t)
+    W <- gap_whiten(V, list(phi = node$phi), n_x, n_t, mix = FALSE)
+    for (k in seq_len(n_x)) {
+      D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Px[k, k]
+    }
+  }
+  list(Y = Y, E = E, Q = Q, D = D, log_prior_run = log_prior_run)
+}
+
+node_vec <- function(ctx, what) vapply(ctx$nodes, `[[`, numeric(1), what)
+
+# log p(y | run, node) + log prior, up to constants shared by all models.
+terms_log_joint <- function(ctx, tm) {
+  lj <- -(ctx$a + ctx$n / 2) * log(ctx$b + tm$Q / 2)
+  lj <- sweep(lj, 2, node_vec(ctx, "log_prior") - node_vec(ctx, "logdet") / 2, "+")
+  lj + tm$log_prior_run
+}
+
+log_const <- function(a, b, n) {
+  (if (b > 0) a * log(b) else 0) - lgamma(a) + lgamma(a + n / 2) - n / 2 * log(2 * pi)
+}
+
+terms_log_evidence <- function(ctx, tm) {
+  log_sum_exp(terms_log_joint(ctx, tm)) + log_const(ctx$a, ctx$b, ctx$n)
+}
+
+# ---- "other": the base model plus a generic smooth discrepancy ---------------
+
+# Squared-exponential correlation over the scaled (x, t), length-scale `scale`.
+smooth_kernel <- function(ctx, scale) {
+  xs <- if (is.null(ctx$x)) matrix(0, 1, 1) else apply(as.matrix(ctx$x), 2, scale_unit)
+  xs <- matrix(xs, nrow = ctx$n_x)
+  Kx <- exp(-as.matrix(stats::dist(xs))^2 / scale^2)
+  ts <- scale_unit(ctx$t)
+  Kt <- exp(-outer(ts, ts, "-")^2 / scale^2)
+  kronecker(Kx, Kt)
+}
+
+# "other": y = eta(theta) + delta + e, delta ~ N(0, s tau^-1 K_l) a smooth
+# discrepancy with variance s times the noise's, e ~ N(0, tau^-1 R_g).
+# Evidence over runs x correlation nodes x scales x variance ratios.
+other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
+  n <- ctx$n
+  Et <- t(base_terms$E)
+  kernels <- lapply(scales, function(sc) smooth_kernel(ctx, sc))
+  # a kernel that does not correlate neighbouring points is white noise, which
+  # the noise model already has (with tau integrated out it is the base model)
+  smooth <- vapply(kernels, function(K) {
+    diag(K) <- 0
+    stats::median(apply(K, 1, max)) >= 0.5
+  }, logical(1))
+  kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
+  pieces <- unlist(lapply(kernels, function(K) {
+    unlist(lapply(ctx$nodes, function(node) {
+      R <- kronecker(solve(node$Px), node$Rt)
+      vapply(ratios, function(s) {
+        L <- chol(R + s * K)
+        Q <- colSums(backsolve(L, Et, transpose = TRUE)^2)
+        lj <- -(ctx$a + n / 2) * log(ctx$b + Q / 2) + node$log_prior -
+          sum(log(diag(L))) + base_terms$log_prior_run
+        log_sum_exp(lj)
+      }, numeric(1))
+    }))
+  }))
+  log_sum_exp(pieces) - log(length(kernels) * length(ratios)) + log_const(ctx$a, ctx$b, n)
+}
+
+# ---- confounding with theta ---------------------------------------------------
+
+confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
+  lj <- terms_log_joint(ctx, base_terms)
+  top <- arrayInd(which.max(lj), dim(lj))
+  node <- ctx$nodes[[top[2]]]
+  tau_hat <- (ctx$a + ctx$n / 2) / (ctx$b + base_terms$Q[top[1], top[2]] / 2)
+  theta_b <- as.matrix(ctx$theta[base_cols])
+  lo <- apply(theta_b, 2, min)
+  span <- pmax(apply(theta_b, 2, max) - lo, 1e-300)
+  sc <- function(m) sweep(sweep(as.matrix(m), 2, lo, "-"), 2, span, "/")
+  tb <- sc(theta_b)
+  tc <- sc(cand$theta[base_cols])
+  strength <- as.matrix(cand$theta[setdiff(names(cand$theta), base_cols)])
+  level <- strength_levels(strength)
+  zero <- rowSums(abs(strength)) == 0
+  Wb <- gap_whiten(base_terms$Y, node, ctx$n_x, ctx$n_t)
+  near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
+  m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
+  # the part of output w that no base run (best one, refined linearly on its
+  # theta neighbours) reproduces, leaving out base run `drop`
+  imitate <- function(w, drop = 0L) {
+    d2 <- rowSums(sweep(Wb, 2, w, "-")^2)
+    d2[drop] <- Inf
+    j <- which.min(d2)
+    dist <- colSums((t(tb) - tb[j, ])^2)
+    dist[c(j, drop)] <- Inf
+    nb <- order(dist)[seq_len(m)]
+    Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
+    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j)
+  }
+  # the library's own resolution: how well the other runs imitate runs near the mode
+  around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
+  e_grid <- sqrt(mean(vapply(around, function(j) imitate(Wb[j, ], j)$e^2, numeric(1))))
+  res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
+    i1 <- near(tb[top[1], ], which(level == lv))
+    i0 <- near(tc[i1, ], which(zero))
+    w <- gap_whiten(cand$y[c(i1, i0), , drop = FALSE], node, ctx$n_x, ctx$n_t)
+    delta <- sqrt(sum((w[1, ] - w[2, ])^2))
+    im <- imitate(w[1, ])
+    shift <- abs(tb[im$j, ] - tc[i0, ])
+    list(separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
+         judged = delta > 3 * e_grid, detectable = im$e * sqrt(tau_hat),
+         absorbed_by = base_cols[which.max(shift)], strength_size = sum(abs(strength[i1, ])))
+  })
+  judged <- vapply(res, `[[`, logical(1), "judged")
+  sep <- vapply(res, `[[`, numeric(1), "separable")
+  biggest <- which.max(vapply(res, `[[`, numeric(1), "strength_size"))
+  best <- if (any(judged)) which(judged)[which.min(sep[judged])] else biggest
+  list(separable = if (any(judged)) sep[best] else NA_real_,
+       confounded = any(judged) && sep[best] < threshold,
+       detectable = res[[biggest]]$detectable, absorbed_by = res[[best]]$absorbed_by)
+}

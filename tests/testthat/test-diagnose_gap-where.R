@@ -1,0 +1,50 @@
+test_that("a planted localised discrepancy is found, and only there", {
+  toy <- toy_gap(0, bump = 0.3)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 6)
+  wh <- gap$where
+  expect_named(wh, c("x", "from", "to", "n", "score", "p_value", "flagged"))
+  expect_equal(nrow(wh), 18)
+  expect_equal(sum(wh$n), 90)
+  hit <- wh$x == 2 & wh$from <= 0.5 & wh$to >= 0.45
+  expect_true(all(wh$flagged[hit]))
+  expect_false(any(wh$flagged[wh$x != 2]))
+  expect_gt(min(wh$score[hit]), 5)
+})
+
+test_that("without a gap no block is flagged and scores sit near 1", {
+  toy <- toy_gap(0, sd = 0.05, seed = 3)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 5)
+  expect_false(any(gap$where$flagged))
+  expect_lt(abs(mean(gap$where$score) - 1), 0.5)
+  expect_true(all(gap$where$p_value > 0 & gap$where$p_value <= 1))
+})
+
+test_that("the block statistic equals the dense leave-block-out computation", {
+  toy <- toy_gap(0, bump = 0.2, rho_t = 0.3)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 3)
+  R <- kronecker(diag(3), corr_t(toy$t, 0.3))
+  P <- solve(R)
+  B <- 30 + 11:20
+  stat <- vapply(seq_len(nrow(toy$lib$y)), function(j) {
+    r <- as.vector(t(toy$field$y)) - toy$lib$y[j, ]
+    h <- P %*% r
+    D <- drop(t(h[B]) %*% solve(P[B, B], h[B]))
+    Q <- drop(t(r) %*% P %*% r)
+    c(f = (D / 10) / ((Q - D) / (90 - 10)), lw = -(90 - 10) / 2 * log((Q - D) / 2))
+  }, numeric(2))
+  w <- exp(stat["lw", ] - max(stat["lw", ]))
+  row <- gap$where[gap$where$x == 2 & gap$where$n == 10, ][2, ]
+  expect_equal(row$score, sum(w * stat["f", ]) / sum(w), tolerance = 1e-3)
+})
+
+test_that("windows are given by count, by breaks, or by default", {
+  toy <- toy_gap(0)
+  expect_equal(nrow(diagnose_gap(toy$fit, list(q = toy$quad), windows = 2)$where), 6)
+  br <- diagnose_gap(toy$fit, list(q = toy$quad), windows = c(0, 0.5, 1))$where
+  expect_equal(nrow(br), 6)
+  expect_true(all(br$to[c(1, 3, 5)] <= 0.5))
+  def <- diagnose_gap(toy$fit, list(q = toy$quad))$where
+  expect_lte(max(table(def$x)), 8)
+  expect_error(diagnose_gap(toy$fit, list(q = toy$quad), windows = 1.5), "whole number")
+  expect_error(diagnose_gap(toy$fit, list(q = toy$quad), windows = c(5, 6)), "cover none")
+})

@@ -1,0 +1,138 @@
+test_that("the whitened quadratic forms and evidence match the fit's", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3))
+  ctx <- gap_context(toy$fit)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$problem$log_prior_run)
+  expect_equal(tm$Q, toy$fit$problem$C, tolerance = 1e-10)
+  ex <- posterior_exact(toy$lib, toy$field, rho_t = c(0, 0.3))
+  expect_equal(terms_log_evidence(ctx, tm), ex$log_evidence, tolerance = 1e-10)
+})
+
+test_that("a candidate's evidence is the exact evidence under its run prior", {
+  toy <- toy_gap(0.2)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad))
+  lp <- candidate_log_prior(toy$quad, "a")
+  expect_equal(sum(exp(lp)), 1)
+  ex <- posterior_exact(toy$quad, toy$field, run_weights = exp(lp))
+  expect_equal(gap$which$log_evidence[gap$which$effect == "quadratic"], ex$log_evidence,
+               tolerance = 1e-10)
+  expect_equal(gap$which$log_evidence[gap$which$effect == "none"],
+               posterior_exact(toy$lib, toy$field)$log_evidence, tolerance = 1e-10)
+})
+
+test_that("the true effect is ranked first, shrinks the held-out error, the decoy does not", {
+  toy <- toy_gap(0.2)
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad))
+  expect_s3_class(gap, "gap_diagnosis")
+  expect_identical(gap$which$effect[1], "quadratic")
+  expect_gt(gap$which$prob[1], 0.99)
+  expect_equal(sum(gap$which$prob), 1)
+  expect_false(is.unsorted(rev(gap$which$prob)))
+  expect_setequal(gap$which$effect, c("none", "scale", "quadratic", "other"))
+  expect_identical(gap$verdict$answer, "quadratic")
+  sh <- gap$shrinkage
+  expect_setequal(names(sh)[1:4], c("effect", "before", "after", "shrink"))
+  expect_gt(sh$shrink[sh$effect == "quadratic"], 0.5)
+  expect_lt(abs(sh$shrink[sh$effect == "scale"]), 0.05)
+  expect_gt(sh$lpd_after[sh$effect == "quadratic"], sh$lpd_before[1])
+})
+
+test_that("the null case answers 'none'", {
+  toy <- toy_gap(0)
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad))
+  expect_identical(gap$verdict$answer, "none")
+  expect_lt(gap$which$prob[gap$which$effect == "other"], 0.05)
+  expect_false(any(gap$where$flagged))
+  sh <- gap$shrinkage
+  expect_lt(max(abs(sh$shrink)), 0.05)
+})
+
+test_that("a withheld true effect answers 'other'", {
+  toy <- toy_gap(0.3)
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale))
+  expect_identical(gap$verdict$answer, "other")
+  expect_true(any(gap$where$flagged))
+})
+
+test_that("an effect a shift of theta imitates is reported as confounded, not attributed", {
+  toy <- toy_gap(0)
+  # data from the scale effect at strength 0.2: exactly a = 1.2 in the base model
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad))
+  row <- gap$which[gap$which$effect == "scale", ]
+  expect_true(row$confounded)
+  expect_lt(row$separable, 0.01)
+  expect_identical(row$absorbed_by, "a")
+  expect_false(gap$which$confounded[gap$which$effect == "quadratic"])
+  expect_match(gap$verdict$advice, "confounded with theta")
+  expect_false(gap$verdict$answer == "scale")
+})
+
+test_that("bad candidates are rejected with a clear error", {
+  toy <- toy_gap(0)
+  fit <- toy$fit
+  q <- toy$quad
+  expect_error(diagnose_gap(fit, q), "named list")
+  expect_error(diagnose_gap(fit, list(q)), "names")
+  expect_error(diagnose_gap(fit, list(none = q)), "reserved")
+  expect_error(diagnose_gap(fit, list(q = "a")), "must be a sim_library")
+  wrong_t <- sim_library(q$theta, q$y, x = q$x, t = q$t * 2)
+  expect_error(diagnose_gap(fit, list(q = wrong_t)), "fit's t")
+  wrong_x <- sim_library(q$theta, q$y, x = data.frame(load = c(1, 2, 4)), t = q$t)
+  expect_error(diagnose_gap(fit, list(q = wrong_x)), "fit's x settings")
+  no_strength <- sim_library(q$theta["a"][q$theta$s == 0, , drop = FALSE],
+                             q$y[q$theta$s == 0, ], x = q$x, t = q$t)
+  expect_error(diagnose_gap(fit, list(q = no_strength)), "no strength column")
+  nz <- q$theta$s > 0
+  no_zero <- sim_library(q$theta[nz, ], q$y[nz, ], x = q$x, t = q$t)
+  expect_error(diagnose_gap(fit, list(q = no_zero)), "no zero-strength runs")
+  renamed <- q
+  names(renamed$theta)[1] <- "b"
+  expect_error(diagnose_gap(fit, list(q = renamed)), "lacks the base theta column")
+  off <- q
+  off$y[off$theta$s == 0, ] <- off$y[off$theta$s == 0, ] + 1
+  expect_error(diagnose_gap(fit, list(q = off)), "do not reproduce the base library")
+  expect_error(diagnose_gap(list(), list(q = q)), "griddy_fit")
+  expect_error(diagnose_gap(fit, list(q = q), fdr = 2), "fdr")
+  expect_error(diagnose_gap(fit, list(q = q), prior_models = c(a = 1)), "prior_models")
+})
+
+test_that("prior_models moves the model probabilities as Bayes' rule says", {
+  toy <- toy_gap(0)
+  g1 <- diagnose_gap(toy$fit, list(quadratic = toy$quad))
+  pm <- c(none = 0.1, quadratic = 0.8, other = 0.1)
+  g2 <- diagnose_gap(toy$fit, list(quadratic = toy$quad), prior_models = pm)
+  odds <- function(g) {
+    p <- stats::setNames(g$which$prob, g$which$effect)
+    p[["quadratic"]] / p[["none"]]
+  }
+  expect_equal(odds(g2) / odds(g1), 8, tolerance = 1e-8)
+})
+
+test_that("'other' is the exact evidence of base model plus a smooth Gaussian discrepancy", {
+  toy <- toy_gap(0.1, n_t = 8, rho_t = c(0, 0.4))
+  ctx <- gap_context(toy$fit)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$problem$log_prior_run)
+  scales <- c(0.3, 0.001)            # the second is white noise and is dropped
+  got <- other_log_evidence(ctx, tm, scales)
+  a <- ctx$a
+  b <- ctx$b
+  n <- ctx$n
+  y <- as.vector(t(toy$field$y))
+  K <- kronecker(exp(-as.matrix(stats::dist(c(0, 0.5, 1)))^2 / 0.09),
+                 exp(-outer(toy$t, toy$t, "-")^2 / 0.09))
+  terms <- c()
+  for (rho in c(0, 0.4)) {
+    R <- kronecker(diag(3), corr_t(toy$t, rho))
+    for (s in 4^(1:4)) {
+      S <- R + s * K
+      Si <- solve(S)
+      ld <- determinant(S)$modulus[1]
+      for (j in seq_len(nrow(toy$lib$y))) {
+        r <- y - toy$lib$y[j, ]
+        terms <- c(terms, -log(41) - log(2) - log(4) + lgamma(a + n / 2) - lgamma(a) +
+                     a * log(b) - n / 2 * log(2 * pi) - ld / 2 -
+                     (a + n / 2) * log(b + drop(t(r) %*% Si %*% r) / 2))
+      }
+    }
+  }
+  expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
+})
