@@ -25,11 +25,20 @@ noise_sd <- 300                                     # N; AR(1) with lag-one corr
 noise_lag1 <- 0.5
 pac_off <- tyre_pac2002(qFz2 = 0, qV2 = 0, qpFz1 = 0)
 p_meas <- 2.5e5                                     # single-pressure design (p0 = 2.2 bar)
+camber_meas <- 0.1                                  # rad; single-camber design
 
-# Outputs of one effect for every base theta, at settings `speeds` x heights
-# (blocks by speed, then height). `effect` NULL is the Fiala base model.
-tyre_runs <- function(theta, effect = NULL, strength = 0, speeds = 20) {
-  blocks <- lapply(speeds, function(v) {
+# Operating conditions of a design: one row per (speed, camber) combination.
+tyre_conditions <- function(speeds = 20, cambers = camber_meas) {
+  expand.grid(speed = speeds, camber = cambers)
+}
+
+# Outputs of one effect for every base theta, at every condition x height
+# (blocks by condition, then height). `effect` NULL is the Fiala base model,
+# which ignores camber.
+tyre_runs <- function(theta, effect = NULL, strength = 0, conditions = tyre_conditions()) {
+  blocks <- lapply(seq_len(nrow(conditions)), function(j) {
+    v <- conditions$speed[j]
+    g <- conditions$camber[j]
     if (is.null(effect) || strength == 0) {
       return(tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig))
     }
@@ -44,7 +53,11 @@ tyre_runs <- function(theta, effect = NULL, strength = 0, speeds = 20) {
                                pac = tyre_pac2002(qFz2 = 0, qV2 = strength, qpFz1 = 0)),
       pressure = tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig,
                                   model = "pac2002", contact = "point", pressure = p_meas,
-                                  pac = tyre_pac2002(qFz2 = 0, qV2 = 0, qpFz1 = strength)))
+                                  pac = tyre_pac2002(qFz2 = 0, qV2 = 0, qpFz1 = strength)),
+      camber = tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig,
+                                model = "pac2002", contact = "point", camber = g,
+                                pac = tyre_pac2002(qFz2 = 0, qFz3 = strength, qV2 = 0,
+                                                   qpFz1 = 0)))
   })
   out <- do.call(cbind, blocks)
   attributes(out) <- list(dim = dim(out))
@@ -52,23 +65,28 @@ tyre_runs <- function(theta, effect = NULL, strength = 0, speeds = 20) {
 }
 
 tyre_grids <- list(quadratic = c(0, 5, 10, 15, 20, 25, 30), disc = c(0, 1),
-                   speed = c(0, 0.05, 0.1, 0.15, 0.2), pressure = c(0, 0.3, 0.6, 0.9, 1.2))
+                   speed = c(0, 0.05, 0.1, 0.15, 0.2), pressure = c(0, 0.3, 0.6, 0.9, 1.2),
+                   camber = c(0, 50, 100, 150, 200, 250))
+# qFz3 = 100 at 0.1 rad adds 1 to qFz1 (about 20 here): a 5% stiffer tyre.
 tyre_truth_range <- list(quadratic = c(8, 25), disc = c(1, 1), speed = c(0.06, 0.2),
-                         pressure = c(0.4, 1.2))
+                         pressure = c(0.4, 1.2), camber = c(60, 250))
 
-tyre_design <- function(speeds) {
-  x <- expand.grid(height = heights, speed = speeds)[c("height", "speed")]
-  if (length(speeds) == 1L) x <- x["height"]
+# x: height plus whichever of speed and camber varies between conditions.
+tyre_design <- function(conditions, effects = names(tyre_grids)) {
+  x <- cbind(height = rep(heights, nrow(conditions)),
+             conditions[rep(seq_len(nrow(conditions)), each = length(heights)), , drop = FALSE])
+  x <- x[c("height", names(conditions)[vapply(conditions, function(v) length(unique(v)) > 1,
+                                              logical(1))])]
+  rownames(x) <- NULL
   t <- seq_len(rig$n_samples) * rig$sample_interval
-  base <- sim_library(base_theta, tyre_runs(base_theta, speeds = speeds), x = x, t = t)
-  effects <- if (length(speeds) == 1L) names(tyre_grids) else c("quadratic", "disc", "speed")
+  base <- sim_library(base_theta, tyre_runs(base_theta, conditions = conditions), x = x, t = t)
   cands <- lapply(stats::setNames(effects, effects), function(e) {
-    parts <- lapply(tyre_grids[[e]], function(s) tyre_runs(base_theta, e, s, speeds))
+    parts <- lapply(tyre_grids[[e]], function(s) tyre_runs(base_theta, e, s, conditions))
     th <- do.call(rbind, lapply(tyre_grids[[e]], function(s) cbind(base_theta, strength = s)))
     names(th)[3] <- e
     sim_library(th, do.call(rbind, parts), x = x, t = t)
   })
-  list(base = base, candidates = cands, speeds = speeds, x = x, t = t)
+  list(base = base, candidates = cands, conditions = conditions, x = x, t = t)
 }
 
 ar1_noise <- function(n_blocks, n_t, sd, lag1) {
@@ -95,7 +113,7 @@ tyre_trial <- function(design, scenario, truth, offered, seed, off_grid = FALSE,
   strength <- if (truth == "none") 0 else stats::runif(1, tyre_truth_range[[truth]][1],
                                                        tyre_truth_range[[truth]][2])
   clean <- drop(tyre_runs(theta, if (truth == "none") NULL else truth, strength,
-                          design$speeds))
+                          design$conditions))
   n_t <- length(design$t)
   y <- clean + ar1_noise(nrow(design$x), n_t, noise_sd, noise_lag1)
   bump_block <- NA_integer_
@@ -157,6 +175,10 @@ tyre_scenarios <- list(
   list(id = "T5 speed stiffening, one speed (confounded)", truth = "speed", offered = all_tyre),
   list(id = "T6 speed stiffening, two speeds", truth = "speed",
        offered = c("quadratic", "disc", "speed"), speeds = c(12, 28)),
+  list(id = "T8 camber stiffening, one camber (confounded)", truth = "camber",
+       offered = all_tyre),
+  list(id = "T9 camber stiffening, cambers 0 and 0.1 rad", truth = "camber",
+       offered = c("quadratic", "disc", "camber"), cambers = c(0, camber_meas)),
   list(id = "T7 planted local discrepancy (null model)", truth = "none", offered = all_tyre,
        bump = 1500)
 )
@@ -165,9 +187,13 @@ designs <- list()
 rows <- list()
 examples <- list()
 for (sc in tyre_scenarios) {
-  speeds <- if (is.null(sc$speeds)) 20 else sc$speeds
-  key <- paste(speeds, collapse = "-")
-  if (is.null(designs[[key]])) designs[[key]] <- tyre_design(speeds)
+  conditions <- tyre_conditions(if (is.null(sc$speeds)) 20 else sc$speeds,
+                                if (is.null(sc$cambers)) camber_meas else sc$cambers)
+  key <- paste(c(conditions$speed, conditions$camber), collapse = "-")
+  if (is.null(designs[[key]])) {
+    designs[[key]] <- tyre_design(conditions, if (nrow(conditions) == 1L) all_tyre else
+      intersect(all_tyre, sc$offered))
+  }
   cli::cli_inform("{sc$id}: {n_trials_tyre} trials")
   for (i in seq_len(n_trials_tyre)) {
     res <- tyre_trial(designs[[key]], sc$id, sc$truth, sc$offered, seed = 1000 + i,
