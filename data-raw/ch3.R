@@ -1,8 +1,8 @@
 # Chapter 3 of the thesis: the piston verification study, precomputed for
 # vignettes/chapter3.Rmd.  Writes inst/extdata/ch3_*.csv.gz.
 # Run from the package root with griddy installed:  Rscript data-raw/ch3.R
-# (about 15-25 minutes on one core; most of it building the 14 libraries and
-# the thesis-update runs kept for the runtime comparison).
+# (6 minutes here on a quiet machine, 16 under load; most of it building the
+# 14 libraries and the correlated-error fits at the largest sizes).
 library(griddy)
 library(data.table)
 
