@@ -108,7 +108,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
     chains <- run_chains(problem, tables, update, control, seeds)
     list(seeds = seeds, chains = chains)
   }
-  out <- if (is.null(seed)) run_all() else with_seed(seed, run_all())
+  out <- with_seed(seed, run_all())
   fit <- new_griddy_fit(problem, out, update, control, call,
                         runtime = c(precompute = precompute,
                                     sampling = proc.time()[["elapsed"]] - start - precompute))
@@ -231,8 +231,11 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
 }
 
 # Evaluate `code` with the random number stream seeded by `seed`, leaving the
-# caller's stream as it was.
+# caller's stream as it was; with `seed = NULL`, in the caller's stream.
 with_seed <- function(seed, code) {
+  if (is.null(seed)) {
+    return(code)
+  }
   had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
   if (had_seed) old <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
   on.exit(if (had_seed) {

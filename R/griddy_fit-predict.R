@@ -33,7 +33,7 @@ predict.griddy_fit <- function(object, level = 0.95, ndraws = 1000, seed = NULL,
   w <- freq[visited] / sum(freq)
   bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
-  noisy <- if (is.null(seed)) noisy_outputs(object, pick) else with_seed(seed, noisy_outputs(object, pick))
+  noisy <- with_seed(seed, noisy_outputs(object, pick))
   pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE)
   out <- data.frame(x = rep(seq_len(lib_n_x(lib)), each = lib_n_t(lib)))
   if (!is.null(lib$x)) out <- cbind(out, lib$x[out$x, , drop = FALSE])

@@ -138,7 +138,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
     list(emulator = emulator, fit = main, sd_frac = sd_frac,
          runtime = c(emulator = t1 - t0, tuning = t2 - t1, sampling = t3 - t2))
   }
-  res <- if (is.null(seed)) run() else with_seed(seed, run())
+  res <- with_seed(seed, run())
   post <- as.matrix(res$fit@post_sample)
   draws <- data.frame(iteration = seq(burn_in + 1L, length.out = nrow(post)),
                       post[, seq_len(p), drop = FALSE])

@@ -69,7 +69,7 @@ piston_field_data <- function(n_points = 27, discrepancy = FALSE,
          discrepancy = drop(crossprod(chol(discrepancy_var * corr_x(full, rep(rho, 3L))),
                                       stats::rnorm(54L))))
   }
-  errors <- if (is.null(seed)) draw() else with_seed(seed, draw())
+  errors <- with_seed(seed, draw())
   design <- piston_data_design(n_points)
   keep <- match(paste(design$condition_id, design$location),
                 paste(full$condition, rep(1:27, 2L)))

@@ -53,7 +53,7 @@ tyre_field_data <- function(k = 450, c = 1.5, height = tyre_cleat_heights(),
   height <- attr(clean, "height")
   clean <- matrix(as.vector(clean), nrow = length(height), byrow = TRUE)
   draw <- function() matrix(stats::rnorm(length(clean), sd = noise_sd), nrow(clean))
-  noise <- if (is.null(seed)) draw() else with_seed(seed, draw())
+  noise <- with_seed(seed, draw())
   out <- field_data(clean + noise, x = data.frame(height = height), t = tt)
   structure(out, truth = c(k = k, c = c), model = model, clean = clean, noise = noise,
             noise_sd = noise_sd)
