@@ -127,10 +127,10 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   }
   base <- fit$library
   candidates <- check_candidates(candidates, base)
-  fdr <- assert_level_arg(fdr, "fdr")
+  fdr <- assert_level(fdr, "fdr")
   other_scales <- assert_numeric_vector(other_scales, "other_scales")
   if (any(other_scales <= 0)) stop_no_call("`other_scales` must be positive.")
-  confounding_threshold <- assert_level_arg(confounding_threshold, "confounding_threshold")
+  confounding_threshold <- assert_level(confounding_threshold, "confounding_threshold")
   models <- c("none", names(candidates), "other")
   log_prior_model <- model_prior(prior_models, models)
 
@@ -175,14 +175,6 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
                                  confounding_threshold = confounding_threshold),
                  x = base$x, t = base$t),
             class = "gap_diagnosis")
-}
-
-assert_level_arg <- function(v, arg) {
-  if (!is.numeric(v) || length(v) != 1L || !is.finite(v) || v <= 0 || v >= 1) {
-    stop_no_call("`", arg, "` must be a single number in (0, 1); received ",
-                 paste(format(v), collapse = ", "), ".")
-  }
-  v
 }
 
 # ---- candidates --------------------------------------------------------------

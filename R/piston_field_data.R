@@ -52,17 +52,9 @@ piston_field_data <- function(n_points = 27, discrepancy = FALSE,
     stop_no_call("`truth` must hold 3 positive coefficients; received ",
                  paste(format(truth), collapse = ", "), ".")
   }
-  for (v in c("noise_var", "discrepancy_var")) {
-    val <- get(v)
-    if (!is.numeric(val) || length(val) != 1L || !is.finite(val) || val < 0) {
-      stop_no_call("`", v, "` must be a single non-negative number; received ",
-                   paste(format(val), collapse = ", "), ".")
-    }
-  }
-  if (!is.numeric(rho) || length(rho) != 1L || !is.finite(rho) || rho <= 0 || rho >= 1) {
-    stop_no_call("`rho` must be a single number in (0, 1); received ",
-                 paste(format(rho), collapse = ", "), ".")
-  }
+  noise_var <- assert_number(noise_var, "noise_var", lower = 0)
+  discrepancy_var <- assert_number(discrepancy_var, "discrepancy_var", lower = 0)
+  rho <- assert_number(rho, "rho", lower = 0, upper = 1, lower_open = TRUE, upper_open = TRUE)
   full <- piston_library_settings(1:27, c("full", "part"))
   draw <- function() {
     list(noise = stats::rnorm(54L, sd = sqrt(noise_var)),

@@ -3,19 +3,6 @@
 # /work/shared/notes/physics.md, section 1.
 
 # ---- small validators (R validates, C++ trusts its inputs) -----------------
-tyre_num <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_open = FALSE) {
-  if (!is.numeric(x) || (!is.null(len) && length(x) != len) || length(x) == 0L ||
-      anyNA(x) || any(!is.finite(x)) || any(x < lower) || any(x > upper) ||
-      (lower_open && any(x <= lower))) {
-    what <- if (is.numeric(x)) paste(format(utils::head(x, 5)), collapse = ", ") else class(x)[1]
-    rng <- paste0(if (lower_open) "(" else "[", lower, ", ", upper, "]")
-    stop("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
-         "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
-         "; received ", what, ".", call. = FALSE)
-  }
-  as.numeric(x)
-}
-
 tyre_whole <- function(x, name, lower) {
   if (!is.numeric(x) || length(x) != 1L || is.na(x) || x != round(x) || x < lower) {
     stop("`", name, "` must be a whole number >= ", lower, "; received ",
@@ -101,20 +88,20 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
                      sample = c("mean", "instant"), bottoming = FALSE,
                      bottom_stiffness = 2e6) {
   sample <- match.arg(sample)
-  out <- list(load = tyre_num(load, "load", lower = 0, lower_open = TRUE),
-              mass = tyre_num(mass, "mass", lower = 0, lower_open = TRUE),
-              R0 = tyre_num(R0, "R0", lower = 0, lower_open = TRUE),
-              rim_radius = tyre_num(rim_radius, "rim_radius", lower = 0, lower_open = TRUE),
-              cleat_length = tyre_num(cleat_length, "cleat_length", lower = 0, lower_open = TRUE),
-              edge_length = tyre_num(edge_length, "edge_length", lower = 0, lower_open = TRUE),
-              t_cleat = tyre_num(t_cleat, "t_cleat", lower = 0),
+  out <- list(load = assert_number(load, "load", lower = 0, lower_open = TRUE),
+              mass = assert_number(mass, "mass", lower = 0, lower_open = TRUE),
+              R0 = assert_number(R0, "R0", lower = 0, lower_open = TRUE),
+              rim_radius = assert_number(rim_radius, "rim_radius", lower = 0, lower_open = TRUE),
+              cleat_length = assert_number(cleat_length, "cleat_length", lower = 0, lower_open = TRUE),
+              edge_length = assert_number(edge_length, "edge_length", lower = 0, lower_open = TRUE),
+              t_cleat = assert_number(t_cleat, "t_cleat", lower = 0),
               n_samples = tyre_whole(n_samples, "n_samples", 1),
-              sample_interval = tyre_num(sample_interval, "sample_interval", lower = 0,
+              sample_interval = assert_number(sample_interval, "sample_interval", lower = 0,
                                          lower_open = TRUE),
               steps_per_sample = tyre_whole(steps_per_sample, "steps_per_sample", 1),
               sample = sample,
               bottoming = isTRUE(bottoming),
-              bottom_stiffness = tyre_num(bottom_stiffness, "bottom_stiffness", lower = 0))
+              bottom_stiffness = assert_number(bottom_stiffness, "bottom_stiffness", lower = 0))
   if (out$rim_radius >= out$R0) {
     stop("`rim_radius` must be smaller than `R0`; received ", out$rim_radius, " >= ",
          out$R0, ".", call. = FALSE)
@@ -140,13 +127,13 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
 #' @export
 tyre_pac2002 <- function(qFz2 = 15, qFz3 = 0, qV2 = 0.034, qpFz1 = 0.88,
                          V0 = 16.6, p0 = 2.2e5, Fz0 = 4000) {
-  out <- list(qFz2 = tyre_num(qFz2, "qFz2", lower = 0),
-              qFz3 = tyre_num(qFz3, "qFz3", lower = 0),
-              qV2 = tyre_num(qV2, "qV2", lower = 0),
-              qpFz1 = tyre_num(qpFz1, "qpFz1"),
-              V0 = tyre_num(V0, "V0", lower = 0, lower_open = TRUE),
-              p0 = tyre_num(p0, "p0", lower = 0, lower_open = TRUE),
-              Fz0 = tyre_num(Fz0, "Fz0", lower = 0, lower_open = TRUE))
+  out <- list(qFz2 = assert_number(qFz2, "qFz2", lower = 0),
+              qFz3 = assert_number(qFz3, "qFz3", lower = 0),
+              qV2 = assert_number(qV2, "qV2", lower = 0),
+              qpFz1 = assert_number(qpFz1, "qpFz1"),
+              V0 = assert_number(V0, "V0", lower = 0, lower_open = TRUE),
+              p0 = assert_number(p0, "p0", lower = 0, lower_open = TRUE),
+              Fz0 = assert_number(Fz0, "Fz0", lower = 0, lower_open = TRUE))
   class(out) <- "tyre_pac2002"
   out
 }
@@ -270,8 +257,8 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
     kk <- k
     cc <- c
   }
-  kk <- tyre_num(kk, "k", len = NULL, lower = 0, lower_open = TRUE)
-  cc <- tyre_num(cc, "c", len = NULL, lower = 0)
+  kk <- assert_number(kk, "k", len = NULL, lower = 0, lower_open = TRUE)
+  cc <- assert_number(cc, "c", len = NULL, lower = 0)
   n <- max(length(kk), length(cc))
   if (n %% length(kk) != 0L || n %% length(cc) != 0L) {
     stop("`k` (length ", length(kk), ") and `c` (length ", length(cc),
@@ -279,11 +266,11 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
   }
   kk <- rep_len(kk, n)
   cc <- rep_len(cc, n)
-  height <- tyre_num(height, "height", len = NULL, lower = 0, lower_open = TRUE)
+  height <- assert_number(height, "height", len = NULL, lower = 0, lower_open = TRUE)
   if (is.null(contact)) contact <- if (model == "fiala") "point" else "disc"
   contact <- match.arg(contact, c("point", "disc"))
-  speed <- tyre_num(speed, "speed", lower = 0, lower_open = TRUE)
-  camber <- tyre_num(camber, "camber", lower = -pi / 2, upper = pi / 2)
+  speed <- assert_number(speed, "speed", lower = 0, lower_open = TRUE)
+  camber <- assert_number(camber, "camber", lower = -pi / 2, upper = pi / 2)
   if (!inherits(pac, "tyre_pac2002")) {
     stop("`pac` must come from tyre_pac2002(); received ", class(pac)[1], ".", call. = FALSE)
   }
@@ -291,7 +278,7 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
     stop("`rig` must come from tyre_rig(); received ", class(rig)[1], ".", call. = FALSE)
   }
   if (is.null(pressure)) pressure <- pac$p0
-  pressure <- tyre_num(pressure, "pressure", lower = 0, lower_open = TRUE)
+  pressure <- assert_number(pressure, "pressure", lower = 0, lower_open = TRUE)
   if (max(height) / 1000 >= rig$R0) {
     warning("`height` ", max(height), " mm is not below the unloaded radius (",
             rig$R0 * 1000, " mm): the wheel is launched over the cleat.", call. = FALSE)
@@ -311,7 +298,7 @@ tyre_static_deflection <- function(k = 210, model = c("fiala", "pac2002"), speed
                                    camber = 0, pressure = NULL, pac = tyre_pac2002(),
                                    rig = tyre_rig()) {
   model <- match.arg(model)
-  k <- tyre_num(k, "k", len = NULL, lower = 0, lower_open = TRUE)
+  k <- assert_number(k, "k", len = NULL, lower = 0, lower_open = TRUE)
   if (is.null(pressure)) pressure <- pac$p0
   s <- tyre_settings(model, "point", speed, camber, pressure, pac, rig)
   as.numeric(tyre_static_deflection_cpp(k * 1000, s)) * 1000

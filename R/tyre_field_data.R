@@ -45,9 +45,9 @@ tyre_field_data <- function(k = 450, c = 1.5, height = tyre_cleat_heights(),
                             model = c("fiala", "pac2002"), contact = NULL,
                             noise_sd = 60, seed = NULL, ...) {
   model <- match.arg(model)
-  k <- tyre_num(k, "k", lower = 0, lower_open = TRUE)
-  c <- tyre_num(c, "c", lower = 0)
-  noise_sd <- tyre_num(noise_sd, "noise_sd", lower = 0)
+  k <- assert_number(k, "k", lower = 0, lower_open = TRUE)
+  c <- assert_number(c, "c", lower = 0)
+  noise_sd <- assert_number(noise_sd, "noise_sd", lower = 0)
   clean <- tyre_cleat_model(k, c, height = height, model = model, contact = contact, ...)
   tt <- attr(clean, "time")
   height <- attr(clean, "height")

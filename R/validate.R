@@ -128,10 +128,27 @@ assert_prior <- function(prior) {
   list(shape = as.double(prior$shape), rate = as.double(prior$rate))
 }
 
-assert_level <- function(level) {
+# `len` finite numbers (any length when NULL) in [lower, upper]; either end
+# may be open.
+assert_number <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_open = FALSE,
+                          upper_open = FALSE) {
+  if (!is.numeric(x) || (!is.null(len) && length(x) != len) || length(x) == 0L ||
+      anyNA(x) || any(!is.finite(x)) || any(x < lower) || any(x > upper) ||
+      (lower_open && any(x <= lower)) || (upper_open && any(x >= upper))) {
+    what <- if (is.numeric(x)) paste(format(utils::head(x, 5)), collapse = ", ") else class(x)[1]
+    rng <- paste0(if (lower_open) "(" else "[", lower, ", ", upper, if (upper_open) ")" else "]")
+    stop_no_call("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
+                 "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
+                 "; received ", what, ".")
+  }
+  as.numeric(x)
+}
+
+# A probability strictly between 0 and 1 (an interval level, an FDR, ...).
+assert_level <- function(level, arg = "level") {
   if (!is.numeric(level) || length(level) != 1L || !is.finite(level) || level <= 0 ||
       level >= 1) {
-    stop_no_call("`level` must be a single number in (0, 1); received ",
+    stop_no_call("`", arg, "` must be a single number in (0, 1); received ",
                  paste(format(level), collapse = ", "), ".")
   }
   level

@@ -28,3 +28,19 @@ test_that("assert_prior checks shape and rate", {
   expect_error(assert_prior(list(shape = 1, rate = -1)), "`prior\\$rate` must be a single number >= 0")
   expect_identical(assert_prior(list(shape = 2L, rate = 0)), list(shape = 2, rate = 0))
 })
+
+test_that("assert_number checks length, finiteness and open or closed bounds", {
+  expect_identical(assert_number(2L, "k", lower = 0), 2)
+  expect_error(assert_number(c(1, 2), "k"), "`k` must be 1 finite number in \\[-Inf, Inf\\]; received 1, 2")
+  expect_error(assert_number(0, "k", lower = 0, lower_open = TRUE), "\\(0, Inf\\]")
+  expect_error(assert_number(1, "rho", lower = 0, upper = 1, upper_open = TRUE), "\\[0, 1\\); received 1")
+  expect_identical(assert_number(c(1, 3), "h", len = NULL, lower = 0), c(1, 3))
+  expect_error(assert_number(NA_real_, "h", len = NULL), "finite numbers")
+  expect_error(assert_number("a", "h"), "received character")
+})
+
+test_that("assert_level names the argument it checks", {
+  expect_identical(assert_level(0.95), 0.95)
+  expect_error(assert_level(1), "`level` must be a single number in \\(0, 1\\); received 1")
+  expect_error(assert_level(0, "fdr"), "`fdr` must be a single number in \\(0, 1\\)")
+})
