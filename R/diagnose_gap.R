@@ -135,7 +135,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   log_prior_model <- model_prior(prior_models, models)
 
   ctx <- gap_context(fit)
-  base_terms <- gap_terms(ctx, base$y, fit$problem$log_prior_run)
+  base_terms <- gap_terms(ctx, base$y, fit$problem$log_prior_run, Q = fit$problem$C)
   cand_terms <- lapply(candidates, function(cand) {
     gap_terms(ctx, cand$y, candidate_log_prior(cand, names(base$theta)))
   })
@@ -304,7 +304,8 @@ gap_context <- function(fit) {
          logdet = setup$logdet[g], log_prior = pr$log_prior_rho[g])
   })
   list(n_x = n_x, n_t = n_t, n = pr$n_obs, y = pr$y_field, a = pr$prior$shape,
-       b = pr$prior$rate, nodes = nodes, x = lib$x, t = lib$t, theta = lib$theta)
+       b = pr$prior$rate, nodes = nodes, setup = setup, x = lib$x, t = lib$t,
+       theta = lib$theta)
 }
 
 ar1_whitener <- function(phi, n_t) {
@@ -341,17 +342,16 @@ gap_whiten <- function(M, node, n_x, n_t, mix = TRUE) {
 
 # Per model: Q (runs x nodes), the leave-setting-out pieces D (runs x nodes x
 # settings) and the outputs.
-gap_terms <- function(ctx, Y, log_prior_run) {
+gap_terms <- function(ctx, Y, log_prior_run,
+                      Q = quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)) {
   n_x <- ctx$n_x
   n_t <- ctx$n_t
   J <- nrow(Y)
   G <- length(ctx$nodes)
   E <- -sweep(Y, 2, ctx$y, "-")                       # residuals y - eta, runs in rows
-  Q <- matrix(0, J, G)
   D <- array(0, c(J, G, n_x))
   for (g in seq_len(G)) {
     node <- ctx$nodes[[g]]
-    Q[, g] <- rowSums(gap_whiten(E, node, n_x, n_t)^2)
     # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = Px (x) Pt it is
     # v_k' Pt v_k / Px_kk, v_k = sum_l Px_lk e_l (the AR(1) innovations of v_k).
     V <- matrix(matrix(E, J * n_t, n_x) %*% node$Px, J, n_x * n_t)
