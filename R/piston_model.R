@@ -1,6 +1,6 @@
 # Stand-in for the piston heat-transfer model of Stewart (2023), chapter 3:
 # steady axisymmetric conduction in a piston crown with three unknown
-# backside heat-transfer coefficients.  See /work/shared/notes/physics.md, 2.
+# backside heat-transfer coefficients.  Equations and sources: ?piston_model.
 
 # ---------------------------------------------------------------------------
 # Fixed description of the piston (all lengths in mm, temperatures in deg C,

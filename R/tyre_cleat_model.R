@@ -1,6 +1,6 @@
 # Stand-in for the ADAMS/Car tyre test rig of Stewart (2023), chapter 5:
-# one wheel on a constant-load rig rolling over a cleat.  See
-# /work/shared/notes/physics.md, section 1.
+# one wheel on a constant-load rig rolling over a cleat.  Equations and
+# sources: ?tyre_cleat_model.
 
 # ---- small validators (R validates, C++ trusts its inputs) -----------------
 tyre_whole <- function(x, name, lower) {
