@@ -122,10 +122,10 @@ sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
   thin <- assert_count(thin, "thin")
   chains <- assert_count(chains, "chains")
   if (burn_in >= n_iter) {
-    stop_no_call("`burn_in` (", burn_in, ") must be smaller than `n_iter` (", n_iter, ").")
+    griddy_abort("`burn_in` (", burn_in, ") must be smaller than `n_iter` (", n_iter, ").")
   }
   if (thin > n_iter - burn_in) {
-    stop_no_call("`thin` (", thin, ") keeps no draw of the ", n_iter - burn_in,
+    griddy_abort("`thin` (", thin, ") keeps no draw of the ", n_iter - burn_in,
                  " after the burn-in.")
   }
   list(n_iter = n_iter, burn_in = burn_in, thin = thin, chains = chains,
@@ -151,7 +151,7 @@ sampler_tables <- function(problem, update, tol = draw_tolerance()) {
 draw_tolerance <- function() {
   tol <- getOption("griddy.draw_tol", 2^-53)
   if (!is.numeric(tol) || length(tol) != 1L || is.na(tol) || tol < 0 || tol >= 1) {
-    stop_no_call("Option `griddy.draw_tol` must be a single number in [0, 1); received ",
+    griddy_abort("Option `griddy.draw_tol` must be a single number in [0, 1); received ",
                  paste(format(tol), collapse = ", "), ".")
   }
   tol

@@ -10,7 +10,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   setup <- correlation_setup(library, rho_x, rho_t, x_power)
   C <- quad_forms(library, y_field, setup)
   if (prior$rate == 0 && any(C == 0)) {
-    stop_no_call("A library run reproduces the field data exactly, so with ",
+    griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
   list(library = library, y_field = y_field, n_obs = length(y_field), prior = prior,
@@ -24,11 +24,11 @@ log_run_weights <- function(run_weights, n_runs) {
   }
   w <- assert_numeric_vector(run_weights, "run_weights")
   if (length(w) != n_runs) {
-    stop_no_call("`run_weights` must have one weight per library run (", n_runs,
+    griddy_abort("`run_weights` must have one weight per library run (", n_runs,
                  "); received ", length(w), ".")
   }
   if (any(w < 0) || sum(w) <= 0) {
-    stop_no_call("`run_weights` must be >= 0 with a positive sum.")
+    griddy_abort("`run_weights` must be >= 0 with a positive sum.")
   }
   log(w / sum(w))
 }

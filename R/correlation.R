@@ -38,24 +38,16 @@ rho_grid <- function(library, rho_x = 0, rho_t = 0) {
   grid[keep]
 }
 
-check_library <- function(library, disk = TRUE) {
-  if (!inherits(library, "sim_library") && !(disk && inherits(library, "disk_library"))) {
-    stop_no_call("`library` must be a sim_library (see ?sim_library)",
-                 if (disk) " or a disk_library (see ?disk_library)", "; received ",
-                 class(library)[1], ".")
-  }
-}
-
 # Validated grids: a named list of grids per x column, and the t grid.
 rho_grids <- function(library, rho_x, rho_t) {
   x_names <- if (is.null(library$x)) "x" else names(library$x)
   if (is.list(rho_x)) {
     if (length(rho_x) != length(x_names)) {
-      stop_no_call("`rho_x` must hold one grid per x column (", show_some(x_names),
+      griddy_abort("`rho_x` must hold one grid per x column (", show_some(x_names),
                    "); received ", length(rho_x), ".")
     }
     if (!is.null(names(rho_x)) && !setequal(names(rho_x), x_names)) {
-      stop_no_call("`rho_x` names (", show_some(names(rho_x)),
+      griddy_abort("`rho_x` names (", show_some(names(rho_x)),
                    ") must be the x columns (", show_some(x_names), ").")
     }
     if (!is.null(names(rho_x))) rho_x <- rho_x[x_names]
@@ -66,11 +58,11 @@ rho_grids <- function(library, rho_x, rho_t) {
   rho_x <- Map(assert_rho_grid, rho_x, paste0("rho_x$", x_names))
   rho_t <- assert_rho_grid(rho_t, "rho_t")
   if (lib_n_x(library) == 1L && any(unlist(rho_x) != 0)) {
-    stop_no_call("`rho_x` must be 0: the library has a single x setting, so there is ",
+    griddy_abort("`rho_x` must be 0: the library has a single x setting, so there is ",
                  "nothing to correlate.")
   }
   if (lib_n_t(library) == 1L && any(rho_t != 0)) {
-    stop_no_call("`rho_t` must be 0: the library has a single output per x setting, ",
+    griddy_abort("`rho_t` must be 0: the library has a single output per x setting, ",
                  "so there is nothing to correlate.")
   }
   list(x = rho_x, t = rho_t)
@@ -117,7 +109,7 @@ corr_t <- function(t, rho) {
 correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
   if (!is.numeric(x_power) || length(x_power) != 1L || !is.finite(x_power) ||
       x_power <= 0 || x_power > 2) {
-    stop_no_call("`x_power` must be a single number in (0, 2]; received ",
+    griddy_abort("`x_power` must be a single number in (0, 2]; received ",
                  paste(format(x_power), collapse = ", "), ".")
   }
   grids <- rho_grids(library, rho_x, rho_t)
@@ -130,7 +122,7 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
     rho <- unlist(combos[gx, , drop = FALSE])
     U <- tryCatch(chol(corr_x(library$x, rho, x_power)), error = function(e) NULL)
     if (is.null(U) || any(diag(U) < 1e-7)) {
-      stop_no_call("R_x is numerically singular at ", paste0(names(rho), " = ", rho,
+      griddy_abort("R_x is numerically singular at ", paste0(names(rho), " = ", rho,
                    collapse = ", "), ": the x settings are too close for this ",
                    "correlation. Use smaller values in `rho_x`.")
     }
@@ -150,8 +142,5 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
 
 # The quadratic forms C (runs x grid points) of the field data under each R_g.
 quad_forms <- function(library, y_field, setup) {
-  if (inherits(library, "disk_library")) {
-    return(disk_quad_forms(library, y_field, setup))
-  }
-  quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi)
+  lib_quad_forms(library, y_field, setup)
 }

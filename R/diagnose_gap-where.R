@@ -87,7 +87,7 @@ gap_windows <- function(ctx, tm, windows) {
   windows <- assert_numeric_vector(windows, "windows")
   if (length(windows) == 1L) {
     if (windows != round(windows) || windows < 1) {
-      stop_no_call("`windows` as a single value must be a whole number of windows >= 1; ",
+      griddy_abort("`windows` as a single value must be a whole number of windows >= 1; ",
                    "received ", windows, ".")
     }
     return(split_equal(as.integer(windows)))
@@ -96,7 +96,7 @@ gap_windows <- function(ctx, tm, windows) {
   idx <- findInterval(ctx$t, br, rightmost.closed = TRUE)
   keep <- idx >= 1L & idx < length(br)
   if (!any(keep)) {
-    stop_no_call("`windows` breaks (", show_some(br), ") cover none of t (",
+    griddy_abort("`windows` breaks (", show_some(br), ") cover none of t (",
                  format(min(ctx$t)), " to ", format(max(ctx$t)), ").")
   }
   unname(split(seq_len(n_t)[keep], idx[keep]))

@@ -123,21 +123,21 @@
 diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
                          other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05) {
   if (!inherits(fit, "griddy_fit")) {
-    stop_no_call("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
+    griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
   base <- fit$library
   candidates <- check_candidates(candidates, base)
   fdr <- assert_level(fdr, "fdr")
   other_scales <- assert_numeric_vector(other_scales, "other_scales")
-  if (any(other_scales <= 0)) stop_no_call("`other_scales` must be positive.")
+  if (any(other_scales <= 0)) griddy_abort("`other_scales` must be positive.")
   confounding_threshold <- assert_level(confounding_threshold, "confounding_threshold")
   models <- c("none", names(candidates), "other")
   log_prior_model <- model_prior(prior_models, models)
 
   ctx <- gap_context(fit)
-  base_terms <- gap_terms(ctx, base$y, fit$problem$log_prior_run, Q = fit$problem$C)
+  base_terms <- gap_terms(ctx, lib_outputs(base), fit$problem$log_prior_run, Q = fit$problem$C)
   cand_terms <- lapply(candidates, function(cand) {
-    gap_terms(ctx, cand$y, candidate_log_prior(cand, names(base$theta)))
+    gap_terms(ctx, lib_outputs(cand), candidate_log_prior(cand, names(base$theta)))
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
@@ -181,53 +181,53 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
 
 check_candidates <- function(candidates, base) {
   if (inherits(candidates, "sim_library") || !is.list(candidates) || length(candidates) == 0L) {
-    stop_no_call("`candidates` must be a named list of sim_library objects (one per ",
+    griddy_abort("`candidates` must be a named list of sim_library objects (one per ",
                  "effect); received ", class(candidates)[1], ".")
   }
   nm <- names(candidates)
   if (is.null(nm) || any(nm == "") || anyDuplicated(nm)) {
-    stop_no_call("`candidates` must have distinct, non-empty names.")
+    griddy_abort("`candidates` must have distinct, non-empty names.")
   }
   if (any(nm %in% c("none", "other"))) {
-    stop_no_call("`candidates` names must not be \"none\" or \"other\" (reserved answers).")
+    griddy_abort("`candidates` names must not be \"none\" or \"other\" (reserved answers).")
   }
   base_cols <- names(base$theta)
   for (k in nm) {
     cand <- candidates[[k]]
     what <- paste0("Candidate `", k, "`")
     if (!inherits(cand, "sim_library")) {
-      stop_no_call(what, " must be a sim_library; received ", class(cand)[1], ".")
+      griddy_abort(what, " must be a sim_library; received ", class(cand)[1], ".")
     }
     if (lib_n_x(cand) != lib_n_x(base) ||
         (!is.null(base$x) && (!identical(names(cand$x), names(base$x)) ||
                               !all(same_values(as.matrix(cand$x), as.matrix(base$x)))))) {
-      stop_no_call(what, " must have the fit's x settings (", lib_n_x(base), " row(s) of ",
+      griddy_abort(what, " must have the fit's x settings (", lib_n_x(base), " row(s) of ",
                    show_some(names(base$x)), ", in the same order); it has ", lib_n_x(cand),
                    " row(s) of ", show_some(names(cand$x)), ".")
     }
     if (length(cand$t) != length(base$t) || !all(same_values(cand$t, base$t))) {
-      stop_no_call(what, " must have the fit's t (", length(base$t), " value(s) from ",
+      griddy_abort(what, " must have the fit's t (", length(base$t), " value(s) from ",
                    format(min(base$t)), " to ", format(max(base$t)), "); it has ",
                    length(cand$t), " from ", format(min(cand$t)), " to ",
                    format(max(cand$t)), ".")
     }
     missing_cols <- setdiff(base_cols, names(cand$theta))
     if (length(missing_cols) > 0L) {
-      stop_no_call(what, " lacks the base theta column(s) ", show_some(missing_cols), ".")
+      griddy_abort(what, " lacks the base theta column(s) ", show_some(missing_cols), ".")
     }
     strength <- setdiff(names(cand$theta), base_cols)
     if (length(strength) == 0L) {
-      stop_no_call(what, " has no strength column: its theta must hold the base columns (",
+      griddy_abort(what, " has no strength column: its theta must hold the base columns (",
                    show_some(base_cols), ") plus at least one column for the effect's ",
                    "strength, 0 meaning off.")
     }
     zero <- rowSums(abs(as.matrix(cand$theta[strength]))) == 0
     if (!any(zero)) {
-      stop_no_call(what, " has no zero-strength runs (", show_some(strength),
+      griddy_abort(what, " has no zero-strength runs (", show_some(strength),
                    " all 0): it must nest the base model.")
     }
     if (all(zero)) {
-      stop_no_call(what, " has only zero-strength runs: its strength column(s) ",
+      griddy_abort(what, " has only zero-strength runs: its strength column(s) ",
                    show_some(strength), " must take non-zero values too.")
     }
     check_zero_strength(cand, base, zero, what)
@@ -244,12 +244,12 @@ check_zero_strength <- function(cand, base, zero, what) {
   hit <- match(key_c, key_b)
   ok <- !is.na(hit)
   if (!any(ok)) return(invisible())
-  yc <- cand$y[which(zero)[ok], , drop = FALSE]
-  yb <- base$y[hit[ok], , drop = FALSE]
-  scale <- max(abs(base$y), 1e-300)
+  yc <- lib_outputs(cand, which(zero)[ok])
+  yb <- lib_outputs(base, hit[ok])
+  scale <- max(abs(yb), 1e-300)
   worst <- max(abs(yc - yb)) / scale
   if (worst > 1e-6) {
-    stop_no_call(what, "'s zero-strength runs do not reproduce the base library: at the ",
+    griddy_abort(what, "'s zero-strength runs do not reproduce the base library: at the ",
                  "same theta the outputs differ by up to ", format(worst, digits = 3),
                  " (relative). Strength 0 must switch the effect off.")
   }
@@ -274,9 +274,9 @@ model_prior <- function(prior_models, models) {
                                                     models))
   p <- assert_numeric_vector(prior_models, "prior_models")
   if (is.null(names(prior_models)) || !setequal(names(prior_models), models)) {
-    stop_no_call("`prior_models` must be named by the models ", show_some(models, 10), ".")
+    griddy_abort("`prior_models` must be named by the models ", show_some(models, 10), ".")
   }
-  if (any(p < 0) || sum(p) <= 0) stop_no_call("`prior_models` must be >= 0 with a positive sum.")
+  if (any(p < 0) || sum(p) <= 0) griddy_abort("`prior_models` must be >= 0 with a positive sum.")
   p <- p[match(models, names(prior_models))]
   stats::setNames(log(p / sum(p)), models)
 }
@@ -458,7 +458,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
     i1 <- near(tb[top[1], ], which(level == lv))
     i0 <- near(tc[i1, ], which(zero))
-    w <- gap_whiten(cand$y[c(i1, i0), , drop = FALSE], node, ctx$n_x, ctx$n_t)
+    w <- gap_whiten(lib_outputs(cand, c(i1, i0)), node, ctx$n_x, ctx$n_t)
     delta <- sqrt(sum((w[1, ] - w[2, ])^2))
     im <- imitate(w[1, ])
     shift <- abs(tb[im$j, ] - tc[i0, ])

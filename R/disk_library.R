@@ -39,20 +39,20 @@ write_library_chunks <- function(library, dir, chunk_size = 1e5, append = FALSE,
   manifest_file <- file.path(dir, "manifest.rds")
   if (append) {
     if (!file.exists(manifest_file)) {
-      stop_no_call("`dir` (", dir, ") holds no library to append to: write the first ",
+      griddy_abort("`dir` (", dir, ") holds no library to append to: write the first ",
                    "piece with `append = FALSE`.")
     }
     old <- readRDS(manifest_file)
     if (!identical(old$x, library$x) || !identical(old$t, library$t) ||
         !identical(old$theta_names, names(library$theta))) {
-      stop_no_call("`library` must have the parameters, settings `x` and coordinates `t` ",
+      griddy_abort("`library` must have the parameters, settings `x` and coordinates `t` ",
                    "of the library in `dir` to be appended to it.")
     }
     theta <- rbind(readRDS(file.path(dir, "theta.rds")), library$theta)
     assert_distinct_runs(as.matrix(theta))
   } else {
     if (file.exists(manifest_file)) {
-      stop_no_call("`dir` (", dir, ") already holds a library; use `append = TRUE` to add ",
+      griddy_abort("`dir` (", dir, ") already holds a library; use `append = TRUE` to add ",
                    "runs or choose a new directory.")
     }
     dir.create(dir, recursive = TRUE, showWarnings = FALSE)
@@ -110,13 +110,13 @@ disk_library <- function(dir) {
   dir <- assert_string(dir, "dir")
   manifest_file <- file.path(dir, "manifest.rds")
   if (!file.exists(manifest_file)) {
-    stop_no_call("`dir` (", dir, ") holds no library written by write_library_chunks().")
+    griddy_abort("`dir` (", dir, ") holds no library written by write_library_chunks().")
   }
   m <- readRDS(manifest_file)
   files <- file.path(normalizePath(dir), m$files)
   missing <- !file.exists(files)
   if (any(missing)) {
-    stop_no_call("The library in `dir` lacks chunk file(s) ", show_some(m$files[missing]), ".")
+    griddy_abort("The library in `dir` lacks chunk file(s) ", show_some(m$files[missing]), ".")
   }
   structure(
     list(dir = normalizePath(dir), files = files, rows = m$rows,
@@ -167,12 +167,14 @@ disk_quad_forms <- function(library, y_field, setup) {
   C
 }
 
-# Outputs of some runs of a library in memory or on disk (rows in the order
-# given).
-lib_rows <- function(library, runs) {
-  if (!inherits(library, "disk_library")) {
-    return(library$y[runs, , drop = FALSE])
-  }
+lib_quad_forms.disk_library <- function(library, y_field, setup) {
+  disk_quad_forms(library, y_field, setup)
+}
+
+lib_check_integrity.disk_library <- function(library) invisible(library)
+
+lib_outputs.disk_library <- function(library, rows = NULL) {
+  runs <- lib_check_rows(library, rows)
   ends <- cumsum(library$rows)
   chunk <- findInterval(runs - 1L, ends) + 1L
   out <- matrix(0, length(runs), library$n_out)
@@ -183,5 +185,3 @@ lib_rows <- function(library, runs) {
   }
   out
 }
-
-lib_n_runs <- function(library) nrow(library$theta)

@@ -26,7 +26,7 @@ field_data <- function(y, x = NULL, t = NULL) {
     y <- assert_numeric_vector(y, "y")
     n_t <- if (!is.null(t)) length(t) else if (!is.null(x)) length(y) / nrow(x) else length(y)
     if (n_t != round(n_t) || length(y) %% n_t != 0L) {
-      stop_no_call("`y` has ", length(y), " values, which do not split into ",
+      griddy_abort("`y` has ", length(y), " values, which do not split into ",
                    if (!is.null(x)) nrow(x) else length(y) / n_t,
                    " x settings of equal length.")
     }
@@ -35,7 +35,7 @@ field_data <- function(y, x = NULL, t = NULL) {
     y <- as_numeric_matrix(y, "y")
   }
   if (!is.null(x) && nrow(x) != nrow(y)) {
-    stop_no_call("`y` must have one row per x setting: `x` has ", nrow(x),
+    griddy_abort("`y` must have one row per x setting: `x` has ", nrow(x),
                  " rows but `y` has ", nrow(y), ".")
   }
   if (!is.null(t)) as_coordinates(t, ncol(y), "t", "columns of `y`")
@@ -57,7 +57,7 @@ print.griddy_field <- function(x, ...) {
 field_vector <- function(library, field) {
   check_library(library)
   if (!inherits(field, "griddy_field")) {
-    stop_no_call("`field` must be a griddy_field (see ?field_data); received ",
+    griddy_abort("`field` must be a griddy_field (see ?field_data); received ",
                  class(field)[1], ".")
   }
   n_x <- lib_n_x(library)
@@ -66,14 +66,14 @@ field_vector <- function(library, field) {
   if (!is.null(field$t)) match_coordinates(field$t, library$t)
   if (is.null(field$x)) {
     if (length(y) != n_x * n_t) {
-      stop_no_call("`field` has ", length(y), " measurements but the library has ",
+      griddy_abort("`field` has ", length(y), " measurements but the library has ",
                    n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
     }
     return(as.vector(t(y)))
   }
   order <- match_settings(field$x, library$x)
   if (ncol(y) != n_t) {
-    stop_no_call("`field` has ", ncol(y), " output(s) per x setting but the library has ",
+    griddy_abort("`field` has ", ncol(y), " output(s) per x setting but the library has ",
                  n_t, ".")
   }
   as.vector(t(y[order, , drop = FALSE]))
@@ -83,7 +83,7 @@ same_values <- function(a, b) abs(a - b) <= 1e-8 * pmax(1, abs(a), abs(b))
 
 match_coordinates <- function(t_field, t_lib) {
   if (length(t_field) != length(t_lib) || !all(same_values(t_field, t_lib))) {
-    stop_no_call("`field$t` does not match the library's t: the field has ",
+    griddy_abort("`field$t` does not match the library's t: the field has ",
                  length(t_field), " coordinate(s) from ", format(min(t_field)), " to ",
                  format(max(t_field)), ", the library ", length(t_lib), " from ",
                  format(min(t_lib)), " to ", format(max(t_lib)), ".")
@@ -94,12 +94,12 @@ match_coordinates <- function(t_field, t_lib) {
 match_settings <- function(x_field, x_lib) {
   if (is.null(x_lib)) {
     if (nrow(x_field) != 1L) {
-      stop_no_call("`field` has ", nrow(x_field), " x settings but the library has one.")
+      griddy_abort("`field` has ", nrow(x_field), " x settings but the library has one.")
     }
     return(1L)
   }
   if (!setequal(names(x_field), names(x_lib))) {
-    stop_no_call("`field$x` has column(s) ", show_some(names(x_field)),
+    griddy_abort("`field$x` has column(s) ", show_some(names(x_field)),
                  " but the library's x has ", show_some(names(x_lib)), ".")
   }
   x_field <- x_field[names(x_lib)]
@@ -108,12 +108,12 @@ match_settings <- function(x_field, x_lib) {
     if (length(same) == 0L) NA_integer_ else same[1]
   }, integer(1))
   if (anyNA(hit)) {
-    stop_no_call("`field` has no measurements at library x setting(s) ",
+    griddy_abort("`field` has no measurements at library x setting(s) ",
                  show_some(which(is.na(hit))), ".")
   }
   extra <- setdiff(seq_len(nrow(x_field)), hit)
   if (length(extra) > 0L) {
-    stop_no_call("`field` has x setting(s) at row(s) ", show_some(extra),
+    griddy_abort("`field` has x setting(s) at row(s) ", show_some(extra),
                  " that the library does not have.")
   }
   hit

@@ -71,7 +71,7 @@ plot_posterior <- function(fit, truth) {
   if (!is.null(truth)) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
     if (is.null(names(truth)) || !all(names(truth) %in% names(theta))) {
-      stop_no_call("`truth` must be named by theta columns (", show_some(names(theta)), ").")
+      griddy_abort("`truth` must be named by theta columns (", show_some(names(theta)), ").")
     }
     marks <- data.frame(parameter = factor(names(truth), levels = names(theta)),
                         value = unname(truth))

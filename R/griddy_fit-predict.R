@@ -29,7 +29,7 @@ predict.griddy_fit <- function(object, level = 0.95, ndraws = 1000, seed = NULL,
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
   freq <- tabulate(object$draws$run, nbins = lib_n_runs(lib))
   visited <- which(freq > 0)
-  Y <- lib_rows(lib, visited)
+  Y <- lib_outputs(lib, visited)
   w <- freq[visited] / sum(freq)
   bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
@@ -60,7 +60,7 @@ noisy_outputs <- function(fit, pick) {
   d <- fit$draws[pick, ]
   n_gx <- dim(setup$Rx_inv)[3]
   combos <- expand.grid(setup$rho_x, KEEP.OUT.ATTRS = FALSE)
-  out <- lib_rows(lib, d$run)
+  out <- lib_outputs(lib, d$run)
   for (g in unique(d$rho)) {
     rows <- which(d$rho == g)
     gx <- (g - 1L) %% n_gx + 1L

@@ -69,7 +69,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
                           seed = NULL, quiet = TRUE) {
   for (pkg in c("RobustCalibration", "RobustGaSP")) {
     if (!requireNamespace(pkg, quietly = TRUE)) {
-      stop_no_call("koh_calibrate() needs the package '", pkg,
+      griddy_abort("koh_calibrate() needs the package '", pkg,
                    "': install.packages(\"RobustCalibration\").")
     }
   }
@@ -78,7 +78,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   n_iter <- assert_count(n_iter, "n_iter", min = 2L)
   burn_in <- assert_count(burn_in, "burn_in", min = 0L)
   if (burn_in >= n_iter) {
-    stop_no_call("`burn_in` must be smaller than `n_iter`; received ", burn_in,
+    griddy_abort("`burn_in` must be smaller than `n_iter`; received ", burn_in,
                  " and ", n_iter, ".")
   }
   tune_rounds <- assert_count(tune_rounds, "tune_rounds", min = 0L)
@@ -90,13 +90,13 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   if (!is.null(proposal_sd)) {
     proposal_sd <- assert_numeric_vector(proposal_sd, "proposal_sd")
     if (length(proposal_sd) != p || any(proposal_sd <= 0)) {
-      stop_no_call("`proposal_sd` must hold ", p, " positive fractions of the ranges; received ",
+      griddy_abort("`proposal_sd` must hold ", p, " positive fractions of the ranges; received ",
                    paste(format(proposal_sd), collapse = ", "), ".")
     }
   }
   theta_range <- cbind(apply(theta, 2, min), apply(theta, 2, max))
   if (any(theta_range[, 2] <= theta_range[, 1])) {
-    stop_no_call("Every library parameter must vary for koh_calibrate(); constant: ",
+    griddy_abort("Every library parameter must vary for koh_calibrate(); constant: ",
                  show_some(colnames(theta)[theta_range[, 2] <= theta_range[, 1]]), ".")
   }
   design <- koh_design(library)
@@ -104,7 +104,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   n_x <- ncol(design)
   run <- function() {
     t0 <- proc.time()[["elapsed"]]
-    emulator <- koh_emulator(theta, library$y, quiet)
+    emulator <- koh_emulator(theta, lib_outputs(library), quiet)
     t1 <- proc.time()[["elapsed"]]
     math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))
     sampler <- function(sd_frac, S, S_0, start) {

@@ -49,7 +49,7 @@ warn_single_run <- function(fit) {
   p <- tabulate(fit$draws$run, nbins = lib_n_runs(fit$library)) / nrow(fit$draws)
   top <- which.max(p)
   if (p[top] >= single_run_threshold) {
-    warn_no_call("The posterior sits on one library run: run ", top, " holds ",
+    griddy_warn("The posterior sits on one library run: run ", top, " holds ",
                  format(100 * p[top], digits = 3), "% of the draws. Its intervals show ",
                  "the library's resolution, not the data's uncertainty; refine the ",
                  "library around this run (see summary()).")

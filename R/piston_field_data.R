@@ -43,13 +43,13 @@ piston_field_data <- function(n_points = 27, discrepancy = FALSE,
                               truth = c(1000, 3000, 2000), noise_var = 0.4,
                               discrepancy_var = 40, rho = 0.8, seed = NULL) {
   if (!is.numeric(n_points) || length(n_points) != 1L || !n_points %in% c(6, 15, 27, 54)) {
-    stop_no_call("`n_points` must be one of 6, 15, 27 or 54; received ",
+    griddy_abort("`n_points` must be one of 6, 15, 27 or 54; received ",
                  paste(format(n_points), collapse = ", "), ".")
   }
   assert_flag(discrepancy, "discrepancy")
   truth <- assert_numeric_vector(truth, "truth")
   if (length(truth) != 3L || any(truth <= 0)) {
-    stop_no_call("`truth` must hold 3 positive coefficients; received ",
+    griddy_abort("`truth` must hold 3 positive coefficients; received ",
                  paste(format(truth), collapse = ", "), ".")
   }
   noise_var <- assert_number(noise_var, "noise_var", lower = 0)

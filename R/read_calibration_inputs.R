@@ -40,13 +40,13 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
   expobs <- read_table_input(expobs, "expobs")
   n_x <- assert_count(n_x, "n_x", min = 0L)
   if (ncol(design) <= n_x) {
-    stop_no_call("`design` must have the ", n_x, " x column(s) and at least one theta ",
+    griddy_abort("`design` must have the ", n_x, " x column(s) and at least one theta ",
                  "column; it has ", ncol(design), " column(s).")
   }
   sim <- orient_simobs(simobs, nrow(design))
   n_t <- ncol(sim)
   if (ncol(expobs) != n_x + n_t) {
-    stop_no_call("`expobs` must have the ", n_x, " x column(s) then the ", n_t,
+    griddy_abort("`expobs` must have the ", n_x, " x column(s) then the ", n_t,
                  " measurements that `simobs` has per run; it has ", ncol(expobs),
                  " column(s).")
   }
@@ -54,7 +54,7 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
   x_names <- names(design)[x_cols]
   exp_x <- stats::setNames(as.data.frame(expobs[, x_cols, drop = FALSE]), x_names)
   if (n_x > 0L && anyDuplicated(exp_x)) {
-    stop_no_call("`expobs` has duplicated x settings at row(s) ",
+    griddy_abort("`expobs` has duplicated x settings at row(s) ",
                  show_some(which(duplicated(exp_x))), ".")
   }
   setting <- design_settings(design[, x_cols, drop = FALSE], exp_x)
@@ -75,19 +75,19 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
 read_table_input <- function(v, arg) {
   if (is.character(v) && length(v) == 1L) {
     if (!file.exists(v)) {
-      stop_no_call("`", arg, "` file not found: ", v)
+      griddy_abort("`", arg, "` file not found: ", v)
     }
     v <- tryCatch(data.table::fread(v, header = TRUE, data.table = FALSE),
-                  error = function(e) stop_no_call("`", arg, "` could not be read from ", v,
+                  error = function(e) griddy_abort("`", arg, "` could not be read from ", v,
                                                    ": ", conditionMessage(e)))
   }
   if (!is.data.frame(v) && !is.matrix(v)) {
-    stop_no_call("`", arg, "` must be a file path, a data.frame or a matrix; received ",
+    griddy_abort("`", arg, "` must be a file path, a data.frame or a matrix; received ",
                  class(v)[1], ".")
   }
   v <- as.data.frame(v)
   if (nrow(v) < 1L || ncol(v) < 1L) {
-    stop_no_call("`", arg, "` is empty.")
+    griddy_abort("`", arg, "` is empty.")
   }
   as_numeric_matrix(v, arg)
   v
@@ -104,7 +104,7 @@ orient_simobs <- function(simobs, n_design) {
   if (ncol(sim) == n_design) {
     return(t(sim))
   }
-  stop_no_call("`simobs` must have one row (or one column) per `design` row (",
+  griddy_abort("`simobs` must have one row (or one column) per `design` row (",
                n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".")
 }
 
@@ -117,7 +117,7 @@ design_settings <- function(design_x, exp_x) {
   setting <- match(key(design_x), key(exp_x))
   missing_settings <- setdiff(seq_len(nrow(exp_x)), setting)
   if (length(missing_settings) > 0L) {
-    stop_no_call("No `design` run has the x setting(s) of `expobs` row(s) ",
+    griddy_abort("No `design` run has the x setting(s) of `expobs` row(s) ",
                  show_some(missing_settings), ".")
   }
   if (anyNA(setting)) {
@@ -132,7 +132,7 @@ assert_complete_runs <- function(run, setting, rows, n_settings) {
   pair <- paste(run, setting)
   dup <- which(duplicated(pair))
   if (length(dup) > 0L) {
-    stop_no_call("`design` has duplicated (x, theta) rows: row(s) ", show_some(rows[dup]),
+    griddy_abort("`design` has duplicated (x, theta) rows: row(s) ", show_some(rows[dup]),
                  " repeat row(s) ", show_some(rows[match(pair[dup], pair)]), ".")
   }
   count <- tabulate(run, nbins = max(run))
@@ -140,7 +140,7 @@ assert_complete_runs <- function(run, setting, rows, n_settings) {
   if (length(short) > 0L) {
     first <- rows[match(short[1], run)]
     have <- setting[run == short[1]]
-    stop_no_call("Every theta must be run at all ", n_settings, " x settings of `expobs`: ",
+    griddy_abort("Every theta must be run at all ", n_settings, " x settings of `expobs`: ",
                  length(short), " theta(s) are not, e.g. the theta of `design` row ", first,
                  " lacks setting(s) ", show_some(setdiff(seq_len(n_settings), have)),
                  " (rows of `expobs`).")

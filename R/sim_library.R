@@ -33,17 +33,17 @@ sim_library <- function(theta, y, x = NULL, t = NULL) {
   theta_mat <- as_theta_matrix(theta)
   n_runs <- nrow(theta_mat)
   if (n_runs < 2L) {
-    stop_no_call("`theta` must hold at least 2 runs (rows); received ", n_runs, ".")
+    griddy_abort("`theta` must hold at least 2 runs (rows); received ", n_runs, ".")
   }
   y <- as_numeric_matrix(y, "y")
   if (nrow(y) != n_runs) {
-    stop_no_call("`y` must have one row per run: `theta` has ", n_runs,
+    griddy_abort("`y` must have one row per run: `theta` has ", n_runs,
                  " rows but `y` has ", nrow(y), ".")
   }
   x <- as_settings(x, "x")
   n_x <- if (is.null(x)) 1L else nrow(x)
   if (ncol(y) %% n_x != 0L) {
-    stop_no_call("`y` has ", ncol(y), " columns, which is not a multiple of the ",
+    griddy_abort("`y` has ", ncol(y), " columns, which is not a multiple of the ",
                  n_x, " x settings (rows of `x`).")
   }
   t <- as_coordinates(t, ncol(y) %/% n_x, "t", "`y` columns per x setting")
@@ -73,24 +73,50 @@ print.sim_library <- function(x, ...) {
   invisible(x)
 }
 
-# Library dimensions, derived from what the object holds.
-lib_n_x <- function(lib) if (is.null(lib$x)) 1L else nrow(lib$x)
-lib_n_t <- function(lib) length(lib$t)
+# ---- the library interface, in memory (see library_interface.R) -----------
+
+lib_outputs.sim_library <- function(library, rows = NULL) {
+  if (is.null(rows)) return(library$y)
+  library$y[lib_check_rows(library, rows), , drop = FALSE]
+}
+
+lib_quad_forms.sim_library <- function(library, y_field, setup) {
+  quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi)
+}
+
+lib_check_integrity.sim_library <- function(library) {
+  y <- library$y
+  theta <- library$theta
+  if (!is.matrix(y) || !is.double(y) || !is.data.frame(theta) ||
+      !all(vapply(theta, is.double, logical(1)))) {
+    griddy_abort("The sim_library has been edited: `y` must be a double matrix and ",
+                 "`theta` a data.frame of double columns; rebuild it with sim_library().",
+                 class = "shape")
+  }
+  if (nrow(y) != nrow(theta) || ncol(y) != lib_n_out(library)) {
+    griddy_abort("The sim_library has been edited: `y` is ", nrow(y), " x ", ncol(y),
+                 " but `theta` has ", nrow(theta), " rows and x, t give ", lib_n_x(library),
+                 " x ", lib_n_t(library), " = ", lib_n_out(library), " outputs per run; ",
+                 "rebuild it with sim_library().", class = "shape")
+  }
+  assert_finite(y, "library$y")
+  invisible(library)
+}
 
 as_theta_matrix <- function(theta) {
   if (!is.data.frame(theta) && !is.matrix(theta)) {
-    stop_no_call("`theta` must be a data.frame or a numeric matrix with column names; ",
+    griddy_abort("`theta` must be a data.frame or a numeric matrix with column names; ",
                  "received ", class(theta)[1], ".")
   }
   if (is.null(colnames(theta)) || any(colnames(theta) == "")) {
-    stop_no_call("`theta` must have a name for every column.")
+    griddy_abort("`theta` must have a name for every column.")
   }
   if (anyDuplicated(colnames(theta))) {
-    stop_no_call("`theta` has duplicated column names: ",
+    griddy_abort("`theta` has duplicated column names: ",
                  show_some(colnames(theta)[duplicated(colnames(theta))]), ".")
   }
   if (ncol(theta) < 1L) {
-    stop_no_call("`theta` must have at least one parameter column.")
+    griddy_abort("`theta` must have at least one parameter column.")
   }
   as_numeric_matrix(theta, "theta")
 }
@@ -108,13 +134,13 @@ as_settings <- function(x, arg) {
     x <- as.data.frame(x)
   }
   if (!is.data.frame(x) || ncol(x) < 1L || nrow(x) < 1L) {
-    stop_no_call("`", arg, "` must be a data.frame of control settings, one row each; ",
+    griddy_abort("`", arg, "` must be a data.frame of control settings, one row each; ",
                  "received ", class(x)[1], ".")
   }
   as_numeric_matrix(x, arg)
   dup <- which(duplicated(x))
   if (length(dup) > 0L) {
-    stop_no_call("`", arg, "` has duplicated settings at row(s) ", show_some(dup), ".")
+    griddy_abort("`", arg, "` has duplicated settings at row(s) ", show_some(dup), ".")
   }
   rownames(x) <- NULL
   x
@@ -127,11 +153,11 @@ as_coordinates <- function(t, n, arg, what) {
   }
   t <- assert_numeric_vector(t, arg)
   if (length(t) != n) {
-    stop_no_call("`", arg, "` must have one value per output: ", n, " ", what,
+    griddy_abort("`", arg, "` must have one value per output: ", n, " ", what,
                  " but `", arg, "` has ", length(t), ".")
   }
   if (n > 1L && any(diff(t) <= 0)) {
-    stop_no_call("`", arg, "` must be strictly increasing; it is not at position(s) ",
+    griddy_abort("`", arg, "` must be strictly increasing; it is not at position(s) ",
                  show_some(which(diff(t) <= 0) + 1L), ".")
   }
   t
@@ -141,7 +167,7 @@ assert_distinct_runs <- function(theta_mat) {
   id <- data.table::frankv(data.table::as.data.table(theta_mat), ties.method = "dense")
   dup <- which(duplicated(id))
   if (length(dup) > 0L) {
-    stop_no_call("`theta` has duplicated runs: row(s) ", show_some(dup),
+    griddy_abort("`theta` has duplicated runs: row(s) ", show_some(dup),
                  " repeat row(s) ", show_some(match(id[dup], id)), ".")
   }
 }
@@ -149,7 +175,7 @@ assert_distinct_runs <- function(theta_mat) {
 warn_constant_columns <- function(theta_mat) {
   const <- colnames(theta_mat)[apply(theta_mat, 2, function(v) all(v == v[1]))]
   if (length(const) > 0L) {
-    warn_no_call("`theta` column(s) ", show_some(const), " are constant across runs: ",
+    griddy_warn("`theta` column(s) ", show_some(const), " are constant across runs: ",
                  "they cannot be calibrated and their interval will be a single value.")
   }
 }

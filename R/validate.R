@@ -1,12 +1,34 @@
 # Input checks shared by the constructors and fitters. They run in R before
 # any C++ so that the compiled code can trust its inputs.
 
-stop_no_call <- function(...) {
-  stop(paste0(...), call. = FALSE)
+# Every error griddy raises is a classed condition: `griddy_error_<class>` and
+# `griddy_error`, so callers can catch one kind (tryCatch(..., griddy_error_input
+# = ...)). The classes:
+#   input    an argument of the wrong type, length, range or content;
+#   shape    objects whose dimensions do not fit together (library and field,
+#            an edited library, a chunk of the wrong size);
+#   numeric  a computation that would overflow or is singular;
+#   library  a library on disk that is incomplete or corrupt;
+#   lock     a library directory held by another writer;
+#   package  a suggested package that the call needs is not installed.
+# rlang::abort() (what cli::cli_abort() wraps) is called with the message as
+# built, so it is never re-wrapped or re-interpolated: a message may hold
+# braces and file paths, and reads in full in a log.
+griddy_abort <- function(..., class = "input") {
+  rlang::abort(paste0(...), class = c(paste0("griddy_error_", class), "griddy_error"),
+               call = NULL)
 }
 
-warn_no_call <- function(...) {
-  warning(paste0(...), call. = FALSE)
+griddy_warn <- function(..., class = "general") {
+  rlang::warn(paste0(...), class = c(paste0("griddy_warning_", class), "griddy_warning"))
+}
+
+# Stop with a clear message when a suggested package is missing.
+require_package <- function(pkg, for_what) {
+  if (!requireNamespace(pkg, quietly = TRUE)) {
+    griddy_abort("Package '", pkg, "' is needed ", for_what, " but is not installed; ",
+                 "install it with install.packages(\"", pkg, "\").", class = "package")
+  }
 }
 
 # Show at most `n` items of a vector in a message, e.g. "3, 7, 9, ... (12 in all)".
@@ -24,7 +46,7 @@ as_numeric_matrix <- function(v, arg) {
   if (is.data.frame(v)) {
     bad <- names(v)[!vapply(v, is.numeric, logical(1))]
     if (length(bad) > 0L) {
-      stop_no_call("`", arg, "` must be numeric; column(s) ", show_some(bad),
+      griddy_abort("`", arg, "` must be numeric; column(s) ", show_some(bad),
                    " are ", show_some(unique(vapply(v[bad], function(z) class(z)[1], ""))), ".")
     }
     v <- as.matrix(v)
@@ -32,7 +54,7 @@ as_numeric_matrix <- function(v, arg) {
     v <- matrix(v, nrow = 1L)
   }
   if (!is.matrix(v) || !is.numeric(v)) {
-    stop_no_call("`", arg, "` must be a numeric matrix or data.frame; received ",
+    griddy_abort("`", arg, "` must be a numeric matrix or data.frame; received ",
                  class(v)[1], if (is.matrix(v)) paste0(" of type ", typeof(v)), ".")
   }
   storage.mode(v) <- "double"
@@ -55,17 +77,17 @@ assert_finite <- function(v, arg) {
     where <- paste0("[", bad, "]")
     what <- v[bad]
   }
-  stop_no_call("`", arg, "` must hold finite numbers; found ", show_some(what),
+  griddy_abort("`", arg, "` must hold finite numbers; found ", show_some(what),
                " at ", show_some(where), ".")
 }
 
 assert_numeric_vector <- function(v, arg, min_length = 1L) {
   if (!is.numeric(v) || !is.null(dim(v)) && length(dim(v)) > 1L && min(dim(v)) > 1L) {
-    stop_no_call("`", arg, "` must be a numeric vector; received ", class(v)[1], ".")
+    griddy_abort("`", arg, "` must be a numeric vector; received ", class(v)[1], ".")
   }
   v <- as.double(v)
   if (length(v) < min_length) {
-    stop_no_call("`", arg, "` must have at least ", min_length, " value(s); received ",
+    griddy_abort("`", arg, "` must have at least ", min_length, " value(s); received ",
                  length(v), ".")
   }
   assert_finite(v, arg)
@@ -74,7 +96,7 @@ assert_numeric_vector <- function(v, arg, min_length = 1L) {
 
 assert_count <- function(v, arg, min = 1L) {
   if (!is.numeric(v) || length(v) != 1L || !is.finite(v) || v != round(v) || v < min) {
-    stop_no_call("`", arg, "` must be a single whole number >= ", min, "; received ",
+    griddy_abort("`", arg, "` must be a single whole number >= ", min, "; received ",
                  paste(format(v), collapse = ", "), ".")
   }
   as.integer(v)
@@ -82,7 +104,7 @@ assert_count <- function(v, arg, min = 1L) {
 
 assert_string <- function(v, arg) {
   if (!is.character(v) || length(v) != 1L || is.na(v) || !nzchar(v)) {
-    stop_no_call("`", arg, "` must be a single non-empty string; received ",
+    griddy_abort("`", arg, "` must be a single non-empty string; received ",
                  paste(format(v), collapse = ", "), ".")
   }
   v
@@ -90,7 +112,7 @@ assert_string <- function(v, arg) {
 
 assert_flag <- function(v, arg) {
   if (!is.logical(v) || length(v) != 1L || is.na(v)) {
-    stop_no_call("`", arg, "` must be TRUE or FALSE; received ",
+    griddy_abort("`", arg, "` must be TRUE or FALSE; received ",
                  paste(format(v), collapse = ", "), ".")
   }
   v
@@ -101,11 +123,11 @@ assert_rho_grid <- function(v, arg) {
   v <- assert_numeric_vector(v, arg)
   bad <- v < 0 | v >= 1
   if (any(bad)) {
-    stop_no_call("`", arg, "` must lie in [0, 1) (0 means independence); received ",
+    griddy_abort("`", arg, "` must lie in [0, 1) (0 means independence); received ",
                  show_some(v[bad]), ".")
   }
   if (anyDuplicated(v)) {
-    stop_no_call("`", arg, "` holds duplicated values: ", show_some(v[duplicated(v)]), ".")
+    griddy_abort("`", arg, "` holds duplicated values: ", show_some(v[duplicated(v)]), ".")
   }
   v
 }
@@ -113,16 +135,16 @@ assert_rho_grid <- function(v, arg) {
 # The Gamma prior on the precision tau.
 assert_prior <- function(prior) {
   if (!is.list(prior) || is.null(prior$shape) || is.null(prior$rate)) {
-    stop_no_call("`prior` must be a list with elements `shape` and `rate` ",
+    griddy_abort("`prior` must be a list with elements `shape` and `rate` ",
                  "(the Gamma prior on the precision tau).")
   }
   ok <- function(z) is.numeric(z) && length(z) == 1L && is.finite(z)
   if (!ok(prior$shape) || prior$shape <= 0) {
-    stop_no_call("`prior$shape` must be a single positive number; received ",
+    griddy_abort("`prior$shape` must be a single positive number; received ",
                  paste(format(prior$shape), collapse = ", "), ".")
   }
   if (!ok(prior$rate) || prior$rate < 0) {
-    stop_no_call("`prior$rate` must be a single number >= 0; received ",
+    griddy_abort("`prior$rate` must be a single number >= 0; received ",
                  paste(format(prior$rate), collapse = ", "), ".")
   }
   list(shape = as.double(prior$shape), rate = as.double(prior$rate))
@@ -137,7 +159,7 @@ assert_number <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_op
       (lower_open && any(x <= lower)) || (upper_open && any(x >= upper))) {
     what <- if (is.numeric(x)) paste(format(utils::head(x, 5)), collapse = ", ") else class(x)[1]
     rng <- paste0(if (lower_open) "(" else "[", lower, ", ", upper, if (upper_open) ")" else "]")
-    stop_no_call("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
+    griddy_abort("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
                  "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
                  "; received ", what, ".")
   }
@@ -148,7 +170,7 @@ assert_number <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_op
 assert_level <- function(level, arg = "level") {
   if (!is.numeric(level) || length(level) != 1L || !is.finite(level) || level <= 0 ||
       level >= 1) {
-    stop_no_call("`", arg, "` must be a single number in (0, 1); received ",
+    griddy_abort("`", arg, "` must be a single number in (0, 1); received ",
                  paste(format(level), collapse = ", "), ".")
   }
   level

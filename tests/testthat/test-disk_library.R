@@ -36,7 +36,7 @@ test_that("libraries can be written piece by piece", {
   expect_error(write_library_chunks(piece(21:40), dir, append = TRUE), "duplicated runs")
   disk <- write_library_chunks(piece(31:50), dir, chunk_size = 16, append = TRUE)
   expect_identical(disk$rows, c(16L, 14L, 16L, 4L))
-  expect_identical(lib_rows(disk, c(50L, 1L, 17L, 31L, 17L)), lib$y[c(50, 1, 17, 31, 17), ])
+  expect_identical(lib_outputs(disk, c(50L, 1L, 17L, 31L, 17L)), lib$y[c(50, 1, 17, 31, 17), ])
   expect_identical(posterior_exact(disk, toy$field)$run, posterior_exact(lib, toy$field)$run)
   other <- sim_library(data.frame(theta = c(2, 3)), lib$y[1:2, ], t = lib$t + 1)
   expect_error(write_library_chunks(other, dir, append = TRUE), "must have the parameters")
