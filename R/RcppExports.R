@@ -9,8 +9,16 @@ collapsed_heads_cpp <- function(C, log_prior_run, shape_post, rate, tol) {
     .Call(`_griddy_collapsed_heads_cpp`, C, log_prior_run, shape_post, rate, tol)
 }
 
-gibbs_chain_cpp <- function(C, order, heads, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, tol, n_iter, first_iter, burn_in, thin, rho_start, tau_start) {
-    .Call(`_griddy_gibbs_chain_cpp`, C, order, heads, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, tol, n_iter, first_iter, burn_in, thin, rho_start, tau_start)
+gibbs_chain_cpp <- function(C, tables, options, grid_start, tau_start) {
+    .Call(`_griddy_gibbs_chain_cpp`, C, tables, options, grid_start, tau_start)
+}
+
+ar1_whiten_rows_cpp <- function(M, phi, n_x) {
+    .Call(`_griddy_ar1_whiten_rows_cpp`, M, phi, n_x)
+}
+
+ar1_colour_rows_cpp <- function(Z, phi, n_x) {
+    .Call(`_griddy_ar1_colour_rows_cpp`, Z, phi, n_x)
 }
 
 piston_precompute_cpp <- function(n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells) {

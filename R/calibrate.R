@@ -51,6 +51,14 @@
 #' (for example `future::plan("multisession", workers = 2)`). Each chain has
 #' its own seed, so the draws are the same either way.
 #'
+#' **Interrupts.** Sequential chains stop at once. Chains on future workers
+#' cannot be stopped from outside, so each worker checks a stop file between
+#' pieces of its chain (a fiftieth of `n_iter`): an interrupt (Ctrl-C or Esc)
+#' writes that file, and workers that share the session's temporary directory
+#' (the `multisession`, `multicore` and `cluster` plans on this machine) stop
+#' after their current piece, so the next call finds them free. Workers on
+#' other machines, which do not see the file, finish their chains first.
+#'
 #' @param library A [sim_library()].
 #' @param field A [field_data()] object at the library's x and t.
 #' @param rho_x,rho_t Correlation grids over x settings and output coordinate,
@@ -60,7 +68,13 @@
 #' @param thin Keep every `thin`-th iteration after the burn-in.
 #' @param chains Number of chains.
 #' @param prior The Gamma prior on \eqn{\tau}: a list with `shape` (a) and
-#'   `rate` (b); the default is the thesis's eq. 3.8.
+#'   `rate` (b). `NULL` (the default) is the thesis's eq. 3.8, a = b =
+#'   1e-9. The rate is in the units of the squared outputs: it is negligible
+#'   when `n * rate` is small against the smallest misfit \eqn{C_{ig}}. With
+#'   the default prior, a warning (class `griddy_warning_prior`) says when it
+#'   is not, because the answer then depends on the outputs' units (outputs
+#'   of order 1e-4 or smaller). `rate = 0` is scale-free (the posterior is
+#'   the same in any units) but improper, so `log_evidence` is `NA`.
 #' @param update `"collapsed"` or `"thesis"`; see Details.
 #' @param seed `NULL`, or a seed for this call only (the global random number
 #'   stream is left as it was). Either way the result is reproducible with
@@ -71,13 +85,17 @@
 #' @param run_weights Optional prior weights \eqn{\pi_i} of the library runs
 #'   (non-negative, one per run); `NULL` is uniform.
 #' @return An object of class `griddy_fit`: a list holding the kept `draws`
-#'   (a data.frame with columns `chain`, `iteration`, `run`, `rho` (the row of
-#'   `grid`) and `tau`), the correlation `grid`, the `library`, the field
-#'   measurements `y_field`, the precomputed `problem` (priors, correlation
-#'   setup and the quadratic forms `C`), the settings of the call, the chains'
+#'   (a data.frame with columns `chain`, `iteration`, `run` (the library row),
+#'   `grid_point` (the row of `grid`) and `tau`), the `library`, the field
+#'   measurements `y_field` (a vector in the library's order), the correlation
+#'   `grid`, and the precomputed problem: `n_obs`, the `prior`, the log prior
+#'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
+#'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
+#'   then the settings of the call (`update`, `control`, `call`), the chains'
 #'   `seeds`, the `runtime` in seconds (`precompute` and `sampling`) and
 #'   `head_length`, the mean head length of each chain's \eqn{\theta} draws
-#'   (see Details). Use [summary()][summary.griddy_fit],
+#'   (see Details). Each object is held once, so `saveRDS(fit)` writes the
+#'   library once. Use [summary()][summary.griddy_fit],
 #'   [plot()][plot.griddy_fit], [predict()][predict.griddy_fit],
 #'   [as.data.frame()][as.data.frame.griddy_fit] and [coda::as.mcmc.list()]
 #'   on it.
@@ -93,7 +111,7 @@
 #' @export
 calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                       burn_in = 15000, thin = 1, chains = 1,
-                      prior = list(shape = 1e-9, rate = 1e-9),
+                      prior = NULL,
                       update = c("collapsed", "thesis"), seed = NULL,
                       progress = interactive(), x_power = 2, run_weights = NULL) {
   call <- match.call()
@@ -133,16 +151,15 @@ sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
 }
 
 # What the theta draws need besides C, computed once before any chain runs:
-# the run order of every grid column (thesis update) or the truncated CDF of
-# every column (collapsed update); see the Details of calibrate().
+# the truncated CDF of every column (collapsed update) or the run order of
+# every column (thesis update); see the Details of calibrate().
 sampler_tables <- function(problem, update, tol = draw_tolerance()) {
   if (update == "collapsed") {
-    list(order = matrix(0L, 0, 0), tol = tol,
-         heads = collapsed_heads_cpp(problem$C, problem$log_prior_run,
+    list(heads = collapsed_heads_cpp(problem$C, problem$log_prior_run,
                                      problem$prior$shape + problem$n_obs / 2,
                                      problem$prior$rate, tol))
   } else {
-    list(order = run_order_cpp(problem$C), heads = list(), tol = tol)
+    list(order = run_order_cpp(problem$C))
   }
 }
 
@@ -157,20 +174,34 @@ draw_tolerance <- function() {
   tol
 }
 
+# The options of gibbs_chain_cpp() (src/gibbs_chain.cpp, struct
+# SamplerOptions) that do not change along a chain.
+sampler_options <- function(problem, update, control, tol = draw_tolerance()) {
+  list(update = update, n_obs = problem$n_obs, shape = problem$prior$shape,
+       rate = problem$prior$rate, tol = tol, burn_in = control$burn_in,
+       thin = control$thin, logdet = problem$setup$logdet,
+       log_prior_run = problem$log_prior_run, log_prior_grid = problem$log_prior_grid)
+}
+
 # Run every chain from its own seed, so each chain's draws depend only on its
 # seed (not on the order the chains run in, nor on where they run), and the
 # whole fit on set.seed(). Under a parallel future plan (see
 # future::plan()) the chains run on its workers; otherwise one after another.
 run_chains <- function(problem, tables, update, control, seeds) {
-  inputs <- list(C = problem$C, order = tables$order, heads = tables$heads,
-                 tol = tables$tol, logdet = problem$setup$logdet,
-                 log_prior_run = problem$log_prior_run, log_prior_rho = problem$log_prior_rho,
-                 n_obs = problem$n_obs, prior = problem$prior,
-                 tau_start = 1 / stats::var(problem$y_field), collapsed = update == "collapsed")
+  inputs <- list(C = problem$C, tables = tables,
+                 options = sampler_options(problem, update, control),
+                 tau_start = 1 / stats::var(problem$y_field))
   if (parallel_plan()) {
-    return(future.apply::future_lapply(seeds, run_chain, inputs = inputs,
-                                       control = control, bar = NULL,
-                                       future.seed = NULL, future.packages = "griddy"))
+    # an interrupt here leaves the futures running: tell them to stop (see
+    # ?calibrate, Interrupts)
+    stop_file <- tempfile("griddy-stop-")
+    done <- FALSE
+    on.exit(if (!done) file.create(stop_file), add = TRUE)
+    out <- future.apply::future_lapply(seeds, run_chain, inputs = inputs,
+                                       control = control, bar = NULL, stop_file = stop_file,
+                                       future.seed = NULL, future.packages = "griddy")
+    done <- TRUE
+    return(out)
   }
   bar <- if (control$progress) {
     cli::cli_progress_bar("Sampling", total = control$chains * control$n_iter,
@@ -187,45 +218,49 @@ parallel_plan <- function() {
     future::nbrOfWorkers() > 1L
 }
 
-run_chain <- function(seed, inputs, control, bar) {
-  chunk <- if (!is.null(bar)) max(1L, ceiling(control$n_iter / 50)) else control$n_iter
+# One chain, in pieces of a fiftieth of n_iter (for the progress bar and the
+# stop file), each piece continuing the last one's state and random stream.
+run_chain <- function(seed, inputs, control, bar, stop_file = NULL) {
+  piece <- max(1L, ceiling(control$n_iter / 50))
   with_seed(seed, {
-    state <- list(rho = sample.int(ncol(inputs$C), 1L) - 1L, tau = inputs$tau_start)
+    state <- list(grid_point = sample.int(ncol(inputs$C), 1L) - 1L, tau = inputs$tau_start)
     if (!is.finite(state$tau)) state$tau <- 1
     pieces <- list()
     head_total <- 0
-    for (first in seq(1L, control$n_iter, by = chunk)) {
-      n <- min(chunk, control$n_iter - first + 1L)
-      res <- gibbs_chain_cpp(inputs$C, inputs$order, inputs$heads, inputs$logdet,
-                             inputs$log_prior_run, inputs$log_prior_rho, inputs$n_obs,
-                             inputs$prior$shape, inputs$prior$rate, inputs$collapsed,
-                             inputs$tol, n, first, control$burn_in, control$thin,
-                             state$rho, state$tau)
-      state <- list(rho = res$rho_state, tau = res$tau_state)
+    for (first in seq(1L, control$n_iter, by = piece)) {
+      if (!is.null(stop_file) && file.exists(stop_file)) {
+        griddy_abort("Interrupted: the chain stopped at iteration ", first - 1L, ".",
+                     class = "interrupted")
+      }
+      options <- c(inputs$options, n_iter = min(piece, control$n_iter - first + 1L),
+                   first_iter = first)
+      res <- gibbs_chain_cpp(inputs$C, inputs$tables, options, state$grid_point, state$tau)
+      state <- list(grid_point = res$grid_state, tau = res$tau_state)
       head_total <- head_total + res$head_total
-      pieces[[length(pieces) + 1L]] <- res[c("run", "rho", "tau")]
-      if (!is.null(bar)) cli::cli_progress_update(inc = n, id = bar)
+      pieces[[length(pieces) + 1L]] <- res[c("run", "grid_point", "tau")]
+      if (!is.null(bar)) cli::cli_progress_update(inc = options$n_iter, id = bar)
     }
-    out <- lapply(c(run = "run", rho = "rho", tau = "tau"),
+    out <- lapply(c(run = "run", grid_point = "grid_point", tau = "tau"),
                   function(v) unlist(lapply(pieces, `[[`, v), use.names = FALSE))
     out$head_length <- head_total / control$n_iter
     out
   })
 }
 
+# The fit is the problem (library, field, grid, setup, C, priors: each held
+# once) plus the draws and the settings of the call.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
   draws <- data.table::rbindlist(lapply(seq_along(out$chains), function(ch) {
     d <- out$chains[[ch]]
     list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
-         rho = d$rho, tau = d$tau)
+         grid_point = d$grid_point, tau = d$tau)
   }))
   structure(
-    list(draws = as.data.frame(draws), grid = problem$setup$grid,
-         library = problem$library, y_field = problem$y_field, problem = problem,
-         update = update, control = control, seeds = out$seeds, call = call,
-         runtime = runtime,
-         head_length = vapply(out$chains, function(d) d$head_length, numeric(1))),
+    c(list(draws = as.data.frame(draws)), problem,
+      list(update = update, control = control, seeds = out$seeds, call = call,
+           runtime = runtime,
+           head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
     class = "griddy_fit"
   )
 }

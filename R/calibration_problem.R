@@ -1,22 +1,31 @@
 # What calibrate() and posterior_exact() share: the validated inputs, the
-# correlation setup and the quadratic forms C (runs x correlation grid).
+# correlation setup and the quadratic forms C (runs x correlation grid). A
+# griddy_fit is this problem plus the draws, so every function that takes a
+# problem also takes a fit.
 
 calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
                                 run_weights) {
   check_library(library)
   y_field <- field_vector(library, field)
-  prior <- assert_prior(prior)
+  default_prior <- is.null(prior)
+  prior <- assert_prior(if (default_prior) thesis_prior() else prior)
   log_prior_run <- log_run_weights(run_weights, lib_n_runs(library))
   setup <- correlation_setup(library, rho_x, rho_t, x_power)
-  C <- quad_forms(library, y_field, setup)
+  C <- misfit_table(library, y_field, setup)
   if (prior$rate == 0 && any(C == 0)) {
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
-  list(library = library, y_field = y_field, n_obs = length(y_field), prior = prior,
-       log_prior_run = log_prior_run, setup = setup, C = C,
-       log_prior_rho = rep(-log(ncol(C)), ncol(C)))
+  problem <- list(library = library, y_field = y_field, n_obs = length(y_field),
+                  prior = prior, log_prior_run = log_prior_run, setup = setup,
+                  grid = rho_grid(library, rho_x, rho_t), C = C,
+                  log_prior_grid = rep(-log(ncol(C)), ncol(C)))
+  if (default_prior) warn_prior_scale(problem)
+  problem
 }
+
+# The thesis's vague Gamma prior on tau (eq. 3.8).
+thesis_prior <- function() list(shape = 1e-9, rate = 1e-9)
 
 log_run_weights <- function(run_weights, n_runs) {
   if (is.null(run_weights)) {
@@ -25,7 +34,7 @@ log_run_weights <- function(run_weights, n_runs) {
   w <- assert_numeric_vector(run_weights, "run_weights")
   if (length(w) != n_runs) {
     griddy_abort("`run_weights` must have one weight per library run (", n_runs,
-                 "); received ", length(w), ".")
+                 "); received ", length(w), ".", class = "shape")
   }
   if (any(w < 0) || sum(w) <= 0) {
     griddy_abort("`run_weights` must be >= 0 with a positive sum.")
@@ -33,16 +42,24 @@ log_run_weights <- function(run_weights, n_runs) {
   log(w / sum(w))
 }
 
-# log p(run i, grid point g | y) up to the normalising constant, with tau
-# integrated out: log pi_i + log pi_g - 1/2 log|R_g| - (a + n/2) log(b + C_ig/2).
-collapsed_log_joint <- function(problem) {
-  shape_post <- problem$prior$shape + problem$n_obs / 2
-  lj <- -shape_post * log(problem$prior$rate + problem$C / 2)
-  lj <- sweep(lj, 2, problem$log_prior_rho - problem$setup$logdet / 2, "+")
-  lj + problem$log_prior_run
-}
+# The Gamma(a, b) prior on tau enters the posterior as (b + C/2)^-(a + n/2):
+# against b = 0 it multiplies each run's weight by about exp(-n b / C), so it
+# is negligible only while n b / C is small for the runs that carry the
+# posterior. b is in the units of the squared outputs, so a default that is
+# negligible for outputs near 1 can dominate for outputs near 1e-6: then the
+# answer depends on the units. A prior the user chose is their statement;
+# the default is ours, so warn when it is not negligible (n b / C_min
+# above 1%, which moves the posterior by about that much).
+prior_influence_threshold <- 0.01
 
-log_sum_exp <- function(v) {
-  top <- max(v)
-  top + log(sum(exp(v - top)))
+warn_prior_scale <- function(problem) {
+  influence <- problem$n_obs * problem$prior$rate / max(min(problem$C), 1e-300)
+  if (influence > prior_influence_threshold) {
+    griddy_warn("The Gamma prior on tau (rate ", format(problem$prior$rate), ") is not ",
+                "negligible against the data: n * rate / (smallest misfit) = ",
+                format(influence, digits = 3), ", so the posterior depends on the ",
+                "outputs' units. Rescale the outputs and field data, or set a rate in ",
+                "their units (e.g. `prior = list(shape = 1e-9, rate = 0)`, scale-free).",
+                class = "prior")
+  }
 }

@@ -1,5 +1,5 @@
-# The correlation R = R_x (x) R_t of thesis Appendix B and the precomputed
-# quadratic forms C_ig over a grid of correlation parameters.
+# The correlation functions R = R_x (x) R_t of thesis Appendix B and the grid
+# of their parameters; what one grid point holds is in grid_posterior.R.
 #
 # R_x[k, l] = prod_j rho_j ^ (4^(p - 1) |x_kj - x_lj|^p), x scaled to [0, 1] per
 #   column: p = 2 gives eq. 3.14 (rho^(4 d^2)), p = 1 Appendix A's eq. 5 (rho^|d|).
@@ -102,45 +102,4 @@ corr_t <- function(t, rho) {
   s <- scale_unit(t)
   d <- abs(outer(s, s, "-"))
   if (rho == 0) (d == 0) * 1 else rho^d
-}
-
-# Everything the sampler needs about the correlation: the grid, R_x^{-1} per x
-# combination, phi per rho_t, log|R_g| per grid point (eq. 10, 12-13).
-correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
-  if (!is.numeric(x_power) || length(x_power) != 1L || !is.finite(x_power) ||
-      x_power <= 0 || x_power > 2) {
-    griddy_abort("`x_power` must be a single number in (0, 2]; received ",
-                 paste(format(x_power), collapse = ", "), ".")
-  }
-  grids <- rho_grids(library, rho_x, rho_t)
-  n_x <- lib_n_x(library)
-  n_t <- lib_n_t(library)
-  combos <- expand.grid(grids$x, KEEP.OUT.ATTRS = FALSE)
-  Rx_inv <- array(0, c(n_x, n_x, nrow(combos)))
-  logdet_x <- numeric(nrow(combos))
-  for (gx in seq_len(nrow(combos))) {
-    rho <- unlist(combos[gx, , drop = FALSE])
-    U <- tryCatch(chol(corr_x(library$x, rho, x_power)), error = function(e) NULL)
-    if (is.null(U) || any(diag(U) < 1e-7)) {
-      griddy_abort("R_x is numerically singular at ", paste0(names(rho), " = ", rho,
-                   collapse = ", "), ": the x settings are too close for this ",
-                   "correlation. Use smaller values in `rho_x`.")
-    }
-    Rx_inv[, , gx] <- chol2inv(U)
-    logdet_x[gx] <- 2 * sum(log(diag(U)))
-  }
-  phi <- vapply(grids$t, function(r) ar1_phi(library$t, r), numeric(n_t - 1L))
-  phi <- matrix(phi, nrow = n_t - 1L, ncol = length(grids$t))
-  logdet_t <- colSums(log1p(-phi^2))
-  grid <- rho_grid(library, rho_x, rho_t)
-  gx <- rep(seq_len(nrow(combos)), times = length(grids$t))
-  gt <- rep(seq_along(grids$t), each = nrow(combos))
-  list(grid = grid, Rx_inv = Rx_inv, phi = phi,
-       logdet = n_t * logdet_x[gx] + n_x * logdet_t[gt],
-       x_power = x_power, rho_x = grids$x, rho_t = grids$t)
-}
-
-# The quadratic forms C (runs x grid points) of the field data under each R_g.
-quad_forms <- function(library, y_field, setup) {
-  lib_quad_forms(library, y_field, setup)
 }

@@ -13,21 +13,20 @@ gap_folds <- function(ctx, base_terms, cand_terms) {
 }
 
 fold_one <- function(ctx, tm, k, model) {
-  a <- ctx$a
-  b <- ctx$b
+  a <- ctx$prior$shape
+  b <- ctx$prior$rate
   n <- ctx$n
   m <- ctx$n_t
   cols <- (k - 1L) * m + seq_len(m)
-  lj_full <- terms_log_joint(ctx, tm)
+  # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|, (R^-1)_BB = Px_kk Pt
   ld_bb <- vapply(ctx$nodes, function(node) {
     m * log(node$Px[k, k]) - sum(log1p(-node$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
-  lj <- -(a + (n - m) / 2) * log(b + matrix(Qm, nrow(tm$Q)) / 2)
-  lj <- sweep(lj, 2, node_vec(ctx, "log_prior") - (node_vec(ctx, "logdet") + ld_bb) / 2, "+")
-  lj <- lj + tm$log_prior_run
-  lpd <- (log_sum_exp(lj_full) + log_const(a, b, n)) - (log_sum_exp(lj) + log_const(a, b, n - m))
-  w <- exp(lj - log_sum_exp(lj))
+  lj <- collapsed_log_joint(matrix(Qm, nrow(tm$Q)), n - m, ctx$logdet + ld_bb, ctx$prior,
+                            tm$log_prior_run, ctx$log_prior_grid)
+  lpd <- log_sum_exp(tm$lj) - log_sum_exp(lj)
+  w <- normalise_log(lj)
   y_b <- ctx$y[cols]
   pred <- drop(rowSums(w) %*% tm$Y[, cols, drop = FALSE])
   # physics-only predictive: simulator at the run plus fitted noise (t)

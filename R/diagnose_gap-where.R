@@ -3,8 +3,7 @@
 
 gap_where <- function(ctx, tm, windows, fdr) {
   win <- gap_windows(ctx, tm, windows)
-  lj <- terms_log_joint(ctx, tm)
-  w <- exp(lj - log_sum_exp(lj))
+  w <- normalise_log(tm$lj)
   pairs <- top_pairs(w, 0.999, 200L)
   wp <- w[pairs] / sum(w[pairs])
   pairs <- arrayInd(pairs, dim(w))
@@ -14,8 +13,8 @@ gap_where <- function(ctx, tm, windows, fdr) {
   stat <- matrix(0, nrow(pairs), nb)
   pval <- matrix(0, nrow(pairs), nb)
   lcond <- matrix(0, nrow(pairs), nb)                    # log p(y_B | y_-B, pair)
-  a <- ctx$a
-  b <- ctx$b
+  a <- ctx$prior$shape
+  b <- ctx$prior$rate
   n <- ctx$n
   for (g in unique(pairs[, 2])) {
     node <- ctx$nodes[[g]]
@@ -40,9 +39,10 @@ gap_where <- function(ctx, tm, windows, fdr) {
         f <- (D / m) / (rest / nu)
         stat[p, i] <- f
         pval[p, i] <- stats::pf(f, m, nu, lower.tail = FALSE)
-        lcond[p, i] <- sum(log(diag(U))) + lgamma(a + n / 2) - lgamma(a + (n - m) / 2) -
-          m / 2 * log(2 * pi) - (a + n / 2) * log(b + Q / 2) +
-          (a + (n - m) / 2) * log(rest / 2)
+        # log p(y_B | y_-B) = log p(y) - log p(y_-B) at this (run, grid point);
+        # |R_-B| = |R| |(R^-1)_BB|
+        lcond[p, i] <- collapsed_log_lik(Q, n, 0, ctx$prior) -
+          collapsed_log_lik(rest - 2 * b, n - m, 2 * sum(log(diag(U))), ctx$prior)
       }
     }
   }
@@ -76,8 +76,7 @@ gap_windows <- function(ctx, tm, windows) {
   }
   if (is.null(windows)) {
     if (n_t == 1L) return(list(1L))
-    lj <- terms_log_joint(ctx, tm)
-    g <- arrayInd(which.max(lj), dim(lj))[2]
+    g <- arrayInd(which.max(tm$lj), dim(tm$lj))[2]
     phi <- ctx$nodes[[g]]$phi
     # correlation length in samples: lag at which the correlation falls to 1/e
     lag1 <- stats::median(phi)
@@ -106,7 +105,7 @@ gap_windows <- function(ctx, tm, windows) {
 gap_map <- function(ctx, tm, w) {
   wr <- rowSums(w)
   resid <- colSums(tm$E * wr)
-  sigma <- sqrt(sum(w * (ctx$b + tm$Q / 2) / (ctx$a + ctx$n / 2)))
+  sigma <- sqrt(sum(w * (ctx$prior$rate + tm$Q / 2) / (ctx$prior$shape + ctx$n / 2)))
   data.frame(x = rep(seq_len(ctx$n_x), each = ctx$n_t), t = rep(ctx$t, ctx$n_x),
              residual = resid, z = resid / sigma)
 }

@@ -135,17 +135,18 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   log_prior_model <- model_prior(prior_models, models)
 
   ctx <- gap_context(fit)
-  base_terms <- gap_terms(ctx, lib_outputs(base), fit$problem$log_prior_run, Q = fit$problem$C)
+  # the base model's runs x grid table, built once for the whole call
+  base_terms <- gap_terms(ctx, lib_outputs(base), fit$log_prior_run, Q = fit$C)
   cand_terms <- lapply(candidates, function(cand) {
     gap_terms(ctx, lib_outputs(cand), candidate_log_prior(cand, names(base$theta)))
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
-  log_ev <- c(none = terms_log_evidence(ctx, base_terms),
-              vapply(cand_terms, function(tm) terms_log_evidence(ctx, tm), numeric(1)),
+  log_ev <- c(none = log_sum_exp(base_terms$lj),
+              vapply(cand_terms, function(tm) log_sum_exp(tm$lj), numeric(1)),
               other = other)
   post <- log_ev + log_prior_model
-  prob <- exp(post - log_sum_exp(post))
+  prob <- normalise_log(post)
   screen <- lapply(names(candidates), function(nm) {
     sc <- confounding_screen(ctx, base_terms, candidates[[nm]], names(base$theta),
                              confounding_threshold)
@@ -283,65 +284,29 @@ model_prior <- function(prior_models, models) {
 
 # ---- the fitted noise model, per correlation grid point ------------------------
 
+# The fit's noise model: one node per correlation grid point, holding the
+# grid point (grid_posterior.R) and the dense inverse correlations that the
+# block checks need.
 gap_context <- function(fit) {
-  pr <- fit$problem
   lib <- fit$library
-  setup <- pr$setup
+  setup <- fit$setup
   n_x <- lib_n_x(lib)
   n_t <- lib_n_t(lib)
-  combos <- expand.grid(setup$rho_x, KEEP.OUT.ATTRS = FALSE)
-  G_x <- nrow(combos)
-  nodes <- lapply(seq_len(ncol(pr$C)), function(g) {
-    gx <- (g - 1L) %% G_x + 1L
-    gt <- (g - 1L) %/% G_x + 1L
-    Rx <- corr_x(lib$x, unlist(combos[gx, , drop = FALSE]), setup$x_power)
-    U <- chol(Rx)
-    A_x <- t(backsolve(U, diag(n_x)))
-    phi <- if (n_t > 1L) setup$phi[, gt] else numeric(0)
-    A_t <- ar1_whitener(phi, n_t)
-    list(phi = phi, A_x = A_x, Px = crossprod(A_x), Pt = crossprod(A_t),
-         Rt = if (n_t > 1L) solve(crossprod(A_t)) else matrix(1, 1, 1),
-         logdet = setup$logdet[g], log_prior = pr$log_prior_rho[g])
+  nodes <- lapply(seq_len(n_grid_points(setup)), function(g) {
+    point <- grid_point(setup, g)
+    # rows of the whitened / coloured identity are the columns of A_t, L_t
+    A_t <- t(ar1_whiten_rows_cpp(diag(n_t), point$phi, 1L))
+    c(point, list(Px = point$Rx_inv, Pt = crossprod(A_t),
+                  Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), point$phi, 1L))),
+                  log_prior = fit$log_prior_grid[g]))
   })
-  list(n_x = n_x, n_t = n_t, n = pr$n_obs, y = pr$y_field, a = pr$prior$shape,
-       b = pr$prior$rate, nodes = nodes, setup = setup, x = lib$x, t = lib$t,
-       theta = lib$theta)
+  list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
+       nodes = nodes, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
+       logdet = setup$logdet, log_prior_grid = fit$log_prior_grid)
 }
 
-ar1_whitener <- function(phi, n_t) {
-  A <- diag(n_t)
-  if (n_t > 1L) {
-    s <- 1 / sqrt(1 - phi^2)
-    for (j in seq_along(phi)) {
-      A[j + 1L, j + 1L] <- s[j]
-      A[j + 1L, j] <- -phi[j] * s[j]
-    }
-  }
-  A
-}
-
-# Whiten rows (vectors in library order, blocks by x) so that squared norms
-# are quadratic forms in R_g^{-1}.
-gap_whiten <- function(M, node, n_x, n_t, mix = TRUE) {
-  J <- nrow(M)
-  if (n_t > 1L) {
-    s <- 1 / sqrt(1 - node$phi^2)
-    for (k in seq_len(n_x)) {
-      cols <- (k - 1L) * n_t + seq_len(n_t)
-      X <- M[, cols, drop = FALSE]
-      X[, -1L] <- (X[, -1L, drop = FALSE] - X[, -n_t, drop = FALSE] *
-                     rep(node$phi, each = J)) * rep(s, each = J)
-      M[, cols] <- X
-    }
-  }
-  if (n_x > 1L && mix) {
-    M <- matrix(matrix(M, J * n_t, n_x) %*% t(node$A_x), J, n_x * n_t)
-  }
-  M
-}
-
-# Per model: Q (runs x nodes), the leave-setting-out pieces D (runs x nodes x
-# settings) and the outputs.
+# Per model: Q (runs x nodes), its log joint lj, the leave-setting-out pieces
+# D (runs x nodes x settings) and the outputs.
 gap_terms <- function(ctx, Y, log_prior_run,
                       Q = quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)) {
   n_x <- ctx$n_x
@@ -355,29 +320,13 @@ gap_terms <- function(ctx, Y, log_prior_run,
     # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = Px (x) Pt it is
     # v_k' Pt v_k / Px_kk, v_k = sum_l Px_lk e_l (the AR(1) innovations of v_k).
     V <- matrix(matrix(E, J * n_t, n_x) %*% node$Px, J, n_x * n_t)
-    W <- gap_whiten(V, list(phi = node$phi), n_x, n_t, mix = FALSE)
+    W <- whiten_rows(V, node, n_x, n_t, over_x = FALSE)
     for (k in seq_len(n_x)) {
       D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Px[k, k]
     }
   }
-  list(Y = Y, E = E, Q = Q, D = D, log_prior_run = log_prior_run)
-}
-
-node_vec <- function(ctx, what) vapply(ctx$nodes, `[[`, numeric(1), what)
-
-# log p(y | run, node) + log prior, up to constants shared by all models.
-terms_log_joint <- function(ctx, tm) {
-  lj <- -(ctx$a + ctx$n / 2) * log(ctx$b + tm$Q / 2)
-  lj <- sweep(lj, 2, node_vec(ctx, "log_prior") - node_vec(ctx, "logdet") / 2, "+")
-  lj + tm$log_prior_run
-}
-
-log_const <- function(a, b, n) {
-  (if (b > 0) a * log(b) else 0) - lgamma(a) + lgamma(a + n / 2) - n / 2 * log(2 * pi)
-}
-
-terms_log_evidence <- function(ctx, tm) {
-  log_sum_exp(terms_log_joint(ctx, tm)) + log_const(ctx$a, ctx$b, ctx$n)
+  lj <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
+  list(Y = Y, E = E, Q = Q, lj = lj, D = D, log_prior_run = log_prior_run)
 }
 
 # ---- "other": the base model plus a generic smooth discrepancy ---------------
@@ -411,23 +360,22 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
       R <- kronecker(solve(node$Px), node$Rt)
       vapply(ratios, function(s) {
         L <- chol(R + s * K)
-        Q <- colSums(backsolve(L, Et, transpose = TRUE)^2)
-        lj <- -(ctx$a + n / 2) * log(ctx$b + Q / 2) + node$log_prior -
-          sum(log(diag(L))) + base_terms$log_prior_run
-        log_sum_exp(lj)
+        Q <- matrix(colSums(backsolve(L, Et, transpose = TRUE)^2))
+        log_sum_exp(collapsed_log_joint(Q, n, 2 * sum(log(diag(L))), ctx$prior,
+                                        base_terms$log_prior_run, node$log_prior))
       }, numeric(1))
     }))
   }))
-  log_sum_exp(pieces) - log(length(kernels) * length(ratios)) + log_const(ctx$a, ctx$b, n)
+  log_sum_exp(pieces) - log(length(kernels) * length(ratios))
 }
 
 # ---- confounding with theta ---------------------------------------------------
 
 confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
-  lj <- terms_log_joint(ctx, base_terms)
+  lj <- base_terms$lj
   top <- arrayInd(which.max(lj), dim(lj))
   node <- ctx$nodes[[top[2]]]
-  tau_hat <- (ctx$a + ctx$n / 2) / (ctx$b + base_terms$Q[top[1], top[2]] / 2)
+  tau_hat <- (ctx$prior$shape + ctx$n / 2) / (ctx$prior$rate + base_terms$Q[top[1], top[2]] / 2)
   theta_b <- as.matrix(ctx$theta[base_cols])
   lo <- apply(theta_b, 2, min)
   span <- pmax(apply(theta_b, 2, max) - lo, 1e-300)
@@ -437,7 +385,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   strength <- as.matrix(cand$theta[setdiff(names(cand$theta), base_cols)])
   level <- strength_levels(strength)
   zero <- rowSums(abs(strength)) == 0
-  Wb <- gap_whiten(base_terms$Y, node, ctx$n_x, ctx$n_t)
+  Wb <- whiten_rows(base_terms$Y, node, ctx$n_x, ctx$n_t)
   near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
   m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
   # the part of output w that no base run (best one, refined linearly on its
@@ -458,7 +406,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
     i1 <- near(tb[top[1], ], which(level == lv))
     i0 <- near(tc[i1, ], which(zero))
-    w <- gap_whiten(lib_outputs(cand, c(i1, i0)), node, ctx$n_x, ctx$n_t)
+    w <- whiten_rows(lib_outputs(cand, c(i1, i0)), node, ctx$n_x, ctx$n_t)
     delta <- sqrt(sum((w[1, ] - w[2, ])^2))
     im <- imitate(w[1, ])
     shift <- abs(tb[im$j, ] - tc[i0, ])

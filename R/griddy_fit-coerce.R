@@ -25,7 +25,7 @@ as.data.frame.griddy_fit <- function(x, row.names = NULL, optional = FALSE, ...)
   out <- cbind(d[c("chain", "iteration", "run")],
                x$library$theta[d$run, , drop = FALSE],
                tau = d$tau,
-               x$grid[d$rho, , drop = FALSE])
+               x$grid[d$grid_point, , drop = FALSE])
   rownames(out) <- NULL
   out
 }

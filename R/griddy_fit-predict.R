@@ -7,41 +7,82 @@
 #' predictive check.
 #'
 #' @param object A `griddy_fit` from [calibrate()].
+#' @param newdata `NULL` (all of the library's x settings), or a data.frame
+#'   of x settings, with the library's x columns, each one of the library's
+#'   settings: the prediction is then at those settings, in that order. A
+#'   library holds the simulator's outputs at its own settings only, so other
+#'   settings are an error.
 #' @param level Probability of the central intervals.
 #' @param ndraws How many draws (evenly spaced over the kept ones) to add noise
 #'   to for the predictive bounds; the mean and the bounds without noise use
 #'   every kept draw.
 #' @param seed `NULL`, or a seed for the noise draws of this call only.
 #' @param ... Ignored.
-#' @return A data.frame with one row per field measurement, in the library's
-#'   order: `x` (the row of the library's x settings), the x columns, `t`,
+#' @return A data.frame with one row per field measurement at the settings
+#'   predicted (the library's order, or `newdata`'s): `x` (the row of the library's x settings), the x columns, `t`,
 #'   `observed` (the field data), `mean`, `lower` and `upper` (the simulator
 #'   outputs at the drawn runs) and `pred_lower`, `pred_upper` (with noise).
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #' head(predict(fit, ndraws = 200, seed = 1))
+#' predict(fit, newdata = data.frame(mass = 2), ndraws = 200, seed = 1)
 #' @export
-predict.griddy_fit <- function(object, level = 0.95, ndraws = 1000, seed = NULL, ...) {
+predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 1000,
+                               seed = NULL, ...) {
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   lib <- object$library
+  settings <- predict_settings(lib, newdata)
+  cols <- as.vector(outer(seq_len(lib_n_t(lib)), (settings - 1L) * lib_n_t(lib), "+"))
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
   freq <- tabulate(object$draws$run, nbins = lib_n_runs(lib))
   visited <- which(freq > 0)
-  Y <- lib_outputs(lib, visited)
+  Y <- lib_outputs(lib, visited)[, cols, drop = FALSE]
   w <- freq[visited] / sum(freq)
   bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
-  noisy <- with_seed(seed, noisy_outputs(object, pick))
+  noisy <- with_seed(seed, noisy_outputs(object, pick))[, cols, drop = FALSE]
   pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE)
-  out <- data.frame(x = rep(seq_len(lib_n_x(lib)), each = lib_n_t(lib)))
-  if (!is.null(lib$x)) out <- cbind(out, lib$x[out$x, , drop = FALSE])
-  out <- cbind(out, t = rep(lib$t, lib_n_x(lib)), observed = object$y_field,
+  out <- data.frame(x = rep(settings, each = lib_n_t(lib)))
+  if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[out$x, , drop = FALSE])
+  out <- cbind(out, t = rep(lib_t(lib), length(settings)), observed = object$y_field[cols],
                mean = colSums(Y * w), lower = bounds[1, ], upper = bounds[2, ],
                pred_lower = pred[1, ], pred_upper = pred[2, ])
   rownames(out) <- NULL
   out
+}
+
+# The library x settings (row numbers) that `newdata` names.
+predict_settings <- function(lib, newdata) {
+  n_x <- lib_n_x(lib)
+  if (is.null(newdata)) return(seq_len(n_x))
+  if (!is.data.frame(newdata) || nrow(newdata) < 1L) {
+    griddy_abort("`newdata` must be NULL or a data.frame of x settings; received ",
+                 class(newdata)[1], if (is.data.frame(newdata)) " with no rows", ".")
+  }
+  x_lib <- lib_x(lib)
+  if (is.null(x_lib)) {
+    griddy_abort("`newdata` cannot be used: the library has a single x setting and no x ",
+                 "columns, so predict() predicts there (use newdata = NULL).")
+  }
+  missing_cols <- setdiff(names(x_lib), names(newdata))
+  if (length(missing_cols) > 0L) {
+    griddy_abort("`newdata` lacks the library's x column(s) ", show_some(missing_cols), ".")
+  }
+  nd <- as_numeric_matrix(newdata[names(x_lib)], "newdata")
+  hit <- vapply(seq_len(nrow(nd)), function(r) {
+    same <- which(Reduce(`&`, Map(same_values, x_lib, nd[r, ])))
+    if (length(same) == 0L) NA_integer_ else same[1]
+  }, integer(1))
+  if (anyNA(hit)) {
+    bad <- which(is.na(hit))
+    griddy_abort("`newdata` row(s) ", show_some(bad), " (", show_some(apply(
+      nd[bad, , drop = FALSE], 1, function(v) paste0(names(x_lib), " = ", v, collapse = ", "))),
+      ") are not x settings of the library: griddy predicts from the simulator runs it ",
+      "has, which are at the library's settings only (", n_x, " setting(s)).")
+  }
+  hit
 }
 
 weighted_quantile <- function(v, w, probs) {
@@ -50,29 +91,19 @@ weighted_quantile <- function(v, w, probs) {
   v[o][vapply(probs, function(p) which(cw >= p - 1e-12)[1], integer(1))]
 }
 
-# Library outputs at the chosen draws plus N(0, R_x (x) R_t / tau) noise: one
-# row per draw. Noise is built as Z -> AR(1) recursion over t -> times chol(R_x).
+# Library outputs at the chosen draws plus N(0, R_g / tau) noise: one row
+# per draw, the noise coloured by each draw's grid point (grid_posterior.R).
 noisy_outputs <- function(fit, pick) {
   lib <- fit$library
-  setup <- fit$problem$setup
   n_x <- lib_n_x(lib)
   n_t <- lib_n_t(lib)
   d <- fit$draws[pick, ]
-  n_gx <- dim(setup$Rx_inv)[3]
-  combos <- expand.grid(setup$rho_x, KEEP.OUT.ATTRS = FALSE)
   out <- lib_outputs(lib, d$run)
-  for (g in unique(d$rho)) {
-    rows <- which(d$rho == g)
-    gx <- (g - 1L) %% n_gx + 1L
-    gt <- (g - 1L) %/% n_gx + 1L
-    U <- chol(corr_x(lib$x, unlist(combos[gx, , drop = FALSE]), setup$x_power))
-    phi <- setup$phi[, gt]
-    E <- matrix(stats::rnorm(n_t * n_x * length(rows)), n_t)
-    for (j in seq_len(n_t - 1L)) E[j + 1L, ] <- phi[j] * E[j, ] + sqrt(1 - phi[j]^2) * E[j + 1L, ]
-    for (m in seq_along(rows)) {
-      block <- E[, (m - 1L) * n_x + seq_len(n_x), drop = FALSE] %*% U
-      out[rows[m], ] <- out[rows[m], ] + as.vector(block) / sqrt(d$tau[rows[m]])
-    }
+  for (g in unique(d$grid_point)) {
+    rows <- which(d$grid_point == g)
+    Z <- matrix(stats::rnorm(length(rows) * n_x * n_t), length(rows), byrow = TRUE)
+    out[rows, ] <- out[rows, ] + colour_rows(Z, grid_point(fit$setup, g), n_x, n_t) /
+      sqrt(d$tau[rows])
   }
   out
 }

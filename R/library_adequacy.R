@@ -31,7 +31,7 @@ run_adequacy <- function(p, theta) {
 run_probabilities <- function(fit) {
   n_runs <- lib_n_runs(fit$library)
   sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
-  exact <- exact_from_problem(fit$problem)$run
+  exact <- exact_from_problem(fit)$run
   list(sampled = sampled, exact = exact)
 }
 

@@ -34,25 +34,21 @@
 #' exact$log_evidence
 #' @export
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
-                            prior = list(shape = 1e-9, rate = 1e-9),
+                            prior = NULL,
                             x_power = 2, run_weights = NULL) {
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
   exact_from_problem(problem)
 }
 
+# The exact posterior of a calibration problem, or of a fit (which holds its
+# problem).
 exact_from_problem <- function(problem) {
-  lj <- collapsed_log_joint(problem)
-  log_norm <- log_sum_exp(lj)
-  joint <- exp(lj - log_norm)
-  a <- problem$prior$shape
-  b <- problem$prior$rate
-  n <- problem$n_obs
-  log_const <- a * log(b) - lgamma(a) + lgamma(a + n / 2) - n / 2 * log(2 * pi)
-  grid <- problem$setup$grid
-  grid$prob <- colSums(joint)
+  post <- grid_posterior(problem)
+  grid <- problem$grid
+  grid$prob <- colSums(post$joint)
   structure(
-    list(run = rowSums(joint), rho = grid, joint = joint,
-         log_evidence = if (b > 0) log_norm + log_const else NA_real_),
+    list(run = rowSums(post$joint), rho = grid, joint = post$joint,
+         log_evidence = post$log_evidence),
     class = "griddy_exact"
   )
 }

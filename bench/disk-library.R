@@ -50,7 +50,7 @@ if (length(args) == 3 && args[1] == "--calibrate") {
     suppressWarnings(calibrate(lib, field, n_iter = 35000, burn_in = 15000, update = u,
                                seed = 1))
   })
-  saveRDS(list(C = fits$collapsed$problem$C, draws = lapply(fits, `[[`, "draws")),
+  saveRDS(list(C = fits$collapsed$C, draws = lapply(fits, `[[`, "draws")),
           file.path(dir, paste0("result-", mode, ".rds")))
   data.table::fwrite(data.frame(
     mode = mode, open_s = t_open, workers_s = t_workers,

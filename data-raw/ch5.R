@@ -98,12 +98,12 @@ fit_record <- function(fit, warnings, rho_t) {
                                   k = fit$library$theta$k[thin_trace$run],
                                   c = fit$library$theta$c[thin_trace$run],
                                   tau = thin_trace$tau,
-                                  rho_t = fit$grid$rho_t[thin_trace$rho])
+                                  rho_t = fit$grid$rho_t[thin_trace$grid_point])
   rho_post <- NULL
   if (!is.null(fit$grid$rho_t)) {
     rho_post <- data.table::data.table(
       rho_t = fit$grid$rho_t, phi = fit$grid$rho_t^(1 / 499),
-      sampled = tabulate(fit$draws$rho, nbins = nrow(fit$grid)) / nrow(fit$draws),
+      sampled = tabulate(fit$draws$grid_point, nbins = nrow(fit$grid)) / nrow(fit$draws),
       exact = exact$rho$prob)
   }
   ppc <- data.table::as.data.table(predict(fit, ndraws = 1000, seed = seeds[["ppc"]]))

@@ -38,29 +38,43 @@ BEGIN_RCPP
 END_RCPP
 }
 // gibbs_chain_cpp
-Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::IntegerMatrix& order, const Rcpp::List& heads, const arma::vec& logdet, const arma::vec& log_prior_run, const arma::vec& log_prior_rho, double n_obs, double shape, double rate, bool collapsed, double tol, int n_iter, int first_iter, int burn_in, int thin, int rho_start, double tau_start);
-RcppExport SEXP _griddy_gibbs_chain_cpp(SEXP CSEXP, SEXP orderSEXP, SEXP headsSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_rhoSEXP, SEXP n_obsSEXP, SEXP shapeSEXP, SEXP rateSEXP, SEXP collapsedSEXP, SEXP tolSEXP, SEXP n_iterSEXP, SEXP first_iterSEXP, SEXP burn_inSEXP, SEXP thinSEXP, SEXP rho_startSEXP, SEXP tau_startSEXP) {
+Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables, const Rcpp::List& options, int grid_start, double tau_start);
+RcppExport SEXP _griddy_gibbs_chain_cpp(SEXP CSEXP, SEXP tablesSEXP, SEXP optionsSEXP, SEXP grid_startSEXP, SEXP tau_startSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::IntegerMatrix& >::type order(orderSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::List& >::type heads(headsSEXP);
-    Rcpp::traits::input_parameter< const arma::vec& >::type logdet(logdetSEXP);
-    Rcpp::traits::input_parameter< const arma::vec& >::type log_prior_run(log_prior_runSEXP);
-    Rcpp::traits::input_parameter< const arma::vec& >::type log_prior_rho(log_prior_rhoSEXP);
-    Rcpp::traits::input_parameter< double >::type n_obs(n_obsSEXP);
-    Rcpp::traits::input_parameter< double >::type shape(shapeSEXP);
-    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
-    Rcpp::traits::input_parameter< bool >::type collapsed(collapsedSEXP);
-    Rcpp::traits::input_parameter< double >::type tol(tolSEXP);
-    Rcpp::traits::input_parameter< int >::type n_iter(n_iterSEXP);
-    Rcpp::traits::input_parameter< int >::type first_iter(first_iterSEXP);
-    Rcpp::traits::input_parameter< int >::type burn_in(burn_inSEXP);
-    Rcpp::traits::input_parameter< int >::type thin(thinSEXP);
-    Rcpp::traits::input_parameter< int >::type rho_start(rho_startSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type tables(tablesSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type options(optionsSEXP);
+    Rcpp::traits::input_parameter< int >::type grid_start(grid_startSEXP);
     Rcpp::traits::input_parameter< double >::type tau_start(tau_startSEXP);
-    rcpp_result_gen = Rcpp::wrap(gibbs_chain_cpp(C, order, heads, logdet, log_prior_run, log_prior_rho, n_obs, shape, rate, collapsed, tol, n_iter, first_iter, burn_in, thin, rho_start, tau_start));
+    rcpp_result_gen = Rcpp::wrap(gibbs_chain_cpp(C, tables, options, grid_start, tau_start));
+    return rcpp_result_gen;
+END_RCPP
+}
+// ar1_whiten_rows_cpp
+arma::mat ar1_whiten_rows_cpp(const arma::mat& M, const arma::vec& phi, int n_x);
+RcppExport SEXP _griddy_ar1_whiten_rows_cpp(SEXP MSEXP, SEXP phiSEXP, SEXP n_xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type M(MSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< int >::type n_x(n_xSEXP);
+    rcpp_result_gen = Rcpp::wrap(ar1_whiten_rows_cpp(M, phi, n_x));
+    return rcpp_result_gen;
+END_RCPP
+}
+// ar1_colour_rows_cpp
+arma::mat ar1_colour_rows_cpp(const arma::mat& Z, const arma::vec& phi, int n_x);
+RcppExport SEXP _griddy_ar1_colour_rows_cpp(SEXP ZSEXP, SEXP phiSEXP, SEXP n_xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type Z(ZSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< int >::type n_x(n_xSEXP);
+    rcpp_result_gen = Rcpp::wrap(ar1_colour_rows_cpp(Z, phi, n_x));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -144,7 +158,9 @@ END_RCPP
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 1},
     {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 5},
-    {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 17},
+    {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
+    {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
+    {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 4},

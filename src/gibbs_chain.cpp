@@ -1,13 +1,13 @@
 // One chain of the Griddy Gibbs sampler over a precomputed table of quadratic
 // forms C (runs x correlation grid points). Each iteration draws the library
-// run theta, the precision tau and the correlation grid point rho.
+// run theta, the precision tau and the correlation grid point.
 //
-// update = "thesis" (Appendix A.3): theta | tau, rho; tau | theta, rho;
-//   rho | theta, tau.
-// update = "collapsed": theta | rho and rho | theta with tau integrated out
-//   (Gamma-normal), then tau | theta, rho. Given rho, the collapsed
-//   conditional of theta does not depend on the chain's state, so its CDF
-//   (one per grid point) is computed once, before any chain runs.
+// update = "thesis" (Appendix A.3): theta | tau, grid; tau | theta, grid;
+//   grid | theta, tau.
+// update = "collapsed": theta | grid and grid | theta with tau integrated out
+//   (Gamma-normal), then tau | theta, grid. Given the grid point, the
+//   collapsed conditional of theta does not depend on the chain's state, so
+//   its CDF (one per grid point) is computed once, before any chain runs.
 //
 // Both theta draws run over the runs sorted by C_ig, whose weights fall
 // monotonically with C_ig, and keep only the head of that list: the runs
@@ -16,17 +16,113 @@
 #include <RcppArmadillo.h>
 #include <numeric>
 #include <vector>
+#include "grid_posterior.h"
 #include "inverse_cdf.h"
 
-namespace {
+namespace griddy {
 
-// Runs of column g in increasing order of C (ties in run order), 0-based.
-void sort_column(const double* c, arma::uword n, int* order) {
-  std::iota(order, order + n, 0);
-  std::stable_sort(order, order + n, [c](int a, int b) { return c[a] < c[b]; });
+// Everything a chain needs besides C and its tables, read once from R's list.
+struct SamplerOptions {
+  bool collapsed;
+  double shape_post;     // a + n/2
+  double rate;           // b
+  double tol;            // truncation of the theta draws
+  int n_iter, first_iter, burn_in, thin;
+  arma::vec logdet;          // log|R_g| per grid point
+  arma::vec log_prior_run;   // log pi_i per run
+  arma::vec log_prior_grid;  // log pi_g per grid point
+};
+
+SamplerOptions read_options(const Rcpp::List& o, const arma::mat& C) {
+  SamplerOptions s;
+  s.collapsed = Rcpp::as<std::string>(o["update"]) == "collapsed";
+  s.shape_post = Rcpp::as<double>(o["shape"]) + 0.5 * Rcpp::as<double>(o["n_obs"]);
+  s.rate = Rcpp::as<double>(o["rate"]);
+  s.tol = Rcpp::as<double>(o["tol"]);
+  s.n_iter = Rcpp::as<int>(o["n_iter"]);
+  s.first_iter = Rcpp::as<int>(o["first_iter"]);
+  s.burn_in = Rcpp::as<int>(o["burn_in"]);
+  s.thin = Rcpp::as<int>(o["thin"]);
+  s.logdet = Rcpp::as<arma::vec>(o["logdet"]);
+  s.log_prior_run = Rcpp::as<arma::vec>(o["log_prior_run"]);
+  s.log_prior_grid = Rcpp::as<arma::vec>(o["log_prior_grid"]);
+  if (s.log_prior_run.n_elem != C.n_rows || s.logdet.n_elem != C.n_cols ||
+      s.log_prior_grid.n_elem != C.n_cols) {
+    Rcpp::stop("gibbs_chain: C is %d x %d but there are %d run priors, %d grid priors and "
+               "%d log-determinants", static_cast<int>(C.n_rows), static_cast<int>(C.n_cols),
+               static_cast<int>(s.log_prior_run.n_elem),
+               static_cast<int>(s.log_prior_grid.n_elem), static_cast<int>(s.logdet.n_elem));
+  }
+  if (s.thin < 1 || s.n_iter < 0) Rcpp::stop("gibbs_chain: thin must be >= 1, n_iter >= 0");
+  return s;
 }
 
-}  // namespace
+// The collapsed theta | grid point draws: per grid point, the head of the runs
+// sorted by C (0-based run numbers) and their cumulative weights.
+struct CollapsedHeads {
+  Rcpp::IntegerVector start, run;
+  Rcpp::NumericVector cdf;
+};
+
+// Every grid point's runs in increasing order of C, for the thesis update.
+struct SortedRuns {
+  Rcpp::IntegerMatrix order;
+  std::vector<double> budget;  // log-weight budget of the truncation per grid point
+};
+
+// The chain's state and what it accumulates.
+struct ChainState {
+  arma::uword run = 0, grid = 0;
+  double tau = 1.0;
+  double head_total = 0.0;
+};
+
+// theta | grid point, tau integrated out: a binary search in the precomputed CDF.
+void draw_theta_collapsed(const CollapsedHeads& heads, ChainState& st) {
+  const int from = heads.start[st.grid];
+  const arma::uword len = heads.start[st.grid + 1] - from;
+  st.run = heads.run[from + draw_from_cdf(&heads.cdf[from], len)];
+  st.head_total += len;
+}
+
+// theta | tau, grid point (thesis): weights pi_i exp(-tau C_ig / 2) over the
+// head of the sorted runs.
+void draw_theta_given_tau(const arma::mat& C, const SortedRuns& sorted,
+                          const SamplerOptions& o, bool flat_runs, std::vector<double>& log_w,
+                          std::vector<double>& work, ChainState& st) {
+  const arma::uword n_runs = C.n_rows;
+  const double* c = C.colptr(st.grid);
+  const int* order = &sorted.order[st.grid * n_runs];
+  const double c_min = c[order[0]];
+  const arma::uword len = head_length(c, order, n_runs,
+                                      c_min + 2.0 * sorted.budget[st.grid] / st.tau);
+  for (arma::uword j = 0; j < len; ++j) {
+    log_w[j] = given_tau_log_fit(c[order[j]] - c_min, st.tau) +
+      (flat_runs ? 0.0 : o.log_prior_run[order[j]]);
+  }
+  st.run = order[draw_from_log_weights(log_w.data(), len, work.data())];
+  st.head_total += len;
+}
+
+// grid point | theta (tau integrated out when collapsed, else given tau).
+void draw_grid(const arma::mat& C, const SamplerOptions& o, std::vector<double>& log_w,
+               std::vector<double>& work, ChainState& st) {
+  const arma::uword n_grid = C.n_cols;
+  if (n_grid < 2) return;
+  for (arma::uword g = 0; g < n_grid; ++g) {
+    const double fit = o.collapsed ? collapsed_log_fit(C(st.run, g), o.shape_post, o.rate)
+                                   : given_tau_log_fit(C(st.run, g), st.tau);
+    log_w[g] = grid_log_prior(o.log_prior_grid[g], o.logdet[g]) + fit;
+  }
+  st.grid = draw_from_log_weights(log_w.data(), n_grid, work.data());
+}
+
+// tau | theta, grid point ~ Gamma(a + n/2, rate b + C/2).
+void draw_tau(const arma::mat& C, const SamplerOptions& o, ChainState& st) {
+  st.tau = R::rgamma(o.shape_post, 1.0 / (o.rate + 0.5 * C(st.run, st.grid)));
+}
+
+}  // namespace griddy
 
 // Every column's run order (0-based), for the thesis update, whose weights
 // exp(-tau C_ig / 2) change with tau: the head is found per draw.
@@ -35,13 +131,16 @@ Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
   Rcpp::IntegerMatrix order(C.n_rows, C.n_cols);
   for (arma::uword g = 0; g < C.n_cols; ++g) {
     Rcpp::checkUserInterrupt();
-    sort_column(C.colptr(g), C.n_rows, &order[g * C.n_rows]);
+    const double* c = C.colptr(g);
+    int* o = &order[g * C.n_rows];
+    std::iota(o, o + C.n_rows, 0);
+    std::stable_sort(o, o + C.n_rows, [c](int a, int b) { return c[a] < c[b]; });
   }
   return order;
 }
 
-// The collapsed theta | rho draw of every grid point g: the head of the runs
-// sorted by C_ig (those whose weight pi_i (b + C_ig / 2)^-(a + n/2) can
+// The collapsed theta | grid point draw of every grid point g: the head of the
+// runs sorted by C_ig (those whose weight pi_i (b + C_ig / 2)^-(a + n/2) can
 // exceed tol / N of the first run's) and their cumulative weights, scaled so
 // the largest weight is 1. Ragged columns stored end to end: column g is
 // positions start[g] to start[g + 1] - 1 of `run` (0-based) and `cdf`.
@@ -49,6 +148,11 @@ Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
 Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run,
                                double shape_post, double rate, double tol) {
   const arma::uword n = C.n_rows;
+  if (log_prior_run.n_elem != n || n == 0) {
+    Rcpp::stop("collapsed_heads: C has %d rows but there are %d run priors",
+               static_cast<int>(n), static_cast<int>(log_prior_run.n_elem));
+  }
+  if (!C.is_finite()) Rcpp::stop("collapsed_heads: C holds NA, NaN or Inf");
   const double lp_max = log_prior_run.max();
   std::vector<int> start(C.n_cols + 1, 0), runs;
   std::vector<double> cdf, log_w;
@@ -68,7 +172,7 @@ Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_ru
     const arma::uword k = head.size();
     log_w.resize(k);
     for (arma::uword j = 0; j < k; ++j) {
-      log_w[j] = log_prior_run[head[j]] - shape_post * std::log(rate + 0.5 * c[head[j]]);
+      log_w[j] = log_prior_run[head[j]] + griddy::collapsed_log_fit(c[head[j]], shape_post, rate);
     }
     const std::size_t at = cdf.size();
     cdf.resize(at + k);
@@ -81,96 +185,82 @@ Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_ru
                             Rcpp::Named("cdf") = Rcpp::wrap(cdf));
 }
 
+// Runs `options$n_iter` iterations from `state` (grid point 0-based, tau) and
+// returns the kept draws (1-based run and grid point), the final state and
+// the summed head lengths. `tables` holds what the update needs: `heads`
+// (from collapsed_heads_cpp) or `order` (from run_order_cpp).
 // [[Rcpp::export]]
-Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::IntegerMatrix& order,
-                           const Rcpp::List& heads, const arma::vec& logdet,
-                           const arma::vec& log_prior_run, const arma::vec& log_prior_rho,
-                           double n_obs, double shape, double rate, bool collapsed,
-                           double tol, int n_iter, int first_iter, int burn_in, int thin,
-                           int rho_start, double tau_start) {
+Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables,
+                           const Rcpp::List& options, int grid_start, double tau_start) {
+  using namespace griddy;
+  const SamplerOptions o = read_options(options, C);
   const arma::uword n_runs = C.n_rows;
   const arma::uword n_grid = C.n_cols;
-  const double shape_post = shape + 0.5 * n_obs;
-  const bool flat_runs = arma::all(log_prior_run == log_prior_run[0]);
-  const double lp_max = log_prior_run.max();
+  if (grid_start < 0 || static_cast<arma::uword>(grid_start) >= n_grid) {
+    Rcpp::stop("gibbs_chain: the starting grid point %d is not in 0..%d", grid_start,
+               static_cast<int>(n_grid) - 1);
+  }
+
+  CollapsedHeads heads;
+  SortedRuns sorted;
+  if (o.collapsed) {
+    const Rcpp::List h = tables["heads"];
+    heads.start = h["start"];
+    heads.run = h["run"];
+    heads.cdf = h["cdf"];
+    if (heads.start.size() != static_cast<R_xlen_t>(n_grid) + 1) {
+      Rcpp::stop("gibbs_chain: heads for %d grid points, C has %d",
+                 static_cast<int>(heads.start.size()) - 1, static_cast<int>(n_grid));
+    }
+  } else {
+    sorted.order = Rcpp::as<Rcpp::IntegerMatrix>(tables["order"]);
+    if (static_cast<arma::uword>(sorted.order.nrow()) != n_runs ||
+        static_cast<arma::uword>(sorted.order.ncol()) != n_grid) {
+      Rcpp::stop("gibbs_chain: run order is %d x %d, C is %d x %d", sorted.order.nrow(),
+                 sorted.order.ncol(), static_cast<int>(n_runs), static_cast<int>(n_grid));
+    }
+    const double lp_max = o.log_prior_run.max();
+    sorted.budget.resize(n_grid);
+    for (arma::uword g = 0; g < n_grid; ++g) {
+      sorted.budget[g] = log_budget(n_runs, o.tol, lp_max, o.log_prior_run[sorted.order(0, g)]);
+    }
+  }
+  const bool flat_runs = arma::all(o.log_prior_run == o.log_prior_run[0]);
 
   int n_keep = 0;
-  for (int it = first_iter; it < first_iter + n_iter; ++it) {
-    if (it > burn_in && (it - burn_in) % thin == 0) ++n_keep;
+  for (int it = o.first_iter; it < o.first_iter + o.n_iter; ++it) {
+    if (it > o.burn_in && (it - o.burn_in) % o.thin == 0) ++n_keep;
   }
-  Rcpp::IntegerVector run_out(n_keep), rho_out(n_keep);
+  Rcpp::IntegerVector run_out(n_keep), grid_out(n_keep);
   Rcpp::NumericVector tau_out(n_keep);
 
-  // collapsed: the precomputed heads; thesis: the sorted orders and, per grid
-  // point, the log-weight budget of the truncation
-  Rcpp::IntegerVector head_start, head_run;
-  Rcpp::NumericVector head_cdf;
-  std::vector<double> budget(n_grid);
-  if (collapsed) {
-    head_start = heads["start"];
-    head_run = heads["run"];
-    head_cdf = heads["cdf"];
-  } else {
-    for (arma::uword g = 0; g < n_grid; ++g) {
-      budget[g] = griddy::log_budget(n_runs, tol, lp_max, log_prior_run[order(0, g)]);
-    }
-  }
-
   std::vector<double> log_w(std::max(n_runs, n_grid)), work(std::max(n_runs, n_grid));
-  arma::uword rho = static_cast<arma::uword>(rho_start);
-  arma::uword run = 0;
-  double tau = tau_start;
-  double head_total = 0.0;
+  ChainState st;
+  st.grid = static_cast<arma::uword>(grid_start);
+  st.tau = tau_start;
   int k = 0;
-
-  for (int it = first_iter; it < first_iter + n_iter; ++it) {
-    if ((it - first_iter) % 256 == 0) Rcpp::checkUserInterrupt();
-
-    // theta: a library run
-    if (collapsed) {
-      const int from = head_start[rho];
-      const arma::uword len = head_start[rho + 1] - from;
-      run = head_run[from + griddy::draw_from_cdf(&head_cdf[from], len)];
-      head_total += len;
+  for (int it = o.first_iter; it < o.first_iter + o.n_iter; ++it) {
+    if ((it - o.first_iter) % 256 == 0) Rcpp::checkUserInterrupt();
+    if (o.collapsed) {
+      draw_theta_collapsed(heads, st);
+      draw_grid(C, o, log_w, work, st);
+      draw_tau(C, o, st);
     } else {
-      const double* c = C.colptr(rho);
-      const int* o = &order[rho * n_runs];
-      const double c_min = c[o[0]];
-      const arma::uword len = griddy::head_length(c, o, n_runs,
-                                                  c_min + 2.0 * budget[rho] / tau);
-      for (arma::uword j = 0; j < len; ++j) {
-        log_w[j] = -0.5 * tau * (c[o[j]] - c_min) + (flat_runs ? 0.0 : log_prior_run[o[j]]);
-      }
-      run = o[griddy::draw_from_log_weights(log_w.data(), len, work.data())];
-      head_total += len;
+      draw_theta_given_tau(C, sorted, o, flat_runs, log_w, work, st);
+      draw_tau(C, o, st);
+      draw_grid(C, o, log_w, work, st);
     }
-
-    // thesis order: tau before rho
-    if (!collapsed) tau = R::rgamma(shape_post, 1.0 / (rate + 0.5 * C(run, rho)));
-
-    // rho: a correlation grid point
-    if (n_grid > 1) {
-      for (arma::uword g = 0; g < n_grid; ++g) {
-        const double fit = collapsed ? -shape_post * std::log(rate + 0.5 * C(run, g))
-                                     : -0.5 * tau * C(run, g);
-        log_w[g] = log_prior_rho[g] - 0.5 * logdet[g] + fit;
-      }
-      rho = griddy::draw_from_log_weights(log_w.data(), n_grid, work.data());
-    }
-
-    if (collapsed) tau = R::rgamma(shape_post, 1.0 / (rate + 0.5 * C(run, rho)));
-
-    if (it > burn_in && (it - burn_in) % thin == 0) {
-      run_out[k] = static_cast<int>(run) + 1;
-      rho_out[k] = static_cast<int>(rho) + 1;
-      tau_out[k] = tau;
+    if (it > o.burn_in && (it - o.burn_in) % o.thin == 0) {
+      run_out[k] = static_cast<int>(st.run) + 1;
+      grid_out[k] = static_cast<int>(st.grid) + 1;
+      tau_out[k] = st.tau;
       ++k;
     }
   }
   return Rcpp::List::create(Rcpp::Named("run") = run_out,
-                            Rcpp::Named("rho") = rho_out,
+                            Rcpp::Named("grid_point") = grid_out,
                             Rcpp::Named("tau") = tau_out,
-                            Rcpp::Named("rho_state") = static_cast<int>(rho),
-                            Rcpp::Named("tau_state") = tau,
-                            Rcpp::Named("head_total") = head_total);
+                            Rcpp::Named("grid_state") = static_cast<int>(st.grid),
+                            Rcpp::Named("tau_state") = st.tau,
+                            Rcpp::Named("head_total") = st.head_total);
 }

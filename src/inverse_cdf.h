@@ -13,6 +13,12 @@ namespace griddy {
 // First index whose cumulative weight exceeds u * total. `cdf` holds
 // unnormalised cumulative sums, so weights of zero are never drawn.
 inline arma::uword draw_from_cdf(const double* cdf, arma::uword n) {
+  // R validates C before any chain runs; this guards the invariant that a draw
+  // never returns an entry of zero weight (the last, with no weight at all)
+  if (n == 0 || !(cdf[n - 1] > 0.0) || !std::isfinite(cdf[n - 1])) {
+    Rcpp::stop("inverse-CDF draw: the weights sum to %g over %d entries", n ? cdf[n - 1] : 0.0,
+               static_cast<int>(n));
+  }
   const double target = R::unif_rand() * cdf[n - 1];
   const double* hit = std::upper_bound(cdf, cdf + n, target);
   return std::min<arma::uword>(static_cast<arma::uword>(hit - cdf), n - 1);

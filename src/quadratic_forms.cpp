@@ -1,34 +1,46 @@
 // C_ig = (y - g_i)' R_g^{-1} (y - g_i) for every library run i and correlation
 // grid point g, with R_g = kron(R_x, R_t) (thesis Appendix B). The n x n matrix is
 // never formed: R_t is the correlation of an AR(1)/Ornstein-Uhlenbeck process,
-// whose inverse factors into a bidiagonal "innovation" transform W = L_t^{-1} E,
-// and then C = trace(R_x^{-1} W'W).
+// whose inverse factors into a bidiagonal "innovation" transform W = L_t^{-1} E
+// (grid_posterior.h), and then C = trace(R_x^{-1} W'W).
 #include <RcppArmadillo.h>
-#include "quadratic_forms.h"
+#include "grid_posterior.h"
 
-namespace griddy {
+namespace {
 
-// Innovations of the residual blocks E (n_t x n_x) under AR(1) correlation
-// with lag coefficients phi (length n_t - 1): w_1 = e_1,
-// w_{j+1} = (e_{j+1} - phi_j e_j) / sqrt(1 - phi_j^2).
-void ar1_innovations(const arma::mat& E, const arma::vec& phi,
-                     const arma::vec& inv_sd, arma::mat& W) {
-  W.row(0) = E.row(0);
-  for (arma::uword j = 0; j + 1 < E.n_rows; ++j) {
-    W.row(j + 1) = (E.row(j + 1) - phi[j] * E.row(j)) * inv_sd[j];
+// The shapes quad_forms_cpp() is handed must fit together: an edited library
+// or a chunk of the wrong size is an R error here, never a read past a row.
+void check_quad_form_inputs(const arma::mat& Y, const arma::vec& y_field,
+                            const arma::cube& Rx_inv, const arma::mat& phi) {
+  const arma::uword n = y_field.n_elem;
+  const arma::uword n_x = Rx_inv.n_rows;
+  if (n == 0 || n_x == 0 || Rx_inv.n_cols != n_x || n % n_x != 0) {
+    Rcpp::stop("quad_forms: %d field values do not split into %d x settings",
+               static_cast<int>(n), static_cast<int>(n_x));
+  }
+  if (Y.n_cols != n) {
+    Rcpp::stop("quad_forms: the outputs have %d columns but the field data %d values",
+               static_cast<int>(Y.n_cols), static_cast<int>(n));
+  }
+  if (phi.n_rows + 1 != n / n_x) {
+    Rcpp::stop("quad_forms: %d AR(1) lag coefficients for %d outputs per x setting",
+               static_cast<int>(phi.n_rows), static_cast<int>(n / n_x));
+  }
+  if (!Y.is_finite() || !y_field.is_finite()) {
+    Rcpp::stop("quad_forms: the outputs or the field data hold NA, NaN or Inf");
   }
 }
 
-}  // namespace griddy
+}  // namespace
 
 // Runs are processed in blocks of `block` rows of Y, transposed once so each
-// run's outputs are contiguous (Y is column-major: a row is strided), and the
-// innovations are plain loops over raw memory. With R_x not the identity,
-// M = W'W (a matrix product, BLAS-3) is formed once per run and rho_t.
-// C is written straight into R's memory (no copy on return).
+// run's outputs are contiguous (Y is column-major: a row is strided). With
+// R_x not the identity, M = W'W (a matrix product, BLAS-3) is formed once per
+// run and rho_t. C is written straight into R's memory (no copy on return).
 // [[Rcpp::export]]
 Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
-                         const arma::cube& Rx_inv, const arma::mat& phi) {
+                                   const arma::cube& Rx_inv, const arma::mat& phi) {
+  check_quad_form_inputs(Y, y_field, Rx_inv, phi);
   const arma::uword n_runs = Y.n_rows;
   const arma::uword n = y_field.n_elem;
   const arma::uword n_x = Rx_inv.n_rows;
@@ -61,19 +73,10 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
       double* e = E.memptr();
       for (arma::uword k = 0; k < n; ++k) e[k] = y_field[k] - yi[k];
       for (arma::uword gt = 0; gt < G_t; ++gt) {
-        const double* ph = phi.colptr(gt);
-        const double* sd = inv_sd.colptr(gt);
-        double* w = W.memptr();
         double sum_sq = 0.0;
         for (arma::uword x = 0; x < n_x; ++x) {
-          const double* ex = e + x * n_t;
-          double* wx = w + x * n_t;
-          wx[0] = ex[0];
-          sum_sq += wx[0] * wx[0];
-          for (arma::uword j = 0; j + 1 < n_t; ++j) {
-            wx[j + 1] = (ex[j + 1] - ph[j] * ex[j]) * sd[j];
-            sum_sq += wx[j + 1] * wx[j + 1];
-          }
+          sum_sq += griddy::ar1_innovations(e + x * n_t, phi.colptr(gt), inv_sd.colptr(gt),
+                                            n_t, W.colptr(x));
         }
         if (!all_identity) M = W.t() * W;
         for (arma::uword gx = 0; gx < G_x; ++gx) {

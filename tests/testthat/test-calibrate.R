@@ -7,7 +7,7 @@ test_that("the collapsed sampler reproduces the exact posterior over runs and rh
                    chains = 2, seed = 42)
   m <- nrow(fit$draws)
   runs <- tabulate(fit$draws$run, nbins = 500) / m
-  rhos <- tabulate(fit$draws$rho, nbins = 4) / m
+  rhos <- tabulate(fit$draws$grid_point, nbins = 4) / m
   # Monte Carlo tolerance: 3 times the expected distance of independent draws,
   # with the draw count halved for autocorrelation (the collapsed theta draw
   # is exact given rho, so its integrated autocorrelation time is near 1).

@@ -53,10 +53,11 @@ test_that("quadratic forms and log-determinants match the dense Kronecker produc
   y <- field_vector(lib, toy$field)
   setup <- correlation_setup(lib, rho_x = list(load = c(0, 0.6), speed = 0.3),
                              rho_t = c(0, 0.5), x_power = 2)
-  C <- quad_forms(lib, y, setup)
+  C <- misfit_table(lib, y, setup)
   expect_identical(dim(C), c(289L, 4L))
-  for (g in seq_len(nrow(setup$grid))) {
-    gr <- setup$grid[g, ]
+  grid <- rho_grid(lib, rho_x = list(load = c(0, 0.6), speed = 0.3), rho_t = c(0, 0.5))
+  for (g in seq_len(nrow(grid))) {
+    gr <- grid[g, ]
     R <- kronecker(corr_x(lib$x, c(gr$rho_x_load, gr$rho_x_speed)), corr_t(lib$t, gr$rho_t))
     Rinv <- solve(R)
     dense <- apply(lib$y, 1, function(run) drop(crossprod(y - run, Rinv %*% (y - run))))

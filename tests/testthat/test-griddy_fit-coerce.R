@@ -7,7 +7,7 @@ test_that("as.data.frame joins theta and rho values to the draws", {
                                "rho_x_speed", "rho_t"))
   expect_identical(nrow(d), 400L)
   expect_identical(d$a, toy$library$theta$a[d$run])
-  expect_identical(d$rho_x_load, fit$grid$rho_x_load[fit$draws$rho])
+  expect_identical(d$rho_x_load, fit$grid$rho_x_load[fit$draws$grid_point])
 })
 
 test_that("as.mcmc.list gives one mcmc per chain with the sampled parameters", {
