@@ -155,3 +155,47 @@ test_that("chains on parallel future workers give the same draws", {
   on.exit(future::plan(old))
   expect_identical(run()$draws, serial$draws)
 })
+
+test_that("a saved fit holds its library once", {
+  toy <- toy_ar1(n_runs = 400, n_t = 200)
+  fit <- calibrate(toy$library, toy$field, n_iter = 200, burn_in = 100, seed = 1)
+  size <- function(v) length(serialize(v, NULL))
+  rest <- fit
+  rest$library <- NULL
+  expect_lt(size(fit), size(rest) + size(toy$library) * 1.01)
+  expect_lt(size(fit), 1.5 * size(toy$library))
+  expect_null(fit$problem)
+})
+
+test_that("a sim_library edited after construction gets an R error, never reaches C++", {
+  toy <- toy_ar1(n_runs = 41, n_t = 10)
+  run <- function(lib) calibrate(lib, toy$field, n_iter = 50, burn_in = 10, seed = 1)
+  lib <- toy$library
+  lib$y[3, 4] <- NA
+  expect_error(run(lib), class = "griddy_error")
+  lib <- toy$library
+  lib$y <- lib$y[, -1]
+  expect_error(run(lib), class = "griddy_error_shape")
+  lib <- toy$library
+  lib$y <- rbind(lib$y, lib$y[1, ])
+  expect_error(run(lib), class = "griddy_error_shape", regexp = "42 x 10")
+  lib <- toy$library
+  lib$theta <- lib$theta[-41, , drop = FALSE]
+  expect_error(run(lib), class = "griddy_error_shape")
+  lib <- toy$library
+  lib$t <- NULL
+  expect_error(run(lib), class = "griddy_error_shape")
+})
+
+test_that("a stop file ends a chain on a worker (what an interrupt writes)", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL)
+  control <- sampler_control(1000, 100, 1, 1, FALSE)
+  inputs <- list(C = problem$C, tables = sampler_tables(problem, "collapsed"),
+                 options = sampler_options(problem, "collapsed", control), tau_start = 1)
+  stop_file <- withr::local_tempfile()
+  expect_type(run_chain(1L, inputs, control, NULL, stop_file), "list")
+  file.create(stop_file)
+  expect_error(run_chain(1L, inputs, control, NULL, stop_file),
+               class = "griddy_error_interrupted")
+})

@@ -17,3 +17,20 @@ test_that("log_sum_exp is stable", {
   expect_equal(log_sum_exp(c(-1000, -1000)), -1000 + log(2))
   expect_equal(log_sum_exp(c(800, 0)), 800)
 })
+
+test_that("the default prior warns when the outputs' units make it matter", {
+  toy <- toy_ar1(n_runs = 60, n_t = 30, sd = 0.3)
+  small <- sim_library(toy$library$theta, toy$library$y * 1e-6, t = toy$library$t)
+  small_field <- field_data(toy$field$y * 1e-6)
+  # the finding: in units 1e-6 smaller the vague prior flattens the posterior
+  expect_warning(p_small <- posterior_exact(small, small_field), class = "griddy_warning_prior")
+  p <- expect_silent(posterior_exact(toy$library, toy$field))
+  expect_gt(sum(abs(p$run - p_small$run)) / 2, 0.5)
+  # a scale-free prior gives the same answer in any units, with no warning
+  zero <- list(shape = 1e-9, rate = 0)
+  expect_silent(p0_small <- posterior_exact(small, small_field, prior = zero))
+  expect_equal(posterior_exact(toy$library, toy$field, prior = zero)$run, p0_small$run,
+               tolerance = 1e-8)
+  # a prior the user chose is not second-guessed
+  expect_silent(posterior_exact(small, small_field, prior = list(shape = 1, rate = 1)))
+})

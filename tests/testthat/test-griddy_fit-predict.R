@@ -32,3 +32,21 @@ test_that("noisy outputs have the covariance R_x (x) R_t / tau", {
 test_that("weighted_quantile inverts the weighted CDF", {
   expect_identical(weighted_quantile(c(3, 1, 2), c(0.2, 0.5, 0.3), c(0.4, 0.5, 0.81)), c(1, 1, 3))
 })
+
+test_that("predict(newdata =) predicts at the given library settings or stops", {
+  toy <- toy_xt(n_per_dim = 4, n_t = 5)
+  fit <- calibrate(toy$library, toy$field, n_iter = 600, burn_in = 100, seed = 1)
+  all <- predict(fit, ndraws = 100, seed = 2)
+  two <- predict(fit, newdata = data.frame(speed = c(20, 10), load = c(3, 1)), ndraws = 100,
+                 seed = 2)
+  expect_identical(two$x, rep(c(3L, 1L), each = 5))
+  expect_identical(two$observed, all$observed[c(11:15, 1:5)])
+  expect_equal(two$mean, all$mean[c(11:15, 1:5)])
+  expect_error(predict(fit, newdata = data.frame(load = 2.5, speed = 10)),
+               class = "griddy_error_input", regexp = "row\\(s\\) 1 \\(load = 2.5")
+  expect_error(predict(fit, newdata = data.frame(load = 1)), "lacks the library's x column")
+  expect_error(predict(fit, newdata = list(load = 1, speed = 10)), "data.frame")
+  one <- toy_ar1(n_runs = 20, n_t = 8)
+  fit1 <- calibrate(one$library, one$field, n_iter = 200, burn_in = 50, seed = 1)
+  expect_error(predict(fit1, newdata = data.frame(x = 1)), "single x setting")
+})
