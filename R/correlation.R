@@ -40,7 +40,7 @@ rho_grid <- function(library, rho_x = 0, rho_t = 0) {
 
 # Validated grids: a named list of grids per x column, and the t grid.
 rho_grids <- function(library, rho_x, rho_t) {
-  x_names <- if (is.null(library$x)) "x" else names(library$x)
+  x_names <- if (is.null(lib_x(library))) "x" else names(lib_x(library))
   if (is.list(rho_x)) {
     if (length(rho_x) != length(x_names)) {
       griddy_abort("`rho_x` must hold one grid per x column (", show_some(x_names),

@@ -138,7 +138,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   # the base model's runs x grid table, built once for the whole call
   base_terms <- gap_terms(ctx, lib_outputs(base), fit$log_prior_run, Q = fit$C)
   cand_terms <- lapply(candidates, function(cand) {
-    gap_terms(ctx, lib_outputs(cand), candidate_log_prior(cand, names(base$theta)))
+    gap_terms(ctx, lib_outputs(cand), candidate_log_prior(cand, names(lib_theta(base))))
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
@@ -148,7 +148,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   post <- log_ev + log_prior_model
   prob <- normalise_log(post)
   screen <- lapply(names(candidates), function(nm) {
-    sc <- confounding_screen(ctx, base_terms, candidates[[nm]], names(base$theta),
+    sc <- confounding_screen(ctx, base_terms, candidates[[nm]], names(lib_theta(base)),
                              confounding_threshold)
     # the data themselves separate it: the screen's local view was too pessimistic
     if (log_ev[[nm]] - log_ev[["none"]] > log(100)) sc$confounded <- FALSE
@@ -174,7 +174,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
                  settings = list(fdr = fdr, windows = where$breaks,
                                  other_scales = other_scales,
                                  confounding_threshold = confounding_threshold),
-                 x = base$x, t = base$t),
+                 x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
 }
 
@@ -192,7 +192,7 @@ check_candidates <- function(candidates, base) {
   if (any(nm %in% c("none", "other"))) {
     griddy_abort("`candidates` names must not be \"none\" or \"other\" (reserved answers).")
   }
-  base_cols <- names(base$theta)
+  base_cols <- names(lib_theta(base))
   for (k in nm) {
     cand <- candidates[[k]]
     what <- paste0("Candidate `", k, "`")
@@ -200,29 +200,29 @@ check_candidates <- function(candidates, base) {
       griddy_abort(what, " must be a sim_library; received ", class(cand)[1], ".")
     }
     if (lib_n_x(cand) != lib_n_x(base) ||
-        (!is.null(base$x) && (!identical(names(cand$x), names(base$x)) ||
-                              !all(same_values(as.matrix(cand$x), as.matrix(base$x)))))) {
+        (!is.null(lib_x(base)) && (!identical(names(lib_x(cand)), names(lib_x(base))) ||
+                              !all(same_values(as.matrix(lib_x(cand)), as.matrix(lib_x(base))))))) {
       griddy_abort(what, " must have the fit's x settings (", lib_n_x(base), " row(s) of ",
-                   show_some(names(base$x)), ", in the same order); it has ", lib_n_x(cand),
-                   " row(s) of ", show_some(names(cand$x)), ".")
+                   show_some(names(lib_x(base))), ", in the same order); it has ", lib_n_x(cand),
+                   " row(s) of ", show_some(names(lib_x(cand))), ".")
     }
-    if (length(cand$t) != length(base$t) || !all(same_values(cand$t, base$t))) {
-      griddy_abort(what, " must have the fit's t (", length(base$t), " value(s) from ",
-                   format(min(base$t)), " to ", format(max(base$t)), "); it has ",
-                   length(cand$t), " from ", format(min(cand$t)), " to ",
-                   format(max(cand$t)), ".")
+    if (length(lib_t(cand)) != length(lib_t(base)) || !all(same_values(lib_t(cand), lib_t(base)))) {
+      griddy_abort(what, " must have the fit's t (", length(lib_t(base)), " value(s) from ",
+                   format(min(lib_t(base))), " to ", format(max(lib_t(base))), "); it has ",
+                   length(lib_t(cand)), " from ", format(min(lib_t(cand))), " to ",
+                   format(max(lib_t(cand))), ".")
     }
-    missing_cols <- setdiff(base_cols, names(cand$theta))
+    missing_cols <- setdiff(base_cols, names(lib_theta(cand)))
     if (length(missing_cols) > 0L) {
       griddy_abort(what, " lacks the base theta column(s) ", show_some(missing_cols), ".")
     }
-    strength <- setdiff(names(cand$theta), base_cols)
+    strength <- setdiff(names(lib_theta(cand)), base_cols)
     if (length(strength) == 0L) {
       griddy_abort(what, " has no strength column: its theta must hold the base columns (",
                    show_some(base_cols), ") plus at least one column for the effect's ",
                    "strength, 0 meaning off.")
     }
-    zero <- rowSums(abs(as.matrix(cand$theta[strength]))) == 0
+    zero <- rowSums(abs(as.matrix(lib_theta(cand)[strength]))) == 0
     if (!any(zero)) {
       griddy_abort(what, " has no zero-strength runs (", show_some(strength),
                    " all 0): it must nest the base model.")
@@ -238,9 +238,9 @@ check_candidates <- function(candidates, base) {
 
 # Zero-strength runs that share a base run's theta must reproduce its outputs.
 check_zero_strength <- function(cand, base, zero, what) {
-  cols <- names(base$theta)
-  key_b <- do.call(paste, c(lapply(base$theta, signif, 10), sep = "\r"))
-  key_c <- do.call(paste, c(lapply(cand$theta[zero, cols, drop = FALSE], signif, 10),
+  cols <- names(lib_theta(base))
+  key_b <- do.call(paste, c(lapply(lib_theta(base), signif, 10), sep = "\r"))
+  key_c <- do.call(paste, c(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
                             sep = "\r"))
   hit <- match(key_c, key_b)
   ok <- !is.na(hit)
@@ -259,7 +259,7 @@ check_zero_strength <- function(cand, base, zero, what) {
 # Prior over a candidate's runs: uniform over the distinct strength values,
 # uniform over the runs within each.
 candidate_log_prior <- function(cand, base_cols) {
-  strength <- as.matrix(cand$theta[setdiff(names(cand$theta), base_cols)])
+  strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
   level <- strength_levels(strength)
   count <- tabulate(level)
   -log(max(level)) - log(count[level])
@@ -381,8 +381,8 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   span <- pmax(apply(theta_b, 2, max) - lo, 1e-300)
   sc <- function(m) sweep(sweep(as.matrix(m), 2, lo, "-"), 2, span, "/")
   tb <- sc(theta_b)
-  tc <- sc(cand$theta[base_cols])
-  strength <- as.matrix(cand$theta[setdiff(names(cand$theta), base_cols)])
+  tc <- sc(lib_theta(cand)[base_cols])
+  strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
   level <- strength_levels(strength)
   zero <- rowSums(abs(strength)) == 0
   Wb <- whiten_rows(base_terms$Y, node, ctx$n_x, ctx$n_t)

@@ -29,7 +29,7 @@ gap_verdict <- function(which_tab, screen, base, where) {
     prob <- which_tab$prob[which_tab$effect == "other"]
   }
   conf <- which_tab$effect[which_tab$confounded]
-  advice <- gap_advice(which_tab, base$x)
+  advice <- gap_advice(which_tab, lib_x(base))
   list(answer = answer, prob = prob, reason = reason, confounded = conf,
        advice = unname(advice), n_flagged = n_flagged,
        prob_none = which_tab$prob[which_tab$effect == "none"])

@@ -23,7 +23,7 @@ NULL
 as.data.frame.griddy_fit <- function(x, row.names = NULL, optional = FALSE, ...) {
   d <- x$draws
   out <- cbind(d[c("chain", "iteration", "run")],
-               x$library$theta[d$run, , drop = FALSE],
+               lib_theta(x$library)[d$run, , drop = FALSE],
                tau = d$tau,
                x$grid[d$grid_point, , drop = FALSE])
   rownames(out) <- NULL

@@ -46,7 +46,7 @@ plot_trace <- function(fit) {
 }
 
 plot_posterior <- function(fit, truth) {
-  theta <- fit$library$theta
+  theta <- lib_theta(fit$library)
   bars <- do.call(rbind, lapply(names(theta), function(p) {
     lib_values <- sort(unique(theta[[p]]))
     gaps <- diff(lib_values)
@@ -127,10 +127,10 @@ plot_ppc <- function(fit, ...) {
 
 # "height = 10, speed = 20" for each x setting.
 setting_labels <- function(lib) {
-  if (is.null(lib$x)) {
+  if (is.null(lib_x(lib))) {
     return("single setting")
   }
   labels <- do.call(paste, c(Map(function(n, v) paste(n, "=", format(v, digits = 4)),
-                                 names(lib$x), lib$x), sep = ", "))
+                                 names(lib_x(lib)), lib_x(lib)), sep = ", "))
   make.unique(labels)
 }

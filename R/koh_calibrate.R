@@ -85,7 +85,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   tune_iter <- assert_count(tune_iter, "tune_iter", min = 10L)
   assert_flag(quiet, "quiet")
   y <- field_vector(library, field)
-  theta <- as.matrix(library$theta)
+  theta <- as.matrix(lib_theta(library))
   p <- ncol(theta)
   if (!is.null(proposal_sd)) {
     proposal_sd <- assert_numeric_vector(proposal_sd, "proposal_sd")
@@ -160,9 +160,9 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
 koh_design <- function(library) {
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
-  x <- if (is.null(library$x)) matrix(0, n_x, 0) else as.matrix(library$x)
+  x <- if (is.null(lib_x(library))) matrix(0, n_x, 0) else as.matrix(lib_x(library))
   out <- x[rep(seq_len(n_x), each = n_t), , drop = FALSE]
-  if (n_t > 1L) out <- cbind(out, t = rep(library$t, n_x))
+  if (n_t > 1L) out <- cbind(out, t = rep(lib_t(library), n_x))
   if (ncol(out) == 0L) out <- matrix(1, n_x * n_t, 1L, dimnames = list(NULL, "x"))
   out <- matrix(as.numeric(out), nrow(out), dimnames = list(NULL, colnames(out)))
   keep <- apply(out, 2, function(v) length(unique(v)) > 1L)

@@ -37,8 +37,8 @@ run_probabilities <- function(fit) {
 
 library_adequacy <- function(fit) {
   p <- run_probabilities(fit)
-  list(sampled = run_adequacy(p$sampled, fit$library$theta),
-       exact = run_adequacy(p$exact, fit$library$theta),
+  list(sampled = run_adequacy(p$sampled, lib_theta(fit$library)),
+       exact = run_adequacy(p$exact, lib_theta(fit$library)),
        tv_distance = sum(abs(p$sampled - p$exact)) / 2)
 }
 

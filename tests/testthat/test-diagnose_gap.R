@@ -136,3 +136,18 @@ test_that("'other' is the exact evidence of base model plus a smooth Gaussian di
   }
   expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
 })
+
+test_that("one call builds the base model's runs x grid table once, from the fit's C", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3))
+  ns <- asNamespace("griddy")
+  calls <- new.env()
+  calls$base <- 0L
+  trace("collapsed_log_joint", where = ns, print = FALSE, tracer = bquote({
+    if (identical(dim(C), dim(.(toy$fit$C))) && n_obs == .(toy$fit$n_obs)) {
+      assign("base", get("base", .(calls)) + 1L, envir = .(calls))
+    }
+  }))
+  on.exit(untrace("collapsed_log_joint", where = ns), add = TRUE)
+  diagnose_gap(toy$fit, list(quadratic = toy$quad, scale = toy$scale))
+  expect_identical(calls$base, 1L)
+})
