@@ -124,20 +124,6 @@ read_input_file <- function(path, arg) {
   read(header = !(length(fields) > 0L && all(!is.na(numbers))))
 }
 
-# Every column named, no name twice.
-assert_column_names <- function(v, arg) {
-  nm <- names(v)
-  empty <- which(is.na(nm) | nm == "")
-  if (length(empty) > 0L) {
-    griddy_abort("`", arg, "` must have a name for every column; column(s) ",
-                 show_some(empty), " have none.")
-  }
-  if (anyDuplicated(nm)) {
-    griddy_abort("`", arg, "` has duplicated column names: ",
-                 show_some(unique(nm[duplicated(nm)])), ".")
-  }
-}
-
 # simobs as a runs x outputs matrix: one row per design row, or one column
 # per design row, as `layout` says ("auto": the one that fits, refusing a
 # square simobs, which both fit).

@@ -107,6 +107,20 @@ as_numeric_columns <- function(df, arg) {
   df
 }
 
+# A data.frame (or matrix) with every column named and no name twice.
+assert_column_names <- function(v, arg) {
+  nm <- names(v)
+  empty <- which(is.na(nm) | nm == "")
+  if (length(empty) > 0L) {
+    griddy_abort("`", arg, "` must have a name for every column; column(s) ",
+                 show_some(empty), " have none.")
+  }
+  if (anyDuplicated(nm)) {
+    griddy_abort("`", arg, "` has duplicated column names: ",
+                 show_some(unique(nm[duplicated(nm)])), ".")
+  }
+}
+
 # Error naming the rows and columns of the first non-finite cells.
 assert_finite <- function(v, arg) {
   bad <- which(!is.finite(v), arr.ind = is.matrix(v))
