@@ -207,25 +207,29 @@ assert_count <- function(v, arg, min = 1L, max = .Machine$integer.max) {
   assert_whole(v, arg, lower = min, upper = max)
 }
 
-# One of `choices` (or, with several = TRUE, one or more distinct of them).
-# As with match.arg(), the whole vector of choices (a function's default)
-# means the first.
+# One of `choices` (or, with several = TRUE, one or more distinct of them);
+# `choices` are strings or numbers. As with match.arg(), the whole vector of
+# choices (a function's default) means the first.
 assert_choice <- function(v, arg, choices, several = FALSE) {
   if (!several && identical(v, choices)) {
     return(choices[1])
   }
-  ok <- is.character(v) && is.null(dim(v)) && length(v) >= 1L && !anyNA(v) &&
+  is_numbers <- is.numeric(choices)
+  v <- if (is_numbers) as_plain_numeric(v, arg) else v
+  same_type <- if (is_numbers) is.numeric(v) else is.character(v)
+  ok <- same_type && is.null(dim(v)) && length(v) >= 1L && !anyNA(v) &&
     all(v %in% choices) && !anyDuplicated(v) && (several || length(v) == 1L)
   if (!ok) {
-    what <- if (is.character(v)) {
-      if (length(v) == 0L) "nothing" else show_some(paste0("\"", v, "\""))
+    quote <- function(z) if (is.character(z)) paste0("\"", z, "\"") else as.character(z)
+    what <- if (same_type) {
+      if (length(v) == 0L) "nothing" else show_some(quote(v))
     } else {
       paste0(class(v)[1], if (length(v) > 0L) paste0(" ", show_some(format(v))))
     }
     griddy_abort("`", arg, "` must be ", if (several) "one or more distinct of " else "one of ",
-                 paste0("\"", choices, "\"", collapse = ", "), "; received ", what, ".")
+                 paste(quote(choices), collapse = ", "), "; received ", what, ".")
   }
-  v
+  if (is_numbers) as.double(v) else v
 }
 
 # NULL (the current random stream) or a single whole number for set.seed().

@@ -129,3 +129,11 @@ test_that("as_numeric_matrix checks the number of columns and rows when asked", 
   expect_error(as_numeric_matrix(matrix(TRUE, 2, 2), "y"), "received matrix of type logical")
   expect_error(assert_number(numeric(0), "k"), "received nothing")
 })
+
+test_that("assert_choice takes numeric choices too", {
+  expect_identical(assert_choice(0.5, "cell", c(0.25, 0.5, 1)), 0.5)
+  expect_identical(assert_choice(1L, "cell", c(0.25, 0.5, 1)), 1)
+  expect_error(assert_choice(2, "cell", c(0.25, 0.5, 1)),
+               "`cell` must be one of 0.25, 0.5, 1; received 2", class = "griddy_error_input")
+  expect_error(assert_choice("1", "cell", c(0.25, 0.5, 1)), "received character 1")
+})
