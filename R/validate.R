@@ -208,10 +208,11 @@ assert_count <- function(v, arg, min = 1L, max = .Machine$integer.max) {
 }
 
 # One of `choices` (or, with several = TRUE, one or more distinct of them);
-# `choices` are strings or numbers. As with match.arg(), the whole vector of
-# choices (a function's default) means the first.
-assert_choice <- function(v, arg, choices, several = FALSE) {
-  if (!several && identical(v, choices)) {
+# `choices` are strings or numbers. For an argument whose default is the
+# vector of choices, vector_default = TRUE makes that vector mean the first,
+# as with match.arg().
+assert_choice <- function(v, arg, choices, several = FALSE, vector_default = FALSE) {
+  if (vector_default && identical(v, choices)) {
     return(choices[1])
   }
   is_numbers <- is.numeric(choices)

@@ -86,7 +86,8 @@ test_that("whole-number validators refuse values that do not fit an integer", {
 })
 
 test_that("assert_choice takes one (or several) of the choices, the default vector meaning the first", {
-  expect_identical(assert_choice(c("a", "b"), "model", c("a", "b")), "a")
+  expect_identical(assert_choice(c("a", "b"), "model", c("a", "b"), vector_default = TRUE), "a")
+  expect_error(assert_choice(c("a", "b"), "model", c("a", "b")), "`model` must be one of")
   expect_identical(assert_choice("b", "model", c("a", "b")), "b")
   expect_identical(assert_choice(c("b", "a"), "cond", c("a", "b"), several = TRUE), c("b", "a"))
   expect_error(assert_choice("c", "model", c("a", "b")),
@@ -136,4 +137,15 @@ test_that("assert_choice takes numeric choices too", {
   expect_error(assert_choice(2, "cell", c(0.25, 0.5, 1)),
                "`cell` must be one of 0.25, 0.5, 1; received 2", class = "griddy_error_input")
   expect_error(assert_choice("1", "cell", c(0.25, 0.5, 1)), "received character 1")
+})
+
+test_that("the package raises no condition with a raw stop() or warning()", {
+  dir <- testthat::test_path("..", "..", "R")
+  skip_if_not(dir.exists(dir), "package sources not available")
+  code <- unlist(lapply(list.files(dir, "\\.R$", full.names = TRUE), function(f) {
+    lines <- readLines(f, warn = FALSE)
+    hit <- grep("(^|[^_.[:alnum:]])(stop|warning)\\(", sub("#.*$", "", lines))
+    if (length(hit)) paste0(basename(f), ":", hit, ": ", trimws(lines[hit]))
+  }))
+  expect_identical(code, NULL)
 })
