@@ -51,7 +51,8 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
                                                       "runs_in_columns")) {
   n_x <- assert_count(n_x, "n_x", min = 0L)
   simobs_layout <- assert_choice(simobs_layout, "simobs_layout",
-                                 c("auto", "runs_in_rows", "runs_in_columns"))
+                                 c("auto", "runs_in_rows", "runs_in_columns"),
+                                 vector_default = TRUE)
   design <- read_table_input(design, "design")
   simobs <- read_table_input(simobs, "simobs")
   expobs <- read_table_input(expobs, "expobs")
