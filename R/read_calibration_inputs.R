@@ -92,8 +92,10 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
 
 # A file path, data.frame or matrix as a data.frame of doubles.
 read_table_input <- function(v, arg) {
+  headerless <- FALSE
   if (is.character(v) && length(v) == 1L && !is.na(v)) {
     v <- read_input_file(v, arg)
+    headerless <- attr(v, "headerless")
   }
   if (!is.data.frame(v) && !is.matrix(v)) {
     griddy_abort("`", arg, "` must be a file path, a data.frame or a matrix; received ",
@@ -105,6 +107,7 @@ read_table_input <- function(v, arg) {
   }
   m <- as_numeric_matrix(v, arg)
   v[] <- lapply(seq_len(ncol(m)), function(j) m[, j])
+  attr(v, "headerless") <- headerless
   v
 }
 
@@ -122,13 +125,18 @@ read_input_file <- function(path, arg) {
   first <- read(header = FALSE, nrows = 1L, colClasses = "character")
   fields <- trimws(unlist(first, use.names = FALSE))
   numbers <- suppressWarnings(as.numeric(fields))
-  read(header = !(length(fields) > 0L && all(!is.na(numbers))))
+  headerless <- length(fields) > 0L && all(!is.na(numbers))
+  structure(read(header = !headerless), headerless = headerless)
 }
 
 # simobs as a runs x outputs matrix: one row per design row, or one column
 # per design row, as `layout` says ("auto": the one that fits, refusing a
 # square simobs, which both fit).
 orient_simobs <- function(simobs, n_design, layout = "auto") {
+  hint <- if (isTRUE(attr(simobs, "headerless"))) {
+    paste0(" (The first line of the file holds numbers only, so it was read as data; ",
+           "if it is a header, e.g. of output times, give it a non-numeric name or drop it.)")
+  }
   sim <- as.matrix(simobs)
   dimnames(sim) <- NULL
   fits_rows <- nrow(sim) == n_design
@@ -143,20 +151,22 @@ orient_simobs <- function(simobs, n_design, layout = "auto") {
     }
     if (!fits_rows && !fits_cols) {
       griddy_abort("`simobs` must have one row (or one column) per `design` row (",
-                   n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".")
+                   n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".", hint)
     }
     layout <- if (fits_rows) "runs_in_rows" else "runs_in_columns"
   }
   if (layout == "runs_in_rows") {
     if (!fits_rows) {
       griddy_abort("`simobs` must have one row per `design` row (", n_design, ") with ",
-                   "simobs_layout = \"runs_in_rows\"; it is ", nrow(sim), " x ", ncol(sim), ".")
+                   "simobs_layout = \"runs_in_rows\"; it is ", nrow(sim), " x ", ncol(sim), ".",
+                   hint)
     }
     return(sim)
   }
   if (!fits_cols) {
     griddy_abort("`simobs` must have one column per `design` row (", n_design, ") with ",
-                 "simobs_layout = \"runs_in_columns\"; it is ", nrow(sim), " x ", ncol(sim), ".")
+                 "simobs_layout = \"runs_in_columns\"; it is ", nrow(sim), " x ", ncol(sim), ".",
+                 hint)
   }
   t(sim)
 }

@@ -178,3 +178,14 @@ test_that("scalar arguments are checked before any file is read", {
   expect_error(read_calibration_inputs(c("a.csv", "b.csv"), "x", "y", n_x = 1),
                "`design` must be a file path, a data.frame or a matrix; received character")
 })
+
+test_that("a numeric header line is read as data, and the error says so", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  sim <- d$simobs
+  names(sim) <- c("0.5", "1")                         # output times as a header
+  data.table::fwrite(sim, file.path(dir, "simobs.csv"))
+  expect_error(read_calibration_inputs(d$design, file.path(dir, "simobs.csv"), d$expobs, n_x = 1),
+               "it is 7 x 2\\. \\(The first line of the file holds numbers only, so it was read as data",
+               class = "griddy_error_input")
+})
