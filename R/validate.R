@@ -184,7 +184,11 @@ assert_whole <- function(v, arg, lower = 0, upper = .Machine$integer.max, len = 
     (is.null(len) || length(v) == len) && all(is.finite(v)) && all(v == round(v)) &&
     all(v >= lower) && all(v <= upper) && (!distinct || !anyDuplicated(v))
   if (!ok) {
-    rng <- if (upper == .Machine$integer.max) paste0(">= ", lower) else paste0("in ", lower, "..", upper)
+    rng <- if (upper == .Machine$integer.max) {
+      paste0(">= ", lower)
+    } else {
+      paste0("in ", lower, "..", upper)
+    }
     if (is.numeric(v) && any(v > upper, na.rm = TRUE) && upper == .Machine$integer.max) {
       rng <- paste0(rng, " that fits an integer (at most ", upper, ")")
     }
@@ -322,7 +326,13 @@ assert_number <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_op
   if (!is.numeric(x) || (!is.null(len) && length(x) != len) || length(x) == 0L ||
       anyNA(x) || any(!is.finite(x)) || any(x < lower) || any(x > upper) ||
       (lower_open && any(x <= lower)) || (upper_open && any(x >= upper))) {
-    what <- if (!is.numeric(x)) class(x)[1] else if (length(x) == 0L) "nothing" else show_some(format(x))
+    what <- if (!is.numeric(x)) {
+      class(x)[1]
+    } else if (length(x) == 0L) {
+      "nothing"
+    } else {
+      show_some(format(x))
+    }
     rng <- format_range(lower, upper, lower_open, upper_open)
     griddy_abort("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
                  "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
