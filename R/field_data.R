@@ -5,9 +5,10 @@
 #'
 #' @param y The measurements: an `n_x x n_t` numeric matrix whose row `k` holds
 #'   the measurements at the `k`-th x setting, or a numeric vector in the
-#'   library's order (blocks of `n_t` values by x setting).
+#'   library's order (blocks of `n_t` values by x setting; `n_x * n_t`
+#'   values when both `x` and `t` are given).
 #' @param x A data.frame of the `n_x` control settings, with the library's
-#'   column names; `NULL` means "the library's settings, in its order". Rows
+#'   (distinct) column names; `NULL` means "the library's settings, in its order". Rows
 #'   may come in another order than the library's: [calibrate()] matches them
 #'   by value.
 #' @param t The `n_t` output coordinates; `NULL` means "the library's".
@@ -20,19 +21,20 @@
 #' field_data(c(1.2, 0.8, 0.5))
 #' @export
 field_data <- function(y, x = NULL, t = NULL) {
+  if (is.data.frame(x)) {
+    assert_column_names(x, "x")
+    x <- as_numeric_columns(x, "x")
+  }
   x <- as_settings(x, "x")
   if (!is.null(t)) t <- assert_numeric_vector(t, "t")
-  if (is.null(dim(y))) {
+  if (is.null(dim(y)) || length(dim(y)) == 1L) {
     y <- assert_numeric_vector(y, "y")
-    n_t <- if (!is.null(t)) length(t) else if (!is.null(x)) length(y) / nrow(x) else length(y)
-    if (n_t != round(n_t) || length(y) %% n_t != 0L) {
-      griddy_abort("`y` has ", length(y), " values, which do not split into ",
-                   if (!is.null(x)) nrow(x) else length(y) / n_t,
-                   " x settings of equal length.")
-    }
-    y <- matrix(y, ncol = n_t, byrow = TRUE)
+    y <- split_field_vector(y, if (!is.null(x)) nrow(x), if (!is.null(t)) length(t))
   } else {
-    y <- as_numeric_matrix(y, "y")
+    y <- as_numeric_matrix(y, "y", min_rows = 1L)
+    if (ncol(y) < 1L) {
+      griddy_abort("`y` must have at least 1 column; received ", nrow(y), " x 0.")
+    }
   }
   if (!is.null(x) && nrow(x) != nrow(y)) {
     griddy_abort("`y` must have one row per x setting: `x` has ", nrow(x),
@@ -41,6 +43,32 @@ field_data <- function(y, x = NULL, t = NULL) {
   if (!is.null(t)) as_coordinates(t, ncol(y), "t", "columns of `y`")
   dimnames(y) <- NULL
   structure(list(y = y, x = x, t = t), class = "griddy_field")
+}
+
+# A vector of measurements as an n_x x n_t matrix (blocks of n_t by x
+# setting); n_x and n_t are NULL when not given.
+split_field_vector <- function(y, n_x, n_t) {
+  n <- length(y)
+  if (!is.null(n_x) && !is.null(n_t)) {
+    if (n != n_x * n_t) {
+      griddy_abort("`y` has ", n, " values but `x` has ", n_x, " settings and `t` ", n_t,
+                   " coordinates: ", n_x, " x ", n_t, " = ", n_x * n_t, " expected.")
+    }
+  } else if (!is.null(n_t)) {
+    if (n %% n_t != 0L) {
+      griddy_abort("`y` has ", n, " values, which do not split into blocks of ", n_t,
+                   " (the length of `t`).")
+    }
+  } else if (!is.null(n_x)) {
+    if (n %% n_x != 0L) {
+      griddy_abort("`y` has ", n, " values, which do not split into ", n_x,
+                   " x settings of equal length.")
+    }
+    n_t <- n %/% n_x
+  } else {
+    n_t <- n
+  }
+  matrix(y, ncol = n_t, byrow = TRUE)
 }
 
 #' @export

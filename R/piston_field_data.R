@@ -32,6 +32,7 @@
 #'   `discrepancy` (zeros when `discrepancy = FALSE`), `locations` and
 #'   `condition` (the arguments to give [piston_library()]).
 #' @seealso [piston_library()], [calibrate()]
+#' @family piston stand-in
 #' @export
 #' @examples
 #' f6 <- piston_field_data(6, seed = 1)
@@ -42,24 +43,18 @@
 piston_field_data <- function(n_points = 27, discrepancy = FALSE,
                               truth = c(1000, 3000, 2000), noise_var = 0.4,
                               discrepancy_var = 40, rho = 0.8, seed = NULL) {
-  if (!is.numeric(n_points) || length(n_points) != 1L || !n_points %in% c(6, 15, 27, 54)) {
-    griddy_abort("`n_points` must be one of 6, 15, 27 or 54; received ",
-                 paste(format(n_points), collapse = ", "), ".")
-  }
+  n_points <- assert_choice(n_points, "n_points", c(6, 15, 27, 54))
   assert_flag(discrepancy, "discrepancy")
-  truth <- assert_numeric_vector(truth, "truth")
-  if (length(truth) != 3L || any(truth <= 0)) {
-    griddy_abort("`truth` must hold 3 positive coefficients; received ",
-                 paste(format(truth), collapse = ", "), ".")
-  }
+  truth <- assert_number(truth, "truth", len = 3L, lower = 0, lower_open = TRUE)
   noise_var <- assert_number(noise_var, "noise_var", lower = 0)
   discrepancy_var <- assert_number(discrepancy_var, "discrepancy_var", lower = 0)
   rho <- assert_number(rho, "rho", lower = 0, upper = 1, lower_open = TRUE, upper_open = TRUE)
+  seed <- assert_seed(seed)
   full <- piston_library_settings(1:27, c("full", "part"))
   draw <- function() {
     list(noise = stats::rnorm(54L, sd = sqrt(noise_var)),
-         discrepancy = drop(crossprod(chol(discrepancy_var * corr_x(full, rep(rho, 3L))),
-                                      stats::rnorm(54L))))
+         discrepancy = sqrt(discrepancy_var) *
+           drop(crossprod(chol(corr_x(full, rep(rho, 3L))), stats::rnorm(54L))))
   }
   errors <- with_seed(seed, draw())
   design <- piston_data_design(n_points)

@@ -31,28 +31,29 @@
 #' @param spacing `"linear"` (default, evenly spaced values as in the thesis)
 #'   or `"log"` (evenly spaced on the log scale, which resolves the low end of
 #'   the ~3 decades better).
-#' @param ... Further arguments to [piston_model()] (`material`, `cell`).
+#' @param ... Further arguments to [piston_model()], by name: `material`,
+#'   `cell`, `gallery_gradient`, `conductivity_slope`.
 #' @return A `sim_library` with `theta` a data.frame with columns
 #'   `htc_undercrown`, `htc_gallery1`, `htc_gallery2` (W/m^2K; one row per
 #'   run, the first coefficient varying fastest), `y` the
 #'   `n_per_dim^3` x (locations x conditions) matrix of temperatures (deg C),
 #'   `x` the settings described above and `t = NULL`.
 #' @seealso [piston_model()], [piston_locations()], [sim_library()]
+#' @family piston stand-in
 #' @export
 #' @examples
 #' lib <- piston_library(4, locations = piston_location_ids(2))
 #' lib
 piston_library <- function(n_per_dim = 7, locations = 1:27, condition = "full",
                            spacing = c("linear", "log"), ...) {
-  if (!is.numeric(n_per_dim) || length(n_per_dim) != 1L || is.na(n_per_dim) ||
-      n_per_dim != round(n_per_dim) || n_per_dim < 2 || n_per_dim > 60) {
-    stop("`n_per_dim` must be a whole number in 2..60; received ",
-         paste(format(n_per_dim), collapse = ", "), ".", call. = FALSE)
-  }
-  spacing <- match.arg(spacing)
-  locations <- piston_check_locations(locations)
-  all_cond <- piston_conditions()$condition
-  condition <- piston_check_choice(condition, "condition", all_cond)
+  n_per_dim <- assert_whole(n_per_dim, "n_per_dim", lower = 2, upper = 60)
+  spacing <- assert_choice(spacing, "spacing", c("linear", "log"), vector_default = TRUE)
+  locations <- assert_whole(locations, "locations", lower = 1, upper = 27, len = NULL,
+                            distinct = TRUE)
+  condition <- assert_choice(condition, "condition", piston_conditions()$condition,
+                             several = TRUE)
+  assert_dots(list(...), c("material", "cell", "gallery_gradient", "conductivity_slope"),
+              "piston_model()")
   rng <- piston_htc_ranges()
   axes <- lapply(seq_len(nrow(rng)), function(j) {
     if (spacing == "linear") {

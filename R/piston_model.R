@@ -35,6 +35,7 @@ piston_spec <- function() {
 #' @return A data.frame with one row per condition and columns `condition`
 #'   (name), `h_gas` (W/m^2K) and `t_gas` (deg C).
 #' @seealso [piston_model()]
+#' @family piston stand-in
 #' @export
 #' @examples
 #' piston_conditions()
@@ -50,6 +51,7 @@ piston_conditions <- function() {
 #' @return A data.frame with one row per heat-transfer coefficient and columns
 #'   `parameter`, `min`, `max` and `true` (W/m^2K), as in table 3.1 of
 #'   Stewart (2023).
+#' @family piston stand-in
 #' @export
 #' @examples
 #' piston_htc_ranges()
@@ -235,60 +237,23 @@ piston_setup <- function(condition, cell, material) {
 }
 
 # ---------------------------------------------------------------------------
-# Validation helpers (R validates, C++ trusts its inputs)
-piston_check_htc <- function(htc) {
-  if (is.data.frame(htc)) htc <- as.matrix(htc)
-  if (!is.numeric(htc)) {
-    stop("`htc` must be numeric (a vector of 3 or an N x 3 matrix); received ",
-         class(htc)[1], ".", call. = FALSE)
+# Argument checks (R validates with R/validate.R's helpers, C++ trusts its
+# inputs).
+
+# The coefficients as an N x 3 matrix of positive numbers.
+piston_htc_matrix <- function(htc) {
+  if (is.numeric(htc) && is.null(dim(htc)) && length(htc) != 3L) {
+    griddy_abort("`htc` must have 3 values (undercrown, gallery 1, gallery 2); received ",
+                 length(htc), ".")
   }
-  if (is.null(dim(htc))) {
-    if (length(htc) != 3L) {
-      stop("`htc` must have 3 values (undercrown, gallery 1, gallery 2); received ",
-           length(htc), ".", call. = FALSE)
-    }
-    htc <- matrix(htc, nrow = 1L)
-  }
-  if (length(dim(htc)) != 2L || ncol(htc) != 3L) {
-    stop("`htc` must be an N x 3 matrix; received ", paste(dim(htc), collapse = " x "),
-         ".", call. = FALSE)
-  }
-  if (nrow(htc) == 0L) stop("`htc` has no rows.", call. = FALSE)
-  if (anyNA(htc) || any(!is.finite(htc)) || any(htc <= 0)) {
-    bad <- which(is.na(htc) | !is.finite(htc) | htc <= 0)[1]
-    stop("`htc` must be finite and > 0 (W/m^2K); received ", htc[bad], ".", call. = FALSE)
-  }
-  storage.mode(htc) <- "double"
+  htc <- as_numeric_matrix(htc, "htc", n_col = 3L, min_rows = 1L)
+  assert_range(htc, "htc", lower = 0, lower_open = TRUE, unit = " (W/m^2K)")
   dimnames(htc) <- NULL
   htc
 }
 
-piston_check_choice <- function(x, name, choices) {
-  if (!is.character(x) || length(x) < 1L || anyNA(x) || !all(x %in% choices) || anyDuplicated(x)) {
-    stop("`", name, "` must be one or more distinct of ",
-         paste0("\"", choices, "\"", collapse = ", "), "; received ",
-         paste(format(x), collapse = ", "), ".", call. = FALSE)
-  }
-  x
-}
-
-piston_check_locations <- function(locations) {
-  if (!is.numeric(locations) || length(locations) < 1L || anyNA(locations) ||
-      any(locations != round(locations)) || any(locations < 1 | locations > 27) ||
-      anyDuplicated(locations)) {
-    stop("`locations` must be distinct whole numbers in 1..27; received ",
-         paste(format(locations), collapse = ", "), ".", call. = FALSE)
-  }
-  as.integer(locations)
-}
-
-piston_check_cell <- function(cell) {
-  if (!is.numeric(cell) || length(cell) != 1L || !(cell %in% c(0.25, 0.5, 1))) {
-    stop("`cell` must be 0.25, 0.5 or 1 (mm); received ",
-         paste(format(cell), collapse = ", "), ".", call. = FALSE)
-  }
-  cell
-}
+piston_materials <- c("steel", "aluminium")
+piston_cells <- c(0.25, 0.5, 1)
 
 #' Output locations of the piston stand-in
 #'
@@ -313,13 +278,15 @@ piston_check_cell <- function(cell) {
 #'   settings used by [piston_library()]).
 #'   `piston_location_ids()`: an integer vector of ids.
 #' @seealso [piston_model()], [piston_library()]
+#' @family piston stand-in
 #' @export
 #' @examples
 #' head(piston_locations())
 #' piston_location_ids(2)
 piston_locations <- function(locations = 1:27, cell = 1) {
-  locations <- piston_check_locations(locations)
-  cell <- piston_check_cell(cell)
+  locations <- assert_whole(locations, "locations", lower = 1, upper = 27, len = NULL,
+                            distinct = TRUE)
+  cell <- assert_choice(cell, "cell", piston_cells)
   st <- piston_setup("full", cell, "steel")
   f <- st$htc_faces[st$out_faces[locations], ]
   sp <- piston_spec()
@@ -335,11 +302,7 @@ piston_locations <- function(locations = 1:27, cell = 1) {
 #' @param n_per_surface Number of locations per surface, 1 to 9.
 #' @export
 piston_location_ids <- function(n_per_surface = 9) {
-  if (!is.numeric(n_per_surface) || length(n_per_surface) != 1L || is.na(n_per_surface) ||
-      n_per_surface != round(n_per_surface) || n_per_surface < 1 || n_per_surface > 9) {
-    stop("`n_per_surface` must be a whole number in 1..9; received ",
-         paste(format(n_per_surface), collapse = ", "), ".", call. = FALSE)
-  }
+  n_per_surface <- assert_whole(n_per_surface, "n_per_surface", lower = 1, upper = 9)
   within <- if (n_per_surface == 1) 5L else as.integer(round(seq(1, 9, length.out = n_per_surface)))
   as.integer(c(within, within + 9L, within + 18L))
 }
@@ -411,6 +374,7 @@ piston_location_ids <- function(n_per_surface = 9) {
 #' @references Stewart, T. (2023). Bayesian calibration of computer models
 #'   using Griddy Gibbs sampling. MS thesis, Clemson University.
 #' @seealso [piston_locations()], [piston_library()], [piston_heat_balance()]
+#' @family piston stand-in
 #' @export
 #' @examples
 #' piston_model(c(1000, 3000, 2000))[1, 1:5]
@@ -420,16 +384,16 @@ piston_location_ids <- function(n_per_surface = 9) {
 piston_model <- function(htc, locations = 1:27, condition = "full",
                          material = "steel", cell = 1, gallery_gradient = 0,
                          conductivity_slope = 0) {
-  htc <- piston_check_htc(htc)
-  gallery_gradient <- piston_check_effect(gallery_gradient, "gallery_gradient", nrow(htc),
-                                          -1, 1)
-  conductivity_slope <- piston_check_effect(conductivity_slope, "conductivity_slope",
-                                            nrow(htc), -1e-3, 1e-3)
-  locations <- piston_check_locations(locations)
-  condition <- piston_check_choice(condition, "condition", piston_conditions()$condition)
-  material <- piston_check_choice(material, "material", c("steel", "aluminium"))
-  if (length(material) != 1L) stop("`material` must be a single value.", call. = FALSE)
-  cell <- piston_check_cell(cell)
+  htc <- piston_htc_matrix(htc)
+  gallery_gradient <- piston_effect(gallery_gradient, "gallery_gradient", nrow(htc), 1)
+  conductivity_slope <- piston_effect(conductivity_slope, "conductivity_slope", nrow(htc),
+                                      1e-3)
+  locations <- assert_whole(locations, "locations", lower = 1, upper = 27, len = NULL,
+                            distinct = TRUE)
+  condition <- assert_choice(condition, "condition", piston_conditions()$condition,
+                             several = TRUE)
+  material <- assert_choice(material, "material", piston_materials)
+  cell <- assert_choice(cell, "cell", piston_cells)
   blocks <- lapply(condition, function(cond) {
     st <- piston_setup(cond, cell, material)
     hf <- st$htc_faces
@@ -464,17 +428,21 @@ piston_model <- function(htc, locations = 1:27, condition = "full",
 #'   (W, positive into the piston), `imbalance` (W, sum of all flows) and, if
 #'   `field = TRUE`, `field`, a data.frame with columns `r_mm`, `z_mm` (cell
 #'   centre) and `temperature` (deg C).
+#' @family piston stand-in
 #' @export
 #' @examples
 #' piston_heat_balance(c(1000, 3000, 2000))$flows
 piston_heat_balance <- function(htc, condition = "full", material = "steel",
                                 cell = 1, field = FALSE) {
-  htc <- piston_check_htc(htc)
-  if (nrow(htc) != 1L) stop("`htc` must be a single set of 3 coefficients.", call. = FALSE)
-  condition <- piston_check_choice(condition, "condition", piston_conditions()$condition)
-  if (length(condition) != 1L) stop("`condition` must be a single value.", call. = FALSE)
-  material <- piston_check_choice(material, "material", c("steel", "aluminium"))
-  cell <- piston_check_cell(cell)
+  htc <- piston_htc_matrix(htc)
+  if (nrow(htc) != 1L) {
+    griddy_abort("`htc` must be a single set of 3 coefficients; received ", nrow(htc),
+                 " rows.")
+  }
+  condition <- assert_choice(condition, "condition", piston_conditions()$condition)
+  material <- assert_choice(material, "material", piston_materials)
+  cell <- assert_choice(cell, "cell", piston_cells)
+  field <- assert_flag(field, "field")
   st <- piston_setup(condition, cell, material)
   hf <- st$htc_faces
   ts <- piston_eval_cpp(st$Zss, st$T0s, hf$s_index - 1L, hf$surface - 1L, hf$area,
@@ -496,7 +464,7 @@ piston_heat_balance <- function(htc, condition = "full", material = "steel",
                       stringsAsFactors = FALSE)
   rownames(flows) <- NULL
   out <- list(flows = flows, imbalance = sum(q))
-  if (isTRUE(field)) {
+  if (field) {
     m <- st$mesh
     pos <- which(m$solid, arr.ind = TRUE)
     ids <- m$id[pos]
@@ -511,14 +479,15 @@ piston_heat_balance <- function(htc, condition = "full", material = "steel",
 # ---------------------------------------------------------------------------
 # Optional effects of piston_model(); off (0) leaves the base model untouched.
 
-piston_check_effect <- function(v, name, n, lower, upper) {
-  if (!is.numeric(v) || !(length(v) %in% c(1L, n)) || anyNA(v) || any(!is.finite(v)) ||
-      any(v <= lower) || any(v >= upper)) {
-    stop("`", name, "` must be one value or one per row of `htc` (", n, "), in (", lower,
-         ", ", upper, "); received ", paste(format(utils::head(v, 5)), collapse = ", "),
-         if (length(v) > 5L) ", ...", ".", call. = FALSE)
+# One value, or one per row of `htc` (n), in (-bound, bound).
+piston_effect <- function(v, name, n, bound) {
+  v <- assert_number(v, name, len = NULL, lower = -bound, upper = bound, lower_open = TRUE,
+                     upper_open = TRUE)
+  if (!(length(v) %in% c(1L, n))) {
+    griddy_abort("`", name, "` must be one value or one per row of `htc` (", n, "); received ",
+                 length(v), " values.")
   }
-  rep_len(as.double(v), n)
+  rep_len(v, n)
 }
 
 # Face temperatures with the gallery-1 coefficient graded along the wall: the
@@ -545,11 +514,24 @@ piston_eval_graded <- function(st, htc, beta, locations) {
 }
 
 # Kirchhoff transform back from U = T + alpha (T - 20)^2 / 2 to T, per row.
+# With alpha < 0, U has a maximum, 20 - 1 / (2 alpha), at T = 20 - 1 / alpha
+# (where the conductivity reaches 0); a larger constant-conductivity
+# temperature has no T, and is mapped to that T with a warning.
 kirchhoff_to_temperature <- function(U, alpha) {
   on <- which(alpha != 0)
   if (length(on) == 0L) return(U)
   a <- alpha[on]
   du <- U[on, , drop = FALSE] - 20
-  U[on, ] <- 20 + (sqrt(pmax(1 + 2 * a * du, 0)) - 1) / a
+  disc <- 1 + 2 * a * du
+  beyond <- rowSums(disc < 0) > 0
+  if (any(beyond)) {
+    griddy_warn("`conductivity_slope` gives no solution for the temperature at some ",
+                "locations of row(s) ", show_some(on[beyond]), " of `htc` (slope(s) ",
+                show_some(a[beyond]), "): the conductivity k0 (1 + alpha (T - 20)) would ",
+                "fall to 0 first; those temperatures are set to 20 - 1 / alpha, where it ",
+                "does. Use a smaller |conductivity_slope| or larger coefficients.",
+                class = "numeric")
+  }
+  U[on, ] <- 20 + (sqrt(pmax(disc, 0)) - 1) / a
   U
 }

@@ -7,21 +7,33 @@
 #'
 #' * `design`: one row per simulation run, the `n_x` x columns first and the
 #'   \eqn{\theta} columns after. Each x setting is a separate run.
-#' * `simobs`: one row per `design` row holding that run's `n_t` outputs; the
-#'   transposed layout (one column per run) is accepted when only it fits.
+#' * `simobs`: one row per `design` row holding that run's `n_t` outputs, or
+#'   the transposed layout, one column per `design` row (as the Los Alamos
+#'   `simobs` code writes it); see `simobs_layout`.
 #' * `expobs`: one row per x setting, the `n_x` x columns first, then the
 #'   `n_t` measurements.
 #'
-#' Files are read with [data.table::fread()] (csv or whitespace-separated,
-#' with a header). Runs at x settings that `expobs` lacks are dropped, with a
-#' message; every \eqn{\theta} must have been run at every setting of
-#' `expobs`.
+#' Files are read with [data.table::fread()] (csv or whitespace-separated).
+#' A header line is optional: a file whose first line is all numbers has
+#' none, and its columns are named `V1`, `V2`, ... (so a header line must
+#' hold at least one name that is not a number). Whole numbers too large for
+#' an integer are read as doubles. Runs at x settings that `expobs` lacks are
+#' dropped, with a message; every \eqn{\theta} must have been run at every
+#' setting of `expobs`.
 #'
-#' @param design,simobs,expobs File paths or data.frames, as above.
+#' @param design,simobs,expobs File paths, data.frames or matrices, as above.
+#'   All their columns must be numeric (integer, double or `bit64`'s
+#'   integer64); `design`'s columns need distinct names (the x columns' names
+#'   name the settings of the library and the field data).
 #' @param n_x The number of x columns (control variables) in `design` and
 #'   `expobs`; 0 when there are none.
 #' @param t Optional output coordinates (see [sim_library()]); `NULL` gives
 #'   `1:n_t`.
+#' @param simobs_layout How `simobs` holds the runs: `"runs_in_rows"` (one
+#'   row per `design` row), `"runs_in_columns"` (one column per `design`
+#'   row) or `"auto"` (the default: the one that fits `design`). When
+#'   `simobs` is square, with as many outputs per run as `design` has rows,
+#'   both fit and `"auto"` is refused: say which it is.
 #' @return A list with elements `library` (a [sim_library()]) and `field` (a
 #'   [field_data()] object).
 #' @examples
@@ -34,16 +46,22 @@
 #' )
 #' inputs$library
 #' @export
-read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
+read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
+                                    simobs_layout = c("auto", "runs_in_rows",
+                                                      "runs_in_columns")) {
+  n_x <- assert_count(n_x, "n_x", min = 0L)
+  simobs_layout <- assert_choice(simobs_layout, "simobs_layout",
+                                 c("auto", "runs_in_rows", "runs_in_columns"),
+                                 vector_default = TRUE)
   design <- read_table_input(design, "design")
   simobs <- read_table_input(simobs, "simobs")
   expobs <- read_table_input(expobs, "expobs")
-  n_x <- assert_count(n_x, "n_x", min = 0L)
+  assert_column_names(design, "design")
   if (ncol(design) <= n_x) {
     griddy_abort("`design` must have the ", n_x, " x column(s) and at least one theta ",
                  "column; it has ", ncol(design), " column(s).")
   }
-  sim <- orient_simobs(simobs, nrow(design))
+  sim <- orient_simobs(simobs, nrow(design), simobs_layout)
   n_t <- ncol(sim)
   if (ncol(expobs) != n_x + n_t) {
     griddy_abort("`expobs` must have the ", n_x, " x column(s) then the ", n_t,
@@ -72,40 +90,85 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL) {
   list(library = library, field = field)
 }
 
+# A file path, data.frame or matrix as a data.frame of doubles.
 read_table_input <- function(v, arg) {
-  if (is.character(v) && length(v) == 1L) {
-    if (!file.exists(v)) {
-      griddy_abort("`", arg, "` file not found: ", v)
-    }
-    v <- tryCatch(data.table::fread(v, header = TRUE, data.table = FALSE),
-                  error = function(e) griddy_abort("`", arg, "` could not be read from ", v,
-                                                   ": ", conditionMessage(e)))
+  headerless <- FALSE
+  if (is.character(v) && length(v) == 1L && !is.na(v)) {
+    v <- read_input_file(v, arg)
+    headerless <- attr(v, "headerless")
   }
   if (!is.data.frame(v) && !is.matrix(v)) {
     griddy_abort("`", arg, "` must be a file path, a data.frame or a matrix; received ",
-                 class(v)[1], ".")
+                 class(v)[1], if (is.character(v)) paste0(" of length ", length(v)), ".")
   }
   v <- as.data.frame(v)
   if (nrow(v) < 1L || ncol(v) < 1L) {
     griddy_abort("`", arg, "` is empty.")
   }
-  as_numeric_matrix(v, arg)
+  m <- as_numeric_matrix(v, arg)
+  v[] <- lapply(seq_len(ncol(m)), function(j) m[, j])
+  attr(v, "headerless") <- headerless
   v
 }
 
-# simobs as a runs x outputs matrix: one row per design row, or (when only
-# that fits) one column per design row.
-orient_simobs <- function(simobs, n_design) {
+# Read one input file. A first line of numbers only is data, not a header
+# (fread(header = TRUE) would take the first run for column names).
+read_input_file <- function(path, arg) {
+  if (!file.exists(path) || dir.exists(path)) {
+    griddy_abort("`", arg, "` file not found: ", path)
+  }
+  read <- function(...) {
+    tryCatch(data.table::fread(path, data.table = FALSE, integer64 = "double", ...),
+             error = function(e) griddy_abort("`", arg, "` could not be read from ", path,
+                                              ": ", conditionMessage(e)))
+  }
+  first <- read(header = FALSE, nrows = 1L, colClasses = "character")
+  fields <- trimws(unlist(first, use.names = FALSE))
+  numbers <- suppressWarnings(as.numeric(fields))
+  headerless <- length(fields) > 0L && all(!is.na(numbers))
+  structure(read(header = !headerless), headerless = headerless)
+}
+
+# simobs as a runs x outputs matrix: one row per design row, or one column
+# per design row, as `layout` says ("auto": the one that fits, refusing a
+# square simobs, which both fit).
+orient_simobs <- function(simobs, n_design, layout = "auto") {
+  hint <- if (isTRUE(attr(simobs, "headerless"))) {
+    paste0(" (The first line of the file holds numbers only, so it was read as data; ",
+           "if it is a header, e.g. of output times, give it a non-numeric name or drop it.)")
+  }
   sim <- as.matrix(simobs)
   dimnames(sim) <- NULL
-  if (nrow(sim) == n_design) {
+  fits_rows <- nrow(sim) == n_design
+  fits_cols <- ncol(sim) == n_design
+  if (layout == "auto") {
+    if (fits_rows && fits_cols) {
+      griddy_abort("`simobs` is ", nrow(sim), " x ", ncol(sim), ", as many outputs per run ",
+                   "as `design` has rows (", n_design, "), so whether its runs are its rows ",
+                   "or its columns is ambiguous; say which with simobs_layout = ",
+                   "\"runs_in_rows\" (one row per `design` row) or \"runs_in_columns\" ",
+                   "(one column per `design` row, the Los Alamos simobs layout).")
+    }
+    if (!fits_rows && !fits_cols) {
+      griddy_abort("`simobs` must have one row (or one column) per `design` row (",
+                   n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".", hint)
+    }
+    layout <- if (fits_rows) "runs_in_rows" else "runs_in_columns"
+  }
+  if (layout == "runs_in_rows") {
+    if (!fits_rows) {
+      griddy_abort("`simobs` must have one row per `design` row (", n_design, ") with ",
+                   "simobs_layout = \"runs_in_rows\"; it is ", nrow(sim), " x ", ncol(sim), ".",
+                   hint)
+    }
     return(sim)
   }
-  if (ncol(sim) == n_design) {
-    return(t(sim))
+  if (!fits_cols) {
+    griddy_abort("`simobs` must have one column per `design` row (", n_design, ") with ",
+                 "simobs_layout = \"runs_in_columns\"; it is ", nrow(sim), " x ", ncol(sim), ".",
+                 hint)
   }
-  griddy_abort("`simobs` must have one row (or one column) per `design` row (",
-               n_design, "); it is ", nrow(sim), " x ", ncol(sim), ".")
+  t(sim)
 }
 
 # For each design row, the expobs row holding its x setting (NA: none).

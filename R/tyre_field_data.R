@@ -23,14 +23,15 @@
 #'   (non-negative).
 #' @param seed Seed for the noise draws; `NULL` uses the current random
 #'   stream. The caller's stream is left as it was when a seed is given.
-#' @param ... Further arguments to [tyre_cleat_model()] (`speed`, `camber`,
-#'   `pressure`, `pac`, `rig`); give the library the same `rig`.
+#' @param ... Further arguments to [tyre_cleat_model()], by name: `speed`,
+#'   `camber`, `pressure`, `pac`, `rig`; give the library the same `rig`.
 #' @return A [field_data()] object with `x = data.frame(height)` and `t` the
 #'   sample times (s), matching [tyre_library()] with the same `height` and
 #'   `rig`, with attributes `truth` (named `k`, `c`), `model`, `clean` (the
 #'   noise-free signal, an `n_x x n_t` matrix), `noise` (same shape) and
 #'   `noise_sd`.
 #' @seealso [tyre_library()], [calibrate()]
+#' @family tyre stand-in
 #' @export
 #' @examples
 #' f <- tyre_field_data(height = 27.44, seed = 1)
@@ -44,10 +45,12 @@
 tyre_field_data <- function(k = 450, c = 1.5, height = tyre_cleat_heights(),
                             model = c("fiala", "pac2002"), contact = NULL,
                             noise_sd = 60, seed = NULL, ...) {
-  model <- match.arg(model)
+  model <- assert_choice(model, "model", c("fiala", "pac2002"), vector_default = TRUE)
   k <- assert_number(k, "k", lower = 0, lower_open = TRUE)
   c <- assert_number(c, "c", lower = 0)
   noise_sd <- assert_number(noise_sd, "noise_sd", lower = 0)
+  seed <- assert_seed(seed)
+  assert_dots(list(...), c("speed", "camber", "pressure", "pac", "rig"), "tyre_cleat_model()")
   clean <- tyre_cleat_model(k, c, height = height, model = model, contact = contact, ...)
   tt <- attr(clean, "time")
   height <- attr(clean, "height")

@@ -41,25 +41,84 @@ show_some <- function(v, n = 5L) {
 }
 
 # Coerce a data.frame or matrix to a numeric matrix, naming non-numeric
-# columns and non-finite cells in the error.
-as_numeric_matrix <- function(v, arg) {
+# columns and non-finite cells in the error. Integer and integer64 columns
+# are read as numbers (see as_plain_numeric()). `n_col` (when not NULL) and
+# `min_rows` check the shape.
+as_numeric_matrix <- function(v, arg, n_col = NULL, min_rows = 0L) {
   if (is.data.frame(v)) {
+    v <- as_numeric_columns(v, arg)
     bad <- names(v)[!vapply(v, is.numeric, logical(1))]
     if (length(bad) > 0L) {
       griddy_abort("`", arg, "` must be numeric; column(s) ", show_some(bad),
                    " are ", show_some(unique(vapply(v[bad], function(z) class(z)[1], ""))), ".")
     }
     v <- as.matrix(v)
-  } else if (is.numeric(v) && is.null(dim(v))) {
-    v <- matrix(v, nrow = 1L)
+  } else {
+    v <- as_plain_numeric(v, arg)
+    if (is.numeric(v) && is.null(dim(v))) {
+      v <- matrix(v, nrow = 1L)
+    }
   }
   if (!is.matrix(v) || !is.numeric(v)) {
     griddy_abort("`", arg, "` must be a numeric matrix or data.frame; received ",
                  class(v)[1], if (is.matrix(v)) paste0(" of type ", typeof(v)), ".")
   }
+  if (!is.null(n_col) && ncol(v) != n_col) {
+    griddy_abort("`", arg, "` must have ", n_col, " column(s); received ", nrow(v), " x ",
+                 ncol(v), ".")
+  }
+  if (nrow(v) < min_rows) {
+    griddy_abort("`", arg, "` must have at least ", min_rows, " row(s); received ", nrow(v),
+                 ".")
+  }
   storage.mode(v) <- "double"
   assert_finite(v, arg)
   v
+}
+
+# A number stored in a form that as.double() would misread, made a plain
+# double (keeping dim and names): integer64 (package bit64; what
+# data.table::fread() gives for whole numbers >= 2^31) stores its values as
+# the bits of a double, which storage.mode<- and as.matrix() reinterpret as
+# denormal garbage; bit64's as.double() method reads them right, and is
+# registered as soon as bit64's namespace is loaded.
+as_plain_numeric <- function(v, arg, bit64 = requireNamespace("bit64", quietly = TRUE)) {
+  if (!inherits(v, "integer64")) {
+    return(v)
+  }
+  if (!bit64) {
+    griddy_abort("`", arg, "` is of class integer64 (whole numbers of 64 bits, e.g. from ",
+                 "data.table::fread()), which package 'bit64' is needed to read, but it is ",
+                 "not installed; install it with install.packages(\"bit64\"), or convert ",
+                 "the values to double where they were read.", class = "package")
+  }
+  keep <- attributes(v)[intersect(names(attributes(v)), c("dim", "dimnames", "names"))]
+  v <- as.double(v)
+  attributes(v) <- keep
+  v
+}
+
+# The columns of a data.frame with integer64 columns made plain doubles.
+as_numeric_columns <- function(df, arg) {
+  big <- vapply(df, inherits, logical(1), what = "integer64")
+  for (j in which(big)) {
+    df[[j]] <- as_plain_numeric(df[[j]], paste0(arg, "$", names(df)[j]))
+  }
+  df
+}
+
+# A data.frame (or matrix) with every column named and no name twice.
+assert_column_names <- function(v, arg) {
+  nm <- names(v)
+  empty <- which(is.na(nm) | nm == "")
+  if (length(empty) > 0L) {
+    griddy_abort("`", arg, "` must have a name for every column; column(s) ",
+                 show_some(empty), " have none.")
+  }
+  if (anyDuplicated(nm)) {
+    griddy_abort("`", arg, "` has duplicated column names: ",
+                 show_some(unique(nm[duplicated(nm)])), ".")
+  }
 }
 
 # Error naming the rows and columns of the first non-finite cells.
@@ -82,6 +141,7 @@ assert_finite <- function(v, arg) {
 }
 
 assert_numeric_vector <- function(v, arg, min_length = 1L) {
+  v <- as_plain_numeric(v, arg)
   if (!is.numeric(v) || !is.null(dim(v)) && length(dim(v)) > 1L && min(dim(v)) > 1L) {
     griddy_abort("`", arg, "` must be a numeric vector; received ", class(v)[1], ".")
   }
@@ -94,12 +154,118 @@ assert_numeric_vector <- function(v, arg, min_length = 1L) {
   v
 }
 
-assert_count <- function(v, arg, min = 1L) {
-  if (!is.numeric(v) || length(v) != 1L || !is.finite(v) || v != round(v) || v < min) {
-    griddy_abort("`", arg, "` must be a single whole number >= ", min, "; received ",
-                 paste(format(v), collapse = ", "), ".")
+# Values (any shape) in [lower, upper], either end open; names the positions
+# of the first values outside.
+assert_range <- function(v, arg, lower = -Inf, upper = Inf, lower_open = FALSE,
+                         upper_open = FALSE, unit = "") {
+  bad <- v < lower | v > upper | (lower_open & v <= lower) | (upper_open & v >= upper)
+  if (!any(bad)) {
+    return(invisible(v))
+  }
+  pos <- which(bad, arr.ind = is.matrix(v))
+  where <- if (is.matrix(pos)) paste0("[", pos[, 1], ", ", pos[, 2], "]") else paste0("[", pos, "]")
+  griddy_abort("`", arg, "` must lie in ", format_range(lower, upper, lower_open, upper_open),
+               unit, "; received ", show_some(v[bad]), " at ", show_some(where), ".")
+}
+
+format_range <- function(lower, upper, lower_open = FALSE, upper_open = FALSE) {
+  paste0(if (lower_open) "(" else "[", lower, ", ", upper, if (upper_open) ")" else "]")
+}
+
+# Whole numbers in lower..upper, returned as integers. `len`: the number of
+# values (NULL: one or more). Values that do not fit an integer (beyond
+# +-.Machine$integer.max) are refused rather than turned into NA.
+assert_whole <- function(v, arg, lower = 0, upper = .Machine$integer.max, len = 1L,
+                         distinct = FALSE) {
+  v <- as_plain_numeric(v, arg)
+  upper <- min(upper, .Machine$integer.max)
+  lower <- max(lower, -.Machine$integer.max)
+  ok <- is.numeric(v) && length(v) >= 1L &&
+    (is.null(len) || length(v) == len) && all(is.finite(v)) && all(v == round(v)) &&
+    all(v >= lower) && all(v <= upper) && (!distinct || !anyDuplicated(v))
+  if (!ok) {
+    rng <- if (upper == .Machine$integer.max) {
+      paste0(">= ", lower)
+    } else {
+      paste0("in ", lower, "..", upper)
+    }
+    if (is.numeric(v) && any(v > upper, na.rm = TRUE) && upper == .Machine$integer.max) {
+      rng <- paste0(rng, " that fits an integer (at most ", upper, ")")
+    }
+    what <- if (is.numeric(v) || is.logical(v)) {
+      if (length(v) == 0L) "nothing" else show_some(format(v, digits = 15))
+    } else {
+      class(v)[1]
+    }
+    griddy_abort("`", arg, "` must be ",
+                 if (identical(len, 1L)) "a single whole number " else
+                   paste0(if (!is.null(len)) paste0(len, " ") else "",
+                          if (distinct) "distinct ", "whole numbers "),
+                 rng, "; received ", what, ".")
   }
   as.integer(v)
+}
+
+# A count: one whole number >= min (and <= max).
+assert_count <- function(v, arg, min = 1L, max = .Machine$integer.max) {
+  assert_whole(v, arg, lower = min, upper = max)
+}
+
+# One of `choices` (or, with several = TRUE, one or more distinct of them);
+# `choices` are strings or numbers. For an argument whose default is the
+# vector of choices, vector_default = TRUE makes that vector mean the first,
+# as with match.arg().
+assert_choice <- function(v, arg, choices, several = FALSE, vector_default = FALSE) {
+  if (vector_default && identical(v, choices)) {
+    return(choices[1])
+  }
+  is_numbers <- is.numeric(choices)
+  v <- if (is_numbers) as_plain_numeric(v, arg) else v
+  same_type <- if (is_numbers) is.numeric(v) else is.character(v)
+  ok <- same_type && is.null(dim(v)) && length(v) >= 1L && !anyNA(v) &&
+    all(v %in% choices) && !anyDuplicated(v) && (several || length(v) == 1L)
+  if (!ok) {
+    quote <- function(z) if (is.character(z)) paste0("\"", z, "\"") else as.character(z)
+    what <- if (same_type) {
+      if (length(v) == 0L) "nothing" else show_some(quote(v))
+    } else {
+      paste0(class(v)[1], if (length(v) > 0L) paste0(" ", show_some(format(v))))
+    }
+    griddy_abort("`", arg, "` must be ", if (several) "one or more distinct of " else "one of ",
+                 paste(quote(choices), collapse = ", "), "; received ", what, ".")
+  }
+  if (is_numbers) as.double(v) else v
+}
+
+# NULL (the current random stream) or a single whole number for set.seed().
+assert_seed <- function(seed, arg = "seed") {
+  if (is.null(seed)) {
+    return(NULL)
+  }
+  assert_whole(seed, arg, lower = -.Machine$integer.max)
+}
+
+# The `...` a function passes on to `to`: every element named, and each name
+# one of `allowed` (which `to` takes and the caller does not set itself).
+assert_dots <- function(dots, allowed, to) {
+  nm <- names(dots)
+  if (is.null(nm)) nm <- rep("", length(dots))
+  unnamed <- which(nm == "")
+  if (length(unnamed) > 0L) {
+    griddy_abort("The further arguments (`...`) to ", to, " must be named; argument(s) ",
+                 show_some(unnamed), " of `...` are not. Allowed: ",
+                 paste(allowed, collapse = ", "), ".")
+  }
+  bad <- setdiff(nm, allowed)
+  if (length(bad) > 0L) {
+    griddy_abort("The further arguments (`...`) to ", to, " may be ",
+                 paste(allowed, collapse = ", "), "; received ", show_some(bad), ".")
+  }
+  if (anyDuplicated(nm)) {
+    griddy_abort("The further arguments (`...`) to ", to, " name ",
+                 show_some(unique(nm[duplicated(nm)])), " more than once.")
+  }
+  invisible(dots)
 }
 
 assert_string <- function(v, arg) {
@@ -138,6 +304,8 @@ assert_prior <- function(prior) {
     griddy_abort("`prior` must be a list with elements `shape` and `rate` ",
                  "(the Gamma prior on the precision tau).")
   }
+  prior$shape <- as_plain_numeric(prior$shape, "prior$shape")
+  prior$rate <- as_plain_numeric(prior$rate, "prior$rate")
   ok <- function(z) is.numeric(z) && length(z) == 1L && is.finite(z)
   if (!ok(prior$shape) || prior$shape <= 0) {
     griddy_abort("`prior$shape` must be a single positive number; received ",
@@ -154,11 +322,18 @@ assert_prior <- function(prior) {
 # may be open.
 assert_number <- function(x, name, len = 1L, lower = -Inf, upper = Inf, lower_open = FALSE,
                           upper_open = FALSE) {
+  x <- as_plain_numeric(x, name)
   if (!is.numeric(x) || (!is.null(len) && length(x) != len) || length(x) == 0L ||
       anyNA(x) || any(!is.finite(x)) || any(x < lower) || any(x > upper) ||
       (lower_open && any(x <= lower)) || (upper_open && any(x >= upper))) {
-    what <- if (is.numeric(x)) paste(format(utils::head(x, 5)), collapse = ", ") else class(x)[1]
-    rng <- paste0(if (lower_open) "(" else "[", lower, ", ", upper, if (upper_open) ")" else "]")
+    what <- if (!is.numeric(x)) {
+      class(x)[1]
+    } else if (length(x) == 0L) {
+      "nothing"
+    } else {
+      show_some(format(x))
+    }
+    rng <- format_range(lower, upper, lower_open, upper_open)
     griddy_abort("`", name, "` must be ", if (!is.null(len)) paste0(len, " ") else "",
                  "finite number", if (is.null(len) || len != 1L) "s" else "", " in ", rng,
                  "; received ", what, ".")

@@ -34,3 +34,39 @@ test_that("field_vector rejects fields that do not match the library", {
   expect_error(field_vector(list(), field_data(1)), "`library` must be a sim_library")
   expect_error(field_vector(lib, 1:6), "`field` must be a griddy_field")
 })
+
+test_that("a vector y with both x and t must hold n_x * n_t values", {
+  expect_error(field_data(1:6, x = data.frame(h = 1:3), t = 1:3),
+               "`y` has 6 values but `x` has 3 settings and `t` 3 coordinates: 3 x 3 = 9 expected",
+               class = "griddy_error_input")
+  expect_error(field_data(1:12, x = data.frame(h = 1:3), t = 1:3), "3 x 3 = 9 expected")
+  expect_identical(dim(field_data(1:9, x = data.frame(h = 1:3), t = 1:3)$y), c(3L, 3L))
+  expect_error(field_data(1:4, t = 1:3), "`y` has 4 values, which do not split into blocks of 3")
+})
+
+test_that("field_data refuses empty, logical, factor and duplicated-name input", {
+  expect_error(field_data(matrix(numeric(0), 0, 3)), "`y` must have at least 1 row",
+               class = "griddy_error_input")
+  expect_error(field_data(matrix(numeric(0), 2, 0)), "`y` must have at least 1 column")
+  expect_error(field_data(c(TRUE, FALSE)), "`y` must be a numeric vector; received logical")
+  expect_error(field_data(factor(1:3)), "received factor")
+  expect_error(field_data(data.frame(a = c("1", "2"))), "column\\(s\\) a are character")
+  x <- data.frame(h = 1:2, h = 3:4, check.names = FALSE)
+  expect_error(field_data(matrix(1:4, 2), x = x), "`x` has duplicated column names: h")
+  expect_error(field_data(matrix(1:4, 2), x = data.frame(h = c(1, NA))), "`x` must hold finite")
+  expect_error(field_data(1:3, t = c(1, NA, 3)), "`t` must hold finite")
+})
+
+test_that("field_data reads a one-dimensional array as a vector", {
+  y <- array(1:6)
+  expect_identical(field_data(y, t = 1:3)$y, matrix(as.double(1:6), 2, byrow = TRUE))
+})
+
+test_that("integer64 measurements and settings are read as numbers", {
+  skip_if_not_installed("bit64")
+  f <- field_data(bit64::as.integer64(c(1, 2, 3, 2^40)), x = data.frame(h = bit64::as.integer64(c(5, 2^33))))
+  expect_identical(f$y, rbind(c(1, 2), c(3, 2^40)))
+  expect_identical(f$x$h, c(5, 2^33))
+  f2 <- field_data(data.frame(a = bit64::as.integer64(c(1, 2^31))))
+  expect_identical(f2$y, matrix(c(1, 2^31), 2))
+})

@@ -32,8 +32,14 @@ test_that("noise and discrepancy have the thesis's scale and correlation", {
 })
 
 test_that("piston_field_data rejects bad input", {
-  expect_error(piston_field_data(10), "6, 15, 27 or 54")
-  expect_error(piston_field_data(6, truth = c(1, 2)), "3 positive")
+  expect_error(piston_field_data(10), "`n_points` must be one of 6, 15, 27, 54; received 10",
+               class = "griddy_error_input")
+  expect_error(piston_field_data(6, truth = c(1, 2)), "`truth` must be 3 finite numbers in \\(0, Inf\\]",
+               class = "griddy_error_input")
+  expect_error(piston_field_data(6, truth = c(1, -2, 3)), "`truth`", class = "griddy_error_input")
+  expect_error(piston_field_data(6, seed = "a"), "`seed` must be a single whole number",
+               class = "griddy_error_input")
+  expect_error(piston_field_data(6, seed = 2^31), "`seed`", class = "griddy_error_input")
   expect_error(piston_field_data(6, noise_var = -1), "noise_var")
   expect_error(piston_field_data(6, rho = 1), "rho")
   expect_error(piston_field_data(6, discrepancy = NA), "discrepancy")
@@ -50,4 +56,12 @@ test_that("a calibration on the piston recovers the truth within one library ste
   step <- (rng$max - rng$min) / 8
   est <- s$median[match(rng$parameter, s$parameter)]
   expect_true(all(abs(est - c(1000, 3000, 2000)) <= step))
+})
+
+test_that("zero variances give data without that error term", {
+  f <- piston_field_data(6, discrepancy = TRUE, discrepancy_var = 0, seed = 1)
+  expect_identical(attr(f, "discrepancy"), numeric(6))
+  g <- piston_field_data(6, noise_var = 0, seed = 1)
+  expect_identical(attr(g, "noise"), numeric(6))
+  expect_equal(as.vector(t(g$y)), attr(g, "clean"))
 })

@@ -39,7 +39,24 @@ test_that("piston_library sizes and spacing", {
   expect_identical(nrow(lib$theta), 64L)
   g <- sort(unique(lib$theta$htc_undercrown))
   expect_equal(diff(log(g)), rep(diff(log(g))[1], 3))
-  expect_error(piston_library(1), "`n_per_dim` must be")
-  expect_error(piston_library(3.5), "`n_per_dim` must be")
-  expect_error(piston_library(3, condition = "idle"), "`condition` must be")
+  expect_error(piston_library(1), "`n_per_dim` must be a single whole number in 2..60; received 1",
+               class = "griddy_error_input")
+  expect_error(piston_library(3.5), "`n_per_dim` must be", class = "griddy_error_input")
+  expect_error(piston_library(2^31), "`n_per_dim` must be", class = "griddy_error_input")
+  expect_error(piston_library(3, condition = "idle"), "`condition` must be",
+               class = "griddy_error_input")
+  expect_error(piston_library(3, spacing = "cubic"), "`spacing` must be one of \"linear\", \"log\"",
+               class = "griddy_error_input")
+})
+
+test_that("piston_library passes on only the piston_model() arguments it does not set", {
+  expect_error(piston_library(3, materal = "aluminium"),
+               "`...`\\) to piston_model\\(\\) may be material, cell, gallery_gradient, conductivity_slope; received materal",
+               class = "griddy_error_input")
+  expect_error(piston_library(3, htc = 1), "received htc", class = "griddy_error_input")
+  expect_error(piston_library(3, 1:3, "full", "linear", "steel"), "must be named",
+               class = "griddy_error_input")
+  lib <- piston_library(2, locations = 1, material = "aluminium")
+  expect_equal(unname(lib$y[1, ]),
+               unname(piston_model(unlist(lib$theta[1, ]), locations = 1, material = "aluminium")[1, ]))
 })

@@ -117,15 +117,58 @@ test_that("aluminium has a cooler crown than steel", {
 })
 
 test_that("piston_model validates its inputs", {
-  expect_error(piston_model(c(1, 2)), "`htc` must have 3 values")
-  expect_error(piston_model("a"), "`htc` must be numeric")
-  expect_error(piston_model(matrix(1, 2, 4)), "`htc` must be an N x 3 matrix")
-  expect_error(piston_model(c(1, -2, 3)), "`htc` must be finite and > 0")
-  expect_error(piston_model(c(1, NA, 3)), "`htc` must be finite and > 0")
-  expect_error(piston_model(truth, locations = 28), "`locations` must be")
-  expect_error(piston_model(truth, condition = "idle"), "`condition` must be")
-  expect_error(piston_model(truth, cell = 2), "`cell` must be")
-  expect_error(piston_heat_balance(rbind(truth, truth)), "single set")
+  expect_error(piston_model(c(1, 2)), "`htc` must have 3 values", class = "griddy_error_input")
+  expect_error(piston_model("a"), "`htc` must be a numeric matrix or data.frame; received character",
+               class = "griddy_error_input")
+  expect_error(piston_model(matrix(1, 2, 4)), "`htc` must have 3 column\\(s\\); received 2 x 4",
+               class = "griddy_error_input")
+  expect_error(piston_model(matrix(1, 0, 3)), "`htc` must have at least 1 row",
+               class = "griddy_error_input")
+  expect_error(piston_model(c(1, -2, 3)),
+               "`htc` must lie in \\(0, Inf\\] \\(W/m\\^2K\\); received -2 at \\[1, 2\\]",
+               class = "griddy_error_input")
+  expect_error(piston_model(c(1, NA, 3)), "`htc` must hold finite numbers; found NA at \\[1, 2\\]",
+               class = "griddy_error_input")
+  expect_error(piston_model(data.frame(a = 1, b = factor("2"), c = 3)),
+               "`htc` must be numeric; column\\(s\\) b are factor", class = "griddy_error_input")
+  expect_error(piston_model(c(TRUE, TRUE, TRUE)), "received logical", class = "griddy_error_input")
+  expect_error(piston_model(truth, locations = 28), "`locations` must be distinct whole numbers in 1..27; received 28",
+               class = "griddy_error_input")
+  expect_error(piston_model(truth, locations = c(1, 1)), "received 1, 1", class = "griddy_error_input")
+  expect_error(piston_model(truth, locations = 2^31), "in 1..27", class = "griddy_error_input")
+  expect_error(piston_model(truth, locations = integer(0)), "received nothing", class = "griddy_error_input")
+  expect_error(piston_model(truth, condition = "idle"),
+               "`condition` must be one or more distinct of \"full\", \"part\"; received \"idle\"",
+               class = "griddy_error_input")
+  expect_error(piston_model(truth, material = c("steel", "aluminium")),
+               "`material` must be one of \"steel\", \"aluminium\"", class = "griddy_error_input")
+  expect_error(piston_model(truth, cell = 2), "`cell` must be one of 0.25, 0.5, 1; received 2",
+               class = "griddy_error_input")
+  expect_error(piston_model(truth, cell = NA), "`cell` must be one of", class = "griddy_error_input")
+  expect_error(piston_heat_balance(rbind(truth, truth)), "`htc` must be a single set of 3",
+               class = "griddy_error_input")
+  expect_error(piston_heat_balance(truth, condition = c("full", "part")),
+               "`condition` must be one of", class = "griddy_error_input")
+  expect_error(piston_heat_balance(truth, field = "yes"), "`field` must be TRUE or FALSE",
+               class = "griddy_error_input")
+  expect_error(piston_location_ids(2^31), "`n_per_surface` must be a single whole number in 1..9",
+               class = "griddy_error_input")
+  expect_error(piston_location_ids(NA), "`n_per_surface`", class = "griddy_error_input")
+  expect_error(piston_locations(0), "`locations`", class = "griddy_error_input")
+})
+
+test_that("integer64 coefficients are read as numbers", {
+  skip_if_not_installed("bit64")
+  expect_equal(piston_model(bit64::as.integer64(truth)), piston_model(truth))
+})
+
+test_that("a conductivity slope with no solution for the temperature warns", {
+  # k(T) = k0 (1 + alpha (T - 20)) vanishes at T = 20 - 1 / alpha; the hottest
+  # constant-conductivity temperatures have no T with that slope
+  low <- c(14, 9, 36)
+  expect_warning(hot <- piston_model(low, conductivity_slope = -9.9e-4),
+                 "conductivity_slope.*no solution.*row\\(s\\) 1", class = "griddy_warning_numeric")
+  expect_no_warning(piston_model(low, conductivity_slope = -3e-4))
 })
 
 test_that("the optional effects are off by default and reproduce the base model at 0", {

@@ -78,3 +78,114 @@ test_that("runs at settings expobs lacks are dropped with a message", {
                  "2 `design` run\\(s\\) at x settings that `expobs` lacks were dropped \\(row\\(s\\) 1, 6\\)")
   expect_identical(out$library$y[1, ], c(351, 352, 151, 152))
 })
+
+# Write a data.frame as a csv file without a header line.
+write_headerless <- function(d, path) {
+  data.table::fwrite(as.data.frame(d), path, col.names = FALSE)
+  path
+}
+
+test_that("a square simobs is refused in auto layout and read as told by simobs_layout", {
+  # no x columns, three runs, three outputs: simobs is 3 x 3
+  design <- data.frame(k = c(1, 2, 3))
+  by_run <- rbind(c(11, 12, 13), c(21, 22, 23), c(31, 32, 33))   # row r = run r
+  expobs <- data.frame(m1 = 1, m2 = 2, m3 = 3)
+  expect_error(read_calibration_inputs(design, by_run, expobs, n_x = 0),
+               "`simobs` is 3 x 3.*ambiguous.*simobs_layout = \"runs_in_rows\".*\"runs_in_columns\"",
+               class = "griddy_error_input")
+  rows <- read_calibration_inputs(design, by_run, expobs, n_x = 0, simobs_layout = "runs_in_rows")
+  expect_identical(rows$library$y[2, ], c(21, 22, 23))
+  cols <- read_calibration_inputs(design, t(by_run), expobs, n_x = 0,
+                                  simobs_layout = "runs_in_columns")
+  expect_identical(cols$library$y[2, ], c(21, 22, 23))
+  expect_error(read_calibration_inputs(design, by_run[, 1:2], expobs[1:2], n_x = 0,
+                                       simobs_layout = "runs_in_columns"),
+               "one column per `design` row \\(3\\) with simobs_layout = \"runs_in_columns\"; it is 3 x 2")
+  expect_error(read_calibration_inputs(design, by_run, expobs, n_x = 0, simobs_layout = "rows"),
+               "`simobs_layout` must be one of \"auto\", \"runs_in_rows\", \"runs_in_columns\"")
+})
+
+test_that("headerless design, simobs and expobs files keep their first row", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  paths <- c(write_headerless(d$design, file.path(dir, "design.csv")),
+             write_headerless(d$simobs, file.path(dir, "simobs.csv")),
+             write_headerless(d$expobs, file.path(dir, "expobs.csv")))
+  out <- read_calibration_inputs(paths[1], paths[2], paths[3], n_x = 1)
+  ref <- read_calibration_inputs(d$design, d$simobs, d$expobs, n_x = 1)
+  expect_identical(out$library$y, ref$library$y)
+  expect_identical(unname(out$library$theta), unname(ref$library$theta))
+  expect_identical(out$field$y, ref$field$y)
+  # a whitespace-separated, headerless simobs with one column per run
+  write.table(t(d$simobs), file.path(dir, "simobs.txt"), row.names = FALSE, col.names = FALSE)
+  out2 <- read_calibration_inputs(paths[1], file.path(dir, "simobs.txt"), paths[3], n_x = 1)
+  expect_identical(out2$library$y, ref$library$y)
+  # a one-line headerless expobs (a single x setting) is one measurement row, not a header
+  design <- data.frame(k = c(1, 2, 3))
+  write_headerless(data.frame(a = 5, b = 6), file.path(dir, "exp1.csv"))
+  one <- read_calibration_inputs(design, data.frame(a = 1:3, b = 4:6),
+                                 file.path(dir, "exp1.csv"), n_x = 0)
+  expect_identical(one$field$y, matrix(c(5, 6), 1))
+})
+
+test_that("files with a header line still use it for the names", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  data.table::fwrite(d$design, file.path(dir, "design.csv"))
+  data.table::fwrite(d$simobs, file.path(dir, "simobs.csv"))
+  data.table::fwrite(d$expobs, file.path(dir, "expobs.csv"))
+  out <- read_calibration_inputs(file.path(dir, "design.csv"), file.path(dir, "simobs.csv"),
+                                 file.path(dir, "expobs.csv"), n_x = 1)
+  expect_named(out$library$theta, "k")
+  expect_named(out$library$x, "h")
+  expect_identical(nrow(out$library$theta), 2L)
+})
+
+test_that("integer64 columns (fread's whole numbers >= 2^31) are read as numbers", {
+  skip_if_not_installed("bit64")
+  d <- thesis_inputs()
+  d$design$k <- d$design$k * 1e9                      # 5e9 and 7e9 do not fit an integer
+  dir <- withr::local_tempdir()
+  data.table::fwrite(d$design, file.path(dir, "design.csv"))
+  out <- read_calibration_inputs(file.path(dir, "design.csv"), d$simobs, d$expobs, n_x = 1)
+  expect_identical(out$library$theta$k, c(5e9, 7e9))
+  big <- d$design
+  big$k <- bit64::as.integer64(big$k)
+  big_sim <- d$simobs
+  big_sim$V1 <- bit64::as.integer64(big_sim$V1)
+  out2 <- read_calibration_inputs(big, big_sim, d$expobs, n_x = 1)
+  expect_identical(out2$library$theta$k, c(5e9, 7e9))
+  expect_identical(out2$library$y, out$library$y)
+  expect_true(is.double(out2$library$theta$k))
+})
+
+test_that("design column names must be present and distinct", {
+  d <- thesis_inputs()
+  dup <- d$design
+  names(dup) <- c("k", "k")
+  expect_error(read_calibration_inputs(dup, d$simobs, d$expobs, n_x = 1),
+               "`design` has duplicated column names: k", class = "griddy_error_input")
+  unnamed <- d$design
+  names(unnamed) <- c("h", "")
+  expect_error(read_calibration_inputs(unnamed, d$simobs, d$expobs, n_x = 1),
+               "`design` must have a name for every column; column\\(s\\) 2")
+})
+
+test_that("scalar arguments are checked before any file is read", {
+  expect_error(read_calibration_inputs("no-such-file.csv", "x", "y", n_x = 2^31),
+               "`n_x` must be a single whole number >= 0 that fits an integer")
+  expect_error(read_calibration_inputs("no-such-file.csv", "x", "y", n_x = TRUE), "`n_x`")
+  expect_error(read_calibration_inputs(c("a.csv", "b.csv"), "x", "y", n_x = 1),
+               "`design` must be a file path, a data.frame or a matrix; received character")
+})
+
+test_that("a numeric header line is read as data, and the error says so", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  sim <- d$simobs
+  names(sim) <- c("0.5", "1")                         # output times as a header
+  data.table::fwrite(sim, file.path(dir, "simobs.csv"))
+  expect_error(read_calibration_inputs(d$design, file.path(dir, "simobs.csv"), d$expobs, n_x = 1),
+               "it is 7 x 2\\. \\(The first line of the file holds numbers only, so it was read as data",
+               class = "griddy_error_input")
+})

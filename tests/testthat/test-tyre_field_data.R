@@ -44,5 +44,8 @@ test_that("tyre_field_data validates its inputs", {
   expect_error(tyre_field_data(k = c(1, 2)), "`k` must be 1 finite number")
   expect_error(tyre_field_data(c = -1), "`c` must be")
   expect_error(tyre_field_data(noise_sd = -1), "`noise_sd` must be")
-  expect_error(tyre_field_data(model = "swift"), "should be one of")
+  expect_error(tyre_field_data(model = "swift"), "`model` must be one of", class = "griddy_error_input")
+  expect_error(tyre_field_data(seed = NA), "`seed` must be", class = "griddy_error_input")
+  expect_error(tyre_field_data(height = 27.44, hight = 12), "may be speed, camber, pressure, pac, rig; received hight",
+               class = "griddy_error_input")
 })

@@ -44,3 +44,108 @@ test_that("assert_level names the argument it checks", {
   expect_error(assert_level(1), "`level` must be a single number in \\(0, 1\\); received 1")
   expect_error(assert_level(0, "fdr"), "`fdr` must be a single number in \\(0, 1\\)")
 })
+
+test_that("integer64 columns and vectors are read as their numbers, not their bits", {
+  skip_if_not_installed("bit64")
+  big <- bit64::as.integer64(c(1, 2^31, 3))
+  m <- as_numeric_matrix(data.frame(a = big, b = 1:3), "theta")
+  expect_identical(m[, "a"], c(1, 2^31, 3))
+  expect_identical(m[, "b"], c(1, 2, 3))
+  expect_identical(as_numeric_matrix(big, "y"), matrix(c(1, 2^31, 3), 1))
+  expect_identical(assert_numeric_vector(big, "t"), c(1, 2^31, 3))
+  expect_identical(assert_number(bit64::as.integer64(5), "k"), 5)
+  expect_identical(assert_count(bit64::as.integer64(7), "n_iter"), 7L)
+  expect_error(assert_numeric_vector(bit64::as.integer64(c(1, NA)), "t"),
+               "`t` must hold finite numbers; found NA at \\[2\\]", class = "griddy_error_input")
+})
+
+test_that("integer64 without bit64 installed is refused, not misread", {
+  fake <- structure(0, class = "integer64")
+  expect_error(as_plain_numeric(fake, "design$k", bit64 = FALSE),
+               "`design\\$k` is of class integer64 .* package 'bit64' is needed to read",
+               class = "griddy_error_package")
+  expect_identical(as_plain_numeric(1:2, "v", bit64 = FALSE), 1:2)
+})
+
+test_that("whole-number validators refuse values that do not fit an integer", {
+  expect_error(assert_count(2^31, "n_iter"),
+               "`n_iter` must be a single whole number >= 1 that fits an integer \\(at most 2147483647\\); received 2147483648",
+               class = "griddy_error_input")
+  expect_error(assert_count(1e300, "n_iter"), "fits an integer", class = "griddy_error_input")
+  expect_error(assert_count(50, "thin", max = 10), "`thin` must be a single whole number in 1..10; received 50")
+  expect_identical(assert_count(.Machine$integer.max, "n_iter"), .Machine$integer.max)
+  expect_error(assert_count(NA, "n_iter"), "received NA")
+  expect_error(assert_count(TRUE, "n_iter"), "received TRUE")
+  expect_error(assert_count(integer(0), "n_iter"), "received nothing")
+  expect_error(assert_count("3", "n_iter"), "received character")
+  expect_identical(assert_whole(c(3, 1), "loc", lower = 1, upper = 27, len = NULL, distinct = TRUE),
+                   c(3L, 1L))
+  expect_error(assert_whole(c(3, 3), "loc", lower = 1, upper = 27, len = NULL, distinct = TRUE),
+               "`loc` must be distinct whole numbers in 1..27; received 3, 3")
+  expect_error(assert_whole(1:2, "n", len = 1L), "single whole number")
+})
+
+test_that("assert_choice takes one (or several) of the choices, the default vector meaning the first", {
+  expect_identical(assert_choice(c("a", "b"), "model", c("a", "b"), vector_default = TRUE), "a")
+  expect_error(assert_choice(c("a", "b"), "model", c("a", "b")), "`model` must be one of")
+  expect_identical(assert_choice("b", "model", c("a", "b")), "b")
+  expect_identical(assert_choice(c("b", "a"), "cond", c("a", "b"), several = TRUE), c("b", "a"))
+  expect_error(assert_choice("c", "model", c("a", "b")),
+               "`model` must be one of \"a\", \"b\"; received \"c\"", class = "griddy_error_input")
+  expect_error(assert_choice(c("a", "a"), "cond", c("a", "b"), several = TRUE),
+               "one or more distinct of")
+  expect_error(assert_choice(NA_character_, "model", c("a", "b")), "received \"NA\"")
+  expect_error(assert_choice(factor("a"), "model", c("a", "b")), "received factor a")
+  expect_error(assert_choice(character(0), "model", c("a", "b")), "received nothing")
+})
+
+test_that("assert_seed takes NULL or one whole number", {
+  expect_null(assert_seed(NULL))
+  expect_identical(assert_seed(-5), -5L)
+  expect_error(assert_seed("a"), "`seed` must be a single whole number")
+  expect_error(assert_seed(1.5), "received 1.5")
+})
+
+test_that("assert_dots names the further arguments that the callee does not take", {
+  expect_invisible(assert_dots(list(cell = 1), c("material", "cell"), "piston_model()"))
+  expect_error(assert_dots(list(materal = 1), c("material", "cell"), "piston_model()"),
+               "may be material, cell; received materal", class = "griddy_error_input")
+  expect_error(assert_dots(list(1), c("material", "cell"), "piston_model()"), "must be named")
+  expect_error(assert_dots(list(cell = 1, cell = 2), "cell", "piston_model()"), "more than once")
+})
+
+test_that("assert_range names the positions outside the range", {
+  m <- matrix(c(1, -2, 3, 0), 2)
+  expect_error(assert_range(m, "htc", lower = 0, lower_open = TRUE),
+               "`htc` must lie in \\(0, Inf\\]; received -2, 0 at \\[2, 1\\], \\[2, 2\\]")
+  expect_invisible(assert_range(1:3, "v", 1, 3))
+})
+
+test_that("as_numeric_matrix checks the number of columns and rows when asked", {
+  expect_error(as_numeric_matrix(matrix(1, 2, 4), "htc", n_col = 3),
+               "`htc` must have 3 column\\(s\\); received 2 x 4")
+  expect_error(as_numeric_matrix(matrix(1, 0, 3), "htc", min_rows = 1), "at least 1 row")
+  expect_error(as_numeric_matrix(data.frame(a = c(TRUE, FALSE)), "y"), "column\\(s\\) a are logical")
+  expect_error(as_numeric_matrix(data.frame(a = factor(1:2)), "y"), "column\\(s\\) a are factor")
+  expect_error(as_numeric_matrix(matrix(TRUE, 2, 2), "y"), "received matrix of type logical")
+  expect_error(assert_number(numeric(0), "k"), "received nothing")
+})
+
+test_that("assert_choice takes numeric choices too", {
+  expect_identical(assert_choice(0.5, "cell", c(0.25, 0.5, 1)), 0.5)
+  expect_identical(assert_choice(1L, "cell", c(0.25, 0.5, 1)), 1)
+  expect_error(assert_choice(2, "cell", c(0.25, 0.5, 1)),
+               "`cell` must be one of 0.25, 0.5, 1; received 2", class = "griddy_error_input")
+  expect_error(assert_choice("1", "cell", c(0.25, 0.5, 1)), "received character 1")
+})
+
+test_that("the package raises no condition with a raw stop() or warning()", {
+  dir <- testthat::test_path("..", "..", "R")
+  skip_if_not(dir.exists(dir), "package sources not available")
+  code <- unlist(lapply(list.files(dir, "\\.R$", full.names = TRUE), function(f) {
+    lines <- readLines(f, warn = FALSE)
+    hit <- grep("(^|[^_.[:alnum:]])(stop|warning)\\(", sub("#.*$", "", lines))
+    if (length(hit)) paste0(basename(f), ":", hit, ": ", trimws(lines[hit]))
+  }))
+  expect_identical(code, NULL)
+})

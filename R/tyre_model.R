@@ -2,14 +2,8 @@
 # one wheel on a constant-load rig rolling over a cleat.  Equations and
 # sources: ?tyre_cleat_model.
 
-# ---- small validators (R validates, C++ trusts its inputs) -----------------
-tyre_whole <- function(x, name, lower) {
-  if (!is.numeric(x) || length(x) != 1L || is.na(x) || x != round(x) || x < lower) {
-    stop("`", name, "` must be a whole number >= ", lower, "; received ",
-         paste(format(x), collapse = ", "), ".", call. = FALSE)
-  }
-  as.integer(x)
-}
+# Arguments are checked with R/validate.R's helpers (R validates, C++ trusts
+# its inputs).
 
 #' Cleat heights of the tyre rig
 #'
@@ -28,12 +22,13 @@ tyre_whole <- function(x, name, lower) {
 #'   `"thesis_literal"` (412, 274.4, 121.3 mm).
 #' @return A numeric vector of three cleat heights in mm, in the thesis's order.
 #' @seealso [tyre_cleat_model()]
+#' @family tyre stand-in
 #' @export
 #' @examples
 #' tyre_cleat_heights()
 #' tyre_cleat_heights("thesis_literal")
 tyre_cleat_heights <- function(which = c("rescaled", "thesis_literal")) {
-  which <- match.arg(which)
+  which <- assert_choice(which, "which", c("rescaled", "thesis_literal"), vector_default = TRUE)
   if (which == "rescaled") c(41.2, 27.44, 12.13) else c(412, 274.4, 121.3)
 }
 
@@ -41,6 +36,7 @@ tyre_cleat_heights <- function(which = c("rescaled", "thesis_literal")) {
 #'
 #' @return A data.frame with columns `parameter` (`"k"`, vertical stiffness in
 #'   N/mm; `"c"`, vertical damping in N s/mm), `min` and `max`.
+#' @family tyre stand-in
 #' @export
 #' @examples
 #' tyre_param_ranges()
@@ -65,19 +61,20 @@ tyre_param_ranges <- function() {
 #'   ramp), mm; must be > 0 and at most half the cleat length.
 #' @param t_cleat Time at which the wheel centre reaches the cleat's leading
 #'   edge, s.
-#' @param n_samples Number of output samples.
+#' @param n_samples Number of output samples (1 to 1e7).
 #' @param sample_interval Time between output samples, s.
 #' @param steps_per_sample Fixed RK4 steps per output sample (the internal
-#'   step is `sample_interval / steps_per_sample`).
+#'   step is `sample_interval / steps_per_sample`; 1 to 1e5).
 #' @param sample `"mean"` (default): each output is the average of Fz over
 #'   the preceding sample interval; `"instant"`: Fz at the sample time, as a
 #'   simulator would print it.
-#' @param bottoming If `TRUE`, add a rim-bottoming spring of
+#' @param bottoming `TRUE` or `FALSE`: if `TRUE`, add a rim-bottoming spring of
 #'   `bottom_stiffness` once the deflection exceeds the section height
 #'   `R0 - rim_radius`.
 #' @param bottom_stiffness Rim-bottoming stiffness, N/m.
 #' @return A list of class `tyre_rig` or `tyre_pac2002`.
 #' @seealso [tyre_cleat_model()]
+#' @family tyre stand-in
 #' @export
 #' @examples
 #' tyre_rig(sample = "instant")
@@ -87,7 +84,7 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
                      n_samples = 500, sample_interval = 1e-3, steps_per_sample = 100,
                      sample = c("mean", "instant"), bottoming = FALSE,
                      bottom_stiffness = 2e6) {
-  sample <- match.arg(sample)
+  sample <- assert_choice(sample, "sample", c("mean", "instant"), vector_default = TRUE)
   out <- list(load = assert_number(load, "load", lower = 0, lower_open = TRUE),
               mass = assert_number(mass, "mass", lower = 0, lower_open = TRUE),
               R0 = assert_number(R0, "R0", lower = 0, lower_open = TRUE),
@@ -95,20 +92,21 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
               cleat_length = assert_number(cleat_length, "cleat_length", lower = 0, lower_open = TRUE),
               edge_length = assert_number(edge_length, "edge_length", lower = 0, lower_open = TRUE),
               t_cleat = assert_number(t_cleat, "t_cleat", lower = 0),
-              n_samples = tyre_whole(n_samples, "n_samples", 1),
+              n_samples = assert_whole(n_samples, "n_samples", lower = 1, upper = 1e7),
               sample_interval = assert_number(sample_interval, "sample_interval", lower = 0,
                                          lower_open = TRUE),
-              steps_per_sample = tyre_whole(steps_per_sample, "steps_per_sample", 1),
+              steps_per_sample = assert_whole(steps_per_sample, "steps_per_sample", lower = 1,
+                                              upper = 1e5),
               sample = sample,
-              bottoming = isTRUE(bottoming),
+              bottoming = assert_flag(bottoming, "bottoming"),
               bottom_stiffness = assert_number(bottom_stiffness, "bottom_stiffness", lower = 0))
   if (out$rim_radius >= out$R0) {
-    stop("`rim_radius` must be smaller than `R0`; received ", out$rim_radius, " >= ",
-         out$R0, ".", call. = FALSE)
+    griddy_abort("`rim_radius` must be smaller than `R0`; received ", out$rim_radius, " >= ",
+                 out$R0, ".")
   }
   if (out$edge_length > out$cleat_length / 2) {
-    stop("`edge_length` must be at most half of `cleat_length` (", out$cleat_length / 2,
-         " mm); received ", out$edge_length, ".", call. = FALSE)
+    griddy_abort("`edge_length` must be at most half of `cleat_length` (",
+                 out$cleat_length / 2, " mm); received ", out$edge_length, ".")
   }
   class(out) <- "tyre_rig"
   out
@@ -138,12 +136,28 @@ tyre_pac2002 <- function(qFz2 = 15, qFz3 = 0, qV2 = 0.034, qpFz1 = 0.88,
   out
 }
 
+# The operating arguments that tyre_cleat_model() and tyre_static_deflection()
+# share, checked.
+tyre_operating <- function(speed, camber, pressure, pac, rig) {
+  if (!inherits(pac, "tyre_pac2002")) {
+    griddy_abort("`pac` must come from tyre_pac2002(); received ", class(pac)[1], ".")
+  }
+  if (!inherits(rig, "tyre_rig")) {
+    griddy_abort("`rig` must come from tyre_rig(); received ", class(rig)[1], ".")
+  }
+  if (is.null(pressure)) pressure <- pac$p0
+  list(speed = assert_number(speed, "speed", lower = 0, lower_open = TRUE),
+       camber = assert_number(camber, "camber", lower = -pi / 2, upper = pi / 2),
+       pressure = assert_number(pressure, "pressure", lower = 0, lower_open = TRUE),
+       pac = pac, rig = rig)
+}
+
 # Flatten everything into the SI list the C++ side reads.
 tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
   dpi <- (pressure - pac$p0) / pac$p0
   if (model == "pac2002" && 1 + pac$qpFz1 * dpi <= 0) {
-    stop("`pressure` gives a non-positive stiffness factor 1 + qpFz1 * dpi = ",
-         format(1 + pac$qpFz1 * dpi), "; received pressure = ", pressure, ".", call. = FALSE)
+    griddy_abort("`pressure` gives a non-positive stiffness factor 1 + qpFz1 * dpi = ",
+                 format(1 + pac$qpFz1 * dpi), "; received pressure = ", pressure, ".")
   }
   list(model = if (model == "fiala") 0L else 1L,
        contact = if (contact == "point") 0L else 1L,
@@ -229,6 +243,7 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' @references Stewart, T. (2023). Bayesian calibration of computer models
 #'   using Griddy Gibbs sampling. MS thesis, Clemson University.
 #' @seealso [tyre_library()], [tyre_rig()], [tyre_cleat_heights()]
+#' @family tyre stand-in
 #' @export
 #' @examples
 #' fz <- tyre_cleat_model(k = c(100, 210, 400), c = 0.5, height = 27.44)
@@ -241,15 +256,18 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
                              model = c("fiala", "pac2002"), contact = NULL,
                              speed = 20, camber = 0, pressure = NULL,
                              pac = tyre_pac2002(), rig = tyre_rig()) {
-  model <- match.arg(model)
+  model <- assert_choice(model, "model", c("fiala", "pac2002"), vector_default = TRUE)
   if (is.matrix(k) || is.data.frame(k)) {
     if (!missing(c)) {
-      stop("`c` must be missing when `k` is a matrix or data.frame of parameter rows.",
-           call. = FALSE)
+      griddy_abort("`c` must be missing when `k` is a matrix or data.frame of parameter rows.")
     }
     if (!all(c("k", "c") %in% colnames(k))) {
-      stop("`k` given as a matrix or data.frame needs columns `k` and `c`; received ",
-           paste(colnames(k), collapse = ", "), ".", call. = FALSE)
+      griddy_abort("`k` given as a matrix or data.frame needs columns `k` and `c`; received ",
+                   if (is.null(colnames(k))) "no column names" else show_some(colnames(k)), ".")
+    }
+    dup <- intersect(colnames(k)[duplicated(colnames(k))], c("k", "c"))
+    if (length(dup) > 0L) {
+      griddy_abort("`k` has duplicated column names: ", show_some(dup), ".")
     }
     kk <- k[, "k"]
     cc <- k[, "c"]
@@ -261,29 +279,21 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
   cc <- assert_number(cc, "c", len = NULL, lower = 0)
   n <- max(length(kk), length(cc))
   if (n %% length(kk) != 0L || n %% length(cc) != 0L) {
-    stop("`k` (length ", length(kk), ") and `c` (length ", length(cc),
-         ") must have recyclable lengths.", call. = FALSE)
+    griddy_abort("`k` (length ", length(kk), ") and `c` (length ", length(cc),
+                 ") must have recyclable lengths.")
   }
   kk <- rep_len(kk, n)
   cc <- rep_len(cc, n)
   height <- assert_number(height, "height", len = NULL, lower = 0, lower_open = TRUE)
   if (is.null(contact)) contact <- if (model == "fiala") "point" else "disc"
-  contact <- match.arg(contact, c("point", "disc"))
-  speed <- assert_number(speed, "speed", lower = 0, lower_open = TRUE)
-  camber <- assert_number(camber, "camber", lower = -pi / 2, upper = pi / 2)
-  if (!inherits(pac, "tyre_pac2002")) {
-    stop("`pac` must come from tyre_pac2002(); received ", class(pac)[1], ".", call. = FALSE)
-  }
-  if (!inherits(rig, "tyre_rig")) {
-    stop("`rig` must come from tyre_rig(); received ", class(rig)[1], ".", call. = FALSE)
-  }
-  if (is.null(pressure)) pressure <- pac$p0
-  pressure <- assert_number(pressure, "pressure", lower = 0, lower_open = TRUE)
+  contact <- assert_choice(contact, "contact", c("point", "disc"))
+  op <- tyre_operating(speed, camber, pressure, pac, rig)
+  rig <- op$rig
   if (max(height) / 1000 >= rig$R0) {
-    warning("`height` ", max(height), " mm is not below the unloaded radius (",
-            rig$R0 * 1000, " mm): the wheel is launched over the cleat.", call. = FALSE)
+    griddy_warn("`height` ", max(height), " mm is not below the unloaded radius (",
+                rig$R0 * 1000, " mm): the wheel is launched over the cleat.", class = "input")
   }
-  s <- tyre_settings(model, contact, speed, camber, pressure, pac, rig)
+  s <- tyre_settings(model, contact, op$speed, op$camber, op$pressure, op$pac, rig)
   out <- tyre_sim_cpp(cbind(kk * 1000, cc * 1000), height / 1000, s)
   attr(out, "time") <- seq_len(rig$n_samples) * rig$sample_interval
   attr(out, "height") <- height
@@ -297,54 +307,9 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
 tyre_static_deflection <- function(k = 210, model = c("fiala", "pac2002"), speed = 20,
                                    camber = 0, pressure = NULL, pac = tyre_pac2002(),
                                    rig = tyre_rig()) {
-  model <- match.arg(model)
+  model <- assert_choice(model, "model", c("fiala", "pac2002"), vector_default = TRUE)
   k <- assert_number(k, "k", len = NULL, lower = 0, lower_open = TRUE)
-  if (is.null(pressure)) pressure <- pac$p0
-  s <- tyre_settings(model, "point", speed, camber, pressure, pac, rig)
+  op <- tyre_operating(speed, camber, pressure, pac, rig)
+  s <- tyre_settings(model, "point", op$speed, op$camber, op$pressure, op$pac, op$rig)
   as.numeric(tyre_static_deflection_cpp(k * 1000, s)) * 1000
-}
-
-#' A library of tyre-rig runs over a Latin hypercube of (k, c)
-#'
-#' Draws `n_runs` (k, c) combinations by Latin-hypercube sampling over
-#' table 5.1's ranges (k 50-800 N/mm, c 0-5 N s/mm) with R's random number
-#' generator (so `set.seed()` reproduces it), runs [tyre_cleat_model()] at
-#' each of the cleat heights and returns a griddy `sim_library` with the
-#' heights as control settings x and the sample times as output coordinates t.
-#' The thesis used 2,000 combinations x 3 heights = 6,000 runs.
-#'
-#' @param n_runs Number of (k, c) combinations.
-#' @param height Cleat heights in mm (the x settings).
-#' @param ranges Parameter ranges, a data.frame like [tyre_param_ranges()].
-#' @param ... Further arguments to [tyre_cleat_model()] (`model`, `contact`,
-#'   `speed`, `camber`, `pressure`, `pac`, `rig`).
-#' @return A `sim_library` with `theta = data.frame(k, c)`, `y` an
-#'   `n_runs` x (length(height) * 500) matrix in blocks by height,
-#'   `x = data.frame(height)` and `t` the sample times.
-#' @seealso [tyre_cleat_model()], [sim_library()]
-#' @export
-#' @examples
-#' set.seed(1)
-#' lib <- tyre_library(20)
-tyre_library <- function(n_runs = 2000, height = tyre_cleat_heights(),
-                         ranges = tyre_param_ranges(), ...) {
-  n_runs <- tyre_whole(n_runs, "n_runs", 2)
-  if (!is.data.frame(ranges) || !all(c("parameter", "min", "max") %in% names(ranges)) ||
-      !all(c("k", "c") %in% ranges$parameter)) {
-    stop("`ranges` must be a data.frame like tyre_param_ranges().", call. = FALSE)
-  }
-  lo <- ranges$min[match(c("k", "c"), ranges$parameter)]
-  hi <- ranges$max[match(c("k", "c"), ranges$parameter)]
-  if (any(!is.finite(c(lo, hi))) || any(hi <= lo) || lo[1] <= 0 || lo[2] < 0) {
-    stop("`ranges` must have finite min < max, k > 0 and c >= 0.", call. = FALSE)
-  }
-  # Latin hypercube: one point in each of n_runs equal strata per dimension
-  u <- vapply(1:2, function(j) (sample.int(n_runs) - stats::runif(n_runs)) / n_runs,
-              numeric(n_runs))
-  theta <- data.frame(k = lo[1] + u[, 1] * (hi[1] - lo[1]),
-                      c = lo[2] + u[, 2] * (hi[2] - lo[2]))
-  y <- tyre_cleat_model(as.matrix(theta), height = height, ...)
-  tt <- attr(y, "time")
-  attributes(y) <- list(dim = dim(y))
-  sim_library(theta = theta, y = y, x = data.frame(height = height), t = tt)
 }

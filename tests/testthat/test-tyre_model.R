@@ -106,38 +106,57 @@ test_that("cleat heights: rescaled by default, literal on request", {
 })
 
 test_that("tyre_cleat_model validates its inputs", {
-  expect_error(tyre_cleat_model(k = -1), "`k` must be")
-  expect_error(tyre_cleat_model(k = 100, c = NA), "`c` must be")
-  expect_error(tyre_cleat_model(k = 1:3, c = 1:2), "recyclable")
-  expect_error(tyre_cleat_model(cbind(k = 1, c = 1), c = 1), "`c` must be missing")
-  expect_error(tyre_cleat_model(cbind(a = 1, b = 1)), "columns `k` and `c`")
-  expect_error(tyre_cleat_model(height = 0), "`height` must be")
-  expect_error(tyre_cleat_model(contact = "cams"), "should be one of")
-  expect_error(tyre_cleat_model(rig = list()), "`rig` must come from tyre_rig")
-  expect_error(tyre_rig(edge_length = 60), "`edge_length` must be at most half")
-  expect_error(tyre_rig(steps_per_sample = 0.5), "`steps_per_sample` must be a whole number")
+  expect_error(tyre_cleat_model(k = -1), "`k` must be", class = "griddy_error_input")
+  expect_error(tyre_cleat_model(k = 100, c = NA), "`c` must be", class = "griddy_error_input")
+  expect_error(tyre_cleat_model(k = 1:3, c = 1:2), "recyclable", class = "griddy_error_input")
+  expect_error(tyre_cleat_model(cbind(k = 1, c = 1), c = 1), "`c` must be missing",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(cbind(a = 1, b = 1)), "columns `k` and `c`",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(cbind(k = 1, k = 2, c = 1)), "`k` has duplicated column names: k",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(height = 0), "`height` must be", class = "griddy_error_input")
+  expect_error(tyre_cleat_model(contact = "cams"), "`contact` must be one of \"point\", \"disc\"",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(model = "swift"), "`model` must be one of \"fiala\", \"pac2002\"",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(rig = list()), "`rig` must come from tyre_rig",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_model(pac = list()), "`pac` must come from tyre_pac2002",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(edge_length = 60), "`edge_length` must be at most half",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(rim_radius = 0.4), "`rim_radius` must be smaller than `R0`",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(steps_per_sample = 0.5), "`steps_per_sample` must be a single whole number",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(n_samples = 2^31), "`n_samples` must be a single whole number in 1..1e\\+07",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(bottoming = NA), "`bottoming` must be TRUE or FALSE",
+               class = "griddy_error_input")
+  expect_error(tyre_rig(sample = "median"), "`sample` must be one of \"mean\", \"instant\"",
+               class = "griddy_error_input")
+  expect_error(tyre_cleat_heights("literal"), "`which` must be one of", class = "griddy_error_input")
   expect_error(tyre_cleat_model(model = "pac2002", pressure = 1e3,
-                                pac = tyre_pac2002(qpFz1 = 2)), "non-positive stiffness")
+                                pac = tyre_pac2002(qpFz1 = 2)), "non-positive stiffness",
+               class = "griddy_error_input")
+  expect_warning(tyre_cleat_model(210, 0.5, height = 400, rig = tyre_rig(n_samples = 5)),
+                 "not below the unloaded radius", class = "griddy_warning_input")
 })
 
-test_that("tyre_library draws a reproducible Latin hypercube and wraps it in a sim_library", {
-  set.seed(11)
-  lib <- tyre_library(10, height = c(27.44, 12.13))
-  set.seed(11)
-  lib2 <- tyre_library(10, height = c(27.44, 12.13))
-  expect_identical(lib, lib2)
-  expect_s3_class(lib, "sim_library")
-  expect_identical(names(lib$theta), c("k", "c"))
-  expect_equal(dim(lib$y), c(10, 1000))
-  expect_equal(lib$x$height, c(27.44, 12.13))
-  expect_equal(lib$t, seq_len(500) / 1000)
-  # one point in each of the 10 strata of each parameter
-  expect_setequal(floor((lib$theta$k - 50) / 75), 0:9)
-  expect_setequal(floor(lib$theta$c / 0.5), 0:9)
-  expect_equal(unname(lib$y[3, ]),
-               unname(as.vector(tyre_cleat_model(lib$theta$k[3], lib$theta$c[3],
-                                                 height = c(27.44, 12.13)))))
-  expect_error(tyre_library(1), "`n_runs` must be")
+test_that("tyre_static_deflection validates what tyre_cleat_model does", {
+  expect_error(tyre_static_deflection(100, pac = list()), "`pac` must come from tyre_pac2002",
+               class = "griddy_error_input")
+  expect_error(tyre_static_deflection(100, rig = 1), "`rig` must come from tyre_rig",
+               class = "griddy_error_input")
+  expect_error(tyre_static_deflection(100, speed = -1), "`speed` must be",
+               class = "griddy_error_input")
+  expect_error(tyre_static_deflection(100, camber = 3), "`camber` must be",
+               class = "griddy_error_input")
+  expect_error(tyre_static_deflection(100, pressure = NA), "`pressure` must be",
+               class = "griddy_error_input")
+  expect_error(tyre_static_deflection(100, model = "swift"), "`model` must be one of",
+               class = "griddy_error_input")
 })
 
 test_that("end to end: a small tyre library calibrates to within one library step", {
