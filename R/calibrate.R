@@ -115,7 +115,8 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                       update = c("collapsed", "thesis"), seed = NULL,
                       progress = interactive(), x_power = 2, run_weights = NULL) {
   call <- match.call()
-  update <- match.arg(update)
+  seed <- assert_seed(seed)
+  update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)

@@ -24,7 +24,7 @@
 #' @importFrom ggplot2 .data
 #' @export
 plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc"), truth = NULL, ...) {
-  type <- match.arg(type)
+  type <- assert_choice(type, "type", c("trace", "posterior", "ppc"), vector_default = TRUE)
   switch(type,
          trace = plot_trace(x),
          posterior = plot_posterior(x, truth),

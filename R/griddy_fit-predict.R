@@ -32,6 +32,7 @@ predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 10
                                seed = NULL, ...) {
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
+  seed <- assert_seed(seed)
   lib <- object$library
   settings <- predict_settings(lib, newdata)
   cols <- as.vector(outer(seq_len(lib_n_t(lib)), (settings - 1L) * lib_n_t(lib), "+"))

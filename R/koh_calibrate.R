@@ -70,11 +70,12 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   for (pkg in c("RobustCalibration", "RobustGaSP")) {
     if (!requireNamespace(pkg, quietly = TRUE)) {
       griddy_abort("koh_calibrate() needs the package '", pkg,
-                   "': install.packages(\"RobustCalibration\").")
+                   "': install.packages(\"RobustCalibration\").", class = "package")
     }
   }
-  discrepancy <- match.arg(discrepancy)
-  kernel <- match.arg(kernel, c("matern_5_2", "matern_3_2", "pow_exp"))
+  discrepancy <- assert_choice(discrepancy, "discrepancy", c("GaSP", "S-GaSP", "none"),
+                               vector_default = TRUE)
+  kernel <- assert_choice(kernel, "kernel", c("matern_5_2", "matern_3_2", "pow_exp"))
   n_iter <- assert_count(n_iter, "n_iter", min = 2L)
   burn_in <- assert_count(burn_in, "burn_in", min = 0L)
   if (burn_in >= n_iter) {
@@ -138,7 +139,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
     list(emulator = emulator, fit = main, sd_frac = sd_frac,
          runtime = c(emulator = t1 - t0, tuning = t2 - t1, sampling = t3 - t2))
   }
-  res <- with_seed(seed, run())
+  res <- with_seed(assert_seed(seed), run())
   post <- as.matrix(res$fit@post_sample)
   draws <- data.frame(iteration = seq(burn_in + 1L, length.out = nrow(post)),
                       post[, seq_len(p), drop = FALSE])

@@ -2,7 +2,7 @@
 // cleat (Stewart 2023, chapter 5 stand-in).  Fixed-step RK4 on the wheel-centre
 // height; Fiala or PAC2002-style vertical force; point or rigid-disc contact.
 //
-// All inputs are SI and validated on the R side (R/tyre_cleat_model.R).
+// All inputs are SI and validated on the R side (R/tyre_model.R).
 
 #include <RcppArmadillo.h>
 #include <cmath>
