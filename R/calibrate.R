@@ -53,7 +53,8 @@
 #'
 #' **Interrupts.** Sequential chains stop at once. Chains on future workers
 #' cannot be stopped from outside, so each worker checks a stop file between
-#' pieces of its chain (a fiftieth of `n_iter`): an interrupt (Ctrl-C or Esc)
+#' pieces of its chain (a fiftieth of `n_iter`, at most 1000 iterations): an
+#' interrupt (Ctrl-C or Esc)
 #' writes that file, and workers that share the session's temporary directory
 #' (the `multisession`, `multicore` and `cluster` plans on this machine) stop
 #' after their current piece, so the next call finds them free. Workers on
@@ -219,10 +220,14 @@ parallel_plan <- function() {
     future::nbrOfWorkers() > 1L
 }
 
-# One chain, in pieces of a fiftieth of n_iter (for the progress bar and the
-# stop file), each piece continuing the last one's state and random stream.
+# One chain, in pieces of a fiftieth of n_iter but at most `max_piece`
+# iterations (for the progress bar and the stop file: a piece is what a
+# worker finishes after an interrupt), each piece continuing the last one's
+# state and random stream.
+max_piece <- 1000L
+
 run_chain <- function(seed, inputs, control, bar, stop_file = NULL) {
-  piece <- max(1L, ceiling(control$n_iter / 50))
+  piece <- min(max(1L, ceiling(control$n_iter / 50)), max_piece)
   with_seed(seed, {
     state <- list(grid_point = sample.int(ncol(inputs$C), 1L) - 1L, tau = inputs$tau_start)
     if (!is.finite(state$tau)) state$tau <- 1

@@ -14,6 +14,7 @@
 // left out hold less than `tol` of the total weight (see log_budget() in
 // inverse_cdf.h), so a draw costs the head's length, not N.
 #include <RcppArmadillo.h>
+#include <algorithm>
 #include <numeric>
 #include <vector>
 #include "grid_posterior.h"
@@ -28,9 +29,11 @@ struct SamplerOptions {
   double rate;           // b
   double tol;            // truncation of the theta draws
   int n_iter, first_iter, burn_in, thin;
-  arma::vec logdet;          // log|R_g| per grid point
-  arma::vec log_prior_run;   // log pi_i per run
-  arma::vec log_prior_grid;  // log pi_g per grid point
+  // R's vectors, held without a copy (a chain runs in many pieces, and
+  // log_prior_run has N elements)
+  Rcpp::NumericVector logdet;          // log|R_g| per grid point
+  Rcpp::NumericVector log_prior_run;   // log pi_i per run
+  Rcpp::NumericVector log_prior_grid;  // log pi_g per grid point
 };
 
 SamplerOptions read_options(const Rcpp::List& o, const arma::mat& C) {
@@ -43,15 +46,16 @@ SamplerOptions read_options(const Rcpp::List& o, const arma::mat& C) {
   s.first_iter = Rcpp::as<int>(o["first_iter"]);
   s.burn_in = Rcpp::as<int>(o["burn_in"]);
   s.thin = Rcpp::as<int>(o["thin"]);
-  s.logdet = Rcpp::as<arma::vec>(o["logdet"]);
-  s.log_prior_run = Rcpp::as<arma::vec>(o["log_prior_run"]);
-  s.log_prior_grid = Rcpp::as<arma::vec>(o["log_prior_grid"]);
-  if (s.log_prior_run.n_elem != C.n_rows || s.logdet.n_elem != C.n_cols ||
-      s.log_prior_grid.n_elem != C.n_cols) {
+  s.logdet = o["logdet"];
+  s.log_prior_run = o["log_prior_run"];
+  s.log_prior_grid = o["log_prior_grid"];
+  if (static_cast<arma::uword>(s.log_prior_run.size()) != C.n_rows ||
+      static_cast<arma::uword>(s.logdet.size()) != C.n_cols ||
+      static_cast<arma::uword>(s.log_prior_grid.size()) != C.n_cols) {
     Rcpp::stop("gibbs_chain: C is %d x %d but there are %d run priors, %d grid priors and "
                "%d log-determinants", static_cast<int>(C.n_rows), static_cast<int>(C.n_cols),
-               static_cast<int>(s.log_prior_run.n_elem),
-               static_cast<int>(s.log_prior_grid.n_elem), static_cast<int>(s.logdet.n_elem));
+               static_cast<int>(s.log_prior_run.size()),
+               static_cast<int>(s.log_prior_grid.size()), static_cast<int>(s.logdet.size()));
   }
   if (s.thin < 1 || s.n_iter < 0) Rcpp::stop("gibbs_chain: thin must be >= 1, n_iter >= 0");
   return s;
@@ -219,13 +223,15 @@ Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables,
       Rcpp::stop("gibbs_chain: run order is %d x %d, C is %d x %d", sorted.order.nrow(),
                  sorted.order.ncol(), static_cast<int>(n_runs), static_cast<int>(n_grid));
     }
-    const double lp_max = o.log_prior_run.max();
+    const double lp_max = *std::max_element(o.log_prior_run.begin(), o.log_prior_run.end());
     sorted.budget.resize(n_grid);
     for (arma::uword g = 0; g < n_grid; ++g) {
       sorted.budget[g] = log_budget(n_runs, o.tol, lp_max, o.log_prior_run[sorted.order(0, g)]);
     }
   }
-  const bool flat_runs = arma::all(o.log_prior_run == o.log_prior_run[0]);
+  const double lp_first = o.log_prior_run[0];
+  const bool flat_runs = std::all_of(o.log_prior_run.begin(), o.log_prior_run.end(),
+                                     [lp_first](double v) { return v == lp_first; });
 
   int n_keep = 0;
   for (int it = o.first_iter; it < o.first_iter + o.n_iter; ++it) {

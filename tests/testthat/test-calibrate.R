@@ -77,7 +77,7 @@ test_that("calibrate validates its arguments before any C++ runs", {
   expect_error(calibrate(lib, f, n_iter = 100, burn_in = 100), "`burn_in` \\(100\\) must be smaller than `n_iter` \\(100\\)")
   expect_error(calibrate(lib, f, n_iter = 100, burn_in = 50, thin = 60), "`thin` \\(60\\) keeps no draw")
   expect_error(calibrate(lib, f, chains = 0), "`chains`")
-  expect_error(calibrate(lib, f, update = "gibbs"), "'arg' should be one of")
+  expect_error(calibrate(lib, f, update = "gibbs"), class = "griddy_error_input", regexp = "`update` must be one of")
   expect_error(calibrate(lib, f, progress = "yes"), "`progress` must be TRUE or FALSE")
   expect_error(calibrate(lib, field_data(1:3)), "3 measurements but the library has")
   expect_error(calibrate(f, lib), "`library` must be a sim_library")

@@ -17,7 +17,7 @@ test_that("each plot type returns a ggplot built from the fit", {
                                               "load = 3, speed = 20"))
   expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
   expect_error(plot(fit, "posterior", truth = c(z = 1)), "`truth` must be named by theta columns")
-  expect_error(plot(fit, "density"), "'arg' should be one of")
+  expect_error(plot(fit, "density"), class = "griddy_error_input", regexp = "`type` must be one of")
 })
 
 test_that("the ppc plot handles one output per setting", {

@@ -56,7 +56,7 @@ test_that("koh_calibrate() validates its arguments", {
                "`burn_in` must be smaller")
   expect_error(koh_calibrate(toy$library, toy$field, proposal_sd = c(0.1, -1)),
                "`proposal_sd` must hold 2 positive")
-  expect_error(koh_calibrate(toy$library, toy$field, discrepancy = "GP"), "should be one of")
+  expect_error(koh_calibrate(toy$library, toy$field, discrepancy = "GP"), class = "griddy_error_input", regexp = "`discrepancy` must be one of")
   expect_error(koh_calibrate(toy$library, list()), "must be a griddy_field")
 })
 
