@@ -126,12 +126,9 @@ void draw_tau(const arma::mat& C, const SamplerOptions& o, ChainState& st) {
   st.tau = R::rgamma(o.shape_post, 1.0 / (o.rate + 0.5 * C(st.run, st.grid)));
 }
 
-}  // namespace griddy
-
 // Every column's run order (0-based), for the thesis update, whose weights
 // exp(-tau C_ig / 2) change with tau: the head is found per draw.
-// [[Rcpp::export]]
-Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
+Rcpp::IntegerMatrix run_order(const arma::mat& C) {
   Rcpp::IntegerMatrix order(C.n_rows, C.n_cols);
   for (arma::uword g = 0; g < C.n_cols; ++g) {
     Rcpp::checkUserInterrupt();
@@ -148,9 +145,8 @@ Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
 // exceed tol / N of the first run's) and their cumulative weights, scaled so
 // the largest weight is 1. Ragged columns stored end to end: column g is
 // positions start[g] to start[g + 1] - 1 of `run` (0-based) and `cdf`.
-// [[Rcpp::export]]
-Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run,
-                               double shape_post, double rate, double tol) {
+Rcpp::List collapsed_heads(const arma::mat& C, const arma::vec& log_prior_run,
+                           double shape_post, double rate, double tol) {
   const arma::uword n = C.n_rows;
   if (log_prior_run.n_elem != n || n == 0) {
     Rcpp::stop("collapsed_heads: C has %d rows but there are %d run priors",
@@ -165,7 +161,7 @@ Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_ru
     Rcpp::checkUserInterrupt();
     const double* c = C.colptr(g);
     const arma::uword first = std::min_element(c, c + n) - c;
-    const double budget = griddy::log_budget(n, tol, lp_max, log_prior_run[first]);
+    const double budget = log_budget(n, tol, lp_max, log_prior_run[first]);
     // (b + C/2) / (b + C_min/2) > exp(budget / shape_post) leaves the head
     const double cut = 2.0 * ((rate + 0.5 * c[first]) * std::exp(budget / shape_post) - rate);
     head.clear();
@@ -176,11 +172,11 @@ Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_ru
     const arma::uword k = head.size();
     log_w.resize(k);
     for (arma::uword j = 0; j < k; ++j) {
-      log_w[j] = log_prior_run[head[j]] + griddy::collapsed_log_fit(c[head[j]], shape_post, rate);
+      log_w[j] = log_prior_run[head[j]] + collapsed_log_fit(c[head[j]], shape_post, rate);
     }
     const std::size_t at = cdf.size();
     cdf.resize(at + k);
-    griddy::cumulative_weights(log_w.data(), k, cdf.data() + at);
+    cumulative_weights(log_w.data(), k, cdf.data() + at);
     runs.insert(runs.end(), head.begin(), head.end());
     start[g + 1] = static_cast<int>(runs.size());
   }
@@ -193,10 +189,8 @@ Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_ru
 // returns the kept draws (1-based run and grid point), the final state and
 // the summed head lengths. `tables` holds what the update needs: `heads`
 // (from collapsed_heads_cpp) or `order` (from run_order_cpp).
-// [[Rcpp::export]]
-Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables,
-                           const Rcpp::List& options, int grid_start, double tau_start) {
-  using namespace griddy;
+Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
+                       const Rcpp::List& options, int grid_start, double tau_start) {
   const SamplerOptions o = read_options(options, C);
   const arma::uword n_runs = C.n_rows;
   const arma::uword n_grid = C.n_cols;
@@ -269,4 +263,26 @@ Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables,
                             Rcpp::Named("grid_state") = static_cast<int>(st.grid),
                             Rcpp::Named("tau_state") = st.tau,
                             Rcpp::Named("head_total") = st.head_total);
+}
+
+}  // namespace griddy
+
+// The R entry points. Rcpp attributes declares them at global scope, so they
+// only hand R's objects to the functions of namespace griddy above.
+
+// [[Rcpp::export]]
+Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
+  return griddy::run_order(C);
+}
+
+// [[Rcpp::export]]
+Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run,
+                               double shape_post, double rate, double tol) {
+  return griddy::collapsed_heads(C, log_prior_run, shape_post, rate, tol);
+}
+
+// [[Rcpp::export]]
+Rcpp::List gibbs_chain_cpp(const arma::mat& C, const Rcpp::List& tables,
+                           const Rcpp::List& options, int grid_start, double tau_start) {
+  return griddy::gibbs_chain(C, tables, options, grid_start, tau_start);
 }
