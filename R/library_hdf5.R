@@ -392,11 +392,11 @@ h5_read_runs <- function(h5, piece, runs) {
   }
   y <- tryCatch({
     if (length(ds$dims) == 1L) {
-      matrix(ds$read(args = list(runs)), ncol = 1L)
+      matrix(h5_plain(ds$read(args = list(runs))), ncol = 1L)
     } else if (piece$layout == "runs_first") {
-      t(ds$read(args = list(seq_len(n_out), runs)))
+      t(h5_plain(ds$read(args = list(seq_len(n_out), runs), drop = FALSE)))
     } else {
-      ds$read(args = list(runs, seq_len(n_out)))
+      h5_plain(ds$read(args = list(runs, seq_len(n_out)), drop = FALSE))
     }
   }, error = function(e) {
     griddy_abort(where, " cannot be read at runs ", min(runs), " to ", max(runs), ": ",
@@ -543,6 +543,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
   if (cls == "H5T_COMPOUND") {
     tab <- ds$read()
     if (!is.data.frame(tab)) tab <- as.data.frame(tab)
+    tab[] <- lapply(tab, h5_plain)
     if (!is.null(names)) {
       missing <- setdiff(names, base::names(tab))
       if (length(missing) > 0L) {
@@ -565,7 +566,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
                    "column) but ", if (is.null(names)) "has no name for it: give `theta_names`"
                    else paste0(length(names), " names were given: ", show_some(names)), ".")
     }
-    v <- matrix(ds$read(), ncol = 1L, dimnames = list(NULL, names))
+    v <- matrix(h5_plain(ds$read()), ncol = 1L, dimnames = list(NULL, names))
     return(as_numeric_matrix(v, arg))
   }
   if (length(dims) != 2L) {
@@ -581,7 +582,8 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
   }
   orient <- h5_orient(dims, layout, NULL, length(names), arg, name,
                       if (arg == "theta") "parameters (names)" else "columns (names)", file)
-  v <- ds$read()
+  v <- h5_plain(ds$read(drop = FALSE))
+  dim(v) <- ds$dims
   if (orient == "runs_first") v <- t(v)
   colnames(v) <- names
   as_numeric_matrix(v, arg)
@@ -602,7 +604,17 @@ h5_read_vector <- function(ds, arg, name, file) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be one-dimensional; ",
                  "it is ", paste(rev(ds$dims), collapse = " x "), ".")
   }
-  as.vector(ds$read())
+  as.vector(h5_plain(ds$read()))
+}
+
+# 64-bit integers (what NumPy writes by default) arrive as bit64's integer64.
+h5_plain <- function(v) {
+  if (inherits(v, "integer64")) {
+    d <- dim(v)
+    v <- as.double(v)
+    dim(v) <- d
+  }
+  v
 }
 
 as_layout <- function(layout) {
@@ -750,7 +762,8 @@ h5_append_runs <- function(library, file) {
                  if (is.null(new_x)) "one setting" else paste0(nrow(new_x), " setting(s)"),
                  " and ", length(lib_t(library)), ".")
   }
-  old_theta <- if (n0 > 0L) theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))))
+  old_theta <- if (n0 > 0L) theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))),
+                                            drop = FALSE)
   all_theta <- rbind(old_theta, new_theta)
   colnames(all_theta) <- theta_names
   assert_distinct_runs(all_theta)
