@@ -47,6 +47,7 @@ write_user_h5 <- function(library, file, layout = "runs_first", theta_as = "comp
     h5[["params"]] <- if (layout == "runs_first") t(th) else unname(th)
     if (theta_as == "matrix") hdf5r::h5attr(h5[["params"]], "names") <- colnames(th)
   }
+  h5$create_group("sim")
   h5[["sim/out"]] <- if (layout == "runs_first") t(library$y) else library$y
   if (with_t) h5[["sim/time"]] <- library$t
   invisible(file)
