@@ -120,10 +120,11 @@ test_that("a writer killed part-way leaves the committed library, a stale lock a
 
 test_that("a writer killed at a random moment of a long append leaves a readable library", {
   set.seed(1)
-  n <- 1e5
+  n <- 3e5
   theta <- data.frame(a = seq_len(n) / n)
-  lib <- sim_library(theta, matrix(as.double(seq_len(n * 20)), n, 20))
-  for (delay in c(0.05, 0.3, 0.8)) {
+  lib <- sim_library(theta, matrix(as.double(seq_len(n * 30)), n, 30))
+  outcomes <- integer(0)
+  for (delay in c(0.02, 0.1, 0.25)) {
     file <- withr::local_tempfile(fileext = ".h5")
     write_library(lib_rows(lib, 1:1000), file)
     marker <- tempfile()
@@ -136,8 +137,10 @@ test_that("a writer killed at a random moment of a long append leaves a readable
     Sys.sleep(0.3)
     h5 <- suppressWarnings(hdf5_library(file))
     expect_true(h5$n_runs %in% c(1000L, n))
+    outcomes <- c(outcomes, h5$n_runs)
     expect_identical(lib_outputs(h5, c(1L, h5$n_runs)), lib$y[c(1L, h5$n_runs), ])
     unlink(paste0(file, ".lock"), recursive = TRUE)
     suppressMessages(repair_library(file))
   }
+  if (nzchar(Sys.getenv("GRIDDY_SHOW_KILLS"))) message("committed after kills: ", toString(outcomes))
 })
