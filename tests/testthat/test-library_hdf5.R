@@ -200,3 +200,23 @@ test_that("an append that fails part-way leaves the committed library; the next 
   })
   expect_false(file.exists(file2))
 })
+
+test_that("HDF5 chunks mapped on two future workers give the same C and draws", {
+  skip_on_cran()
+  skip_if_not_installed("future.apply")
+  skip_if_not(installed_griddy_is_current("hdf5_library"),
+              "the installed griddy is not this version")
+  toy <- toy_xt(n_per_dim = 6)
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(toy$library, file, layout = "runs_first")
+  lib <- hdf5_library(file, theta = "params", outputs = "sim/out", x = toy$library$x,
+                      t = "sim/time", chunk_size = 10)
+  serial <- posterior_exact(lib, toy$field, rho_t = c(0, 0.5))
+  old <- future::plan(future::multisession, workers = 2)
+  on.exit(future::plan(old), add = TRUE)
+  expect_identical(posterior_exact(lib, toy$field, rho_t = c(0, 0.5))$joint, serial$joint)
+  a <- calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2)
+  future::plan(future::sequential)
+  b <- calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2)
+  expect_identical(a$draws, b$draws)
+})
