@@ -206,7 +206,7 @@ test_that("HDF5 chunks mapped on two future workers give the same C and draws", 
   skip_if_not_installed("future.apply")
   skip_if_not(installed_griddy_is_current("hdf5_library"),
               "the installed griddy is not this version")
-  toy <- toy_xt(n_per_dim = 6)
+  toy <- toy_xt(n_per_dim = 7) # 49 runs x 36 outputs: not ambiguous
   file <- withr::local_tempfile(fileext = ".h5")
   write_user_h5(toy$library, file, layout = "runs_first")
   lib <- hdf5_library(file, theta = "params", outputs = "sim/out", x = toy$library$x,
