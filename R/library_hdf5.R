@@ -91,7 +91,8 @@
 #'   h5[["outputs"]] <- ex$library$y
 #'   h5[["time"]] <- ex$library$t
 #'   h5$close_all()
-#'   lib <- hdf5_library(file, theta = "design", outputs = "outputs", t = "time")
+#'   lib <- hdf5_library(file, theta = "design", outputs = "outputs",
+#'                       x = ex$library$x, t = "time")
 #'   lib
 #'   exact <- posterior_exact(lib, ex$field)
 #'   unlink(file)
@@ -273,10 +274,11 @@ print.hdf5_library <- function(x, ...) {
 #'   file <- tempfile(fileext = ".h5")
 #'   # the library written in two pieces, as a simulator might produce it
 #'   first <- 1:100
-#'   write_library(sim_library(lib$theta[first, ], lib$y[first, ], t = lib$t), file)
+#'   write_library(sim_library(lib$theta[first, ], lib$y[first, ], x = lib$x, t = lib$t),
+#'                 file)
 #'   rest <- seq(101, nrow(lib$y))
-#'   disk <- write_library(sim_library(lib$theta[rest, ], lib$y[rest, ], t = lib$t), file,
-#'                         append = TRUE)
+#'   disk <- write_library(sim_library(lib$theta[rest, ], lib$y[rest, ], x = lib$x,
+#'                                     t = lib$t), file, append = TRUE)
 #'   disk
 #'   fit <- calibrate(disk, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #'   unlink(file)
