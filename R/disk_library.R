@@ -1,88 +1,49 @@
-# Libraries stored on disk in chunks, precomputed chunk by chunk so that
-# memory holds the runs x grid points table C, never the whole library.
+# Libraries stored as a directory of .rds chunks (the first on-disk format):
+# read only. New libraries on disk are HDF5 files (write_library(),
+# hdf5_library()).
 
-#' Write a simulation library to disk in chunks
+#' Write a simulation library to disk in chunks (defunct)
 #'
-#' Stores a [sim_library()] as a directory of chunk files, each holding the
-#' outputs of `chunk_size` consecutive runs (R's native `.rds` format), plus the
-#' parameter values, the settings and a manifest. With `append = TRUE` the
-#' runs are added after those already in `dir`, so a library larger than
-#' memory can be written piece by piece as the simulator produces it.
-#' [disk_library()] opens the result; [calibrate()] and [posterior_exact()]
-#' accept it in place of a `sim_library`.
+#' `write_library_chunks()` is defunct: use [write_library()], which writes an
+#' HDF5 file that [hdf5_library()] opens. Directories written by earlier
+#' versions are still read by [disk_library()], and
+#' `write_library(disk_library(dir), file)` converts one.
 #'
-#' @param library A [sim_library()]: all runs, or the next piece of runs
-#'   when `append = TRUE`.
-#' @param dir Directory to write to; created if needed. Without `append` it
-#'   must not already hold a library.
-#' @param chunk_size Runs per chunk file.
-#' @param append Add the runs to the library already in `dir` (same
-#'   parameters, settings `x` and coordinates `t`).
-#' @param compress Compress the chunk files (smaller, slower to read).
-#' @return The [disk_library()] in `dir`, invisibly.
-#' @seealso [disk_library()]
+#' Why defunct rather than deprecated: its format cannot be appended to
+#' safely. An append must change two files, `theta.rds` and `manifest.rds`,
+#' and a writer that died between them left a library that opened with the
+#' parameters and the outputs out of step, which a second append could not
+#' repair; two writers appending at once both reported success while one's
+#' runs were lost or mixed. Fixing both would have meant a new format and a
+#' lock, which [write_library()] now provides (a committed-run count updated
+#' last, and a lock refusing a second writer), so the old writer was retired
+#' rather than kept as a second, weaker, way to write a library.
+#'
+#' @param ... Ignored.
+#' @return Does not return: it stops with a message pointing to
+#'   [write_library()].
+#' @seealso [write_library()], [disk_library()], [repair_library()]
 #' @examples
-#' ex <- griddy_example()
-#' dir <- file.path(tempdir(), "example-library")
-#' lib <- write_library_chunks(ex$library, dir, chunk_size = 100)
-#' lib
-#' exact <- posterior_exact(lib, ex$field)
-#' unlink(dir, recursive = TRUE)
+#' try(write_library_chunks())
 #' @export
-write_library_chunks <- function(library, dir, chunk_size = 1e5, append = FALSE,
-                                 compress = FALSE) {
-  check_library(library, disk = FALSE)
-  dir <- assert_string(dir, "dir")
-  chunk_size <- assert_count(chunk_size, "chunk_size")
-  append <- assert_flag(append, "append")
-  compress <- assert_flag(compress, "compress")
-  manifest_file <- file.path(dir, "manifest.rds")
-  if (append) {
-    if (!file.exists(manifest_file)) {
-      griddy_abort("`dir` (", dir, ") holds no library to append to: write the first ",
-                   "piece with `append = FALSE`.")
-    }
-    old <- readRDS(manifest_file)
-    if (!identical(old$x, library$x) || !identical(old$t, library$t) ||
-        !identical(old$theta_names, names(library$theta))) {
-      griddy_abort("`library` must have the parameters, settings `x` and coordinates `t` ",
-                   "of the library in `dir` to be appended to it.")
-    }
-    theta <- rbind(readRDS(file.path(dir, "theta.rds")), library$theta)
-    assert_distinct_runs(as.matrix(theta))
-  } else {
-    if (file.exists(manifest_file)) {
-      griddy_abort("`dir` (", dir, ") already holds a library; use `append = TRUE` to add ",
-                   "runs or choose a new directory.")
-    }
-    dir.create(dir, recursive = TRUE, showWarnings = FALSE)
-    old <- list(x = library$x, t = library$t, theta_names = names(library$theta),
-                n_out = ncol(library$y), files = character(0), rows = integer(0))
-    theta <- library$theta
-  }
-  n <- nrow(library$y)
-  starts <- seq(1L, n, by = chunk_size)
-  files <- sprintf("chunk-%06d.rds", length(old$files) + seq_along(starts))
-  rows <- integer(length(starts))
-  for (k in seq_along(starts)) {
-    idx <- starts[k]:min(n, starts[k] + chunk_size - 1L)
-    saveRDS(library$y[idx, , drop = FALSE], file.path(dir, files[k]), compress = compress)
-    rows[k] <- length(idx)
-  }
-  saveRDS(theta, file.path(dir, "theta.rds"), compress = compress)
-  old$files <- c(old$files, files)
-  old$rows <- c(old$rows, rows)
-  saveRDS(old, manifest_file)
-  invisible(disk_library(dir))
+write_library_chunks <- function(...) {
+  .Defunct("write_library", package = "griddy", msg = paste0(
+    "write_library_chunks() is defunct: its .rds chunk directories cannot be appended to ",
+    "safely. Use write_library(library, file, append = ) to write an HDF5 library and ",
+    "hdf5_library(file) to open it; disk_library(dir) still reads old directories and ",
+    "write_library(disk_library(dir), file) converts one. See ?write_library_chunks."))
 }
 
-#' A simulation library stored on disk in chunks
+#' A simulation library stored on disk in chunks (old format)
 #'
-#' Opens a library written by [write_library_chunks()]. Only the parameter
-#' values (`N x p`) are read into memory; the outputs stay in the chunk files.
-#' [calibrate()] and [posterior_exact()] read the chunks one at a time to
-#' compute the quadratic forms \eqn{C_{ig}}, so memory holds the `N x G` table
-#' of \eqn{C_{ig}} and one chunk per worker, never the whole library.
+#' Opens a directory of `.rds` chunks written by `write_library_chunks()` in
+#' earlier versions of griddy (that writer is now defunct: new libraries on
+#' disk are HDF5 files, see [write_library()] and [hdf5_library()]). Only the
+#' parameter values (`N x p`) are read into memory; the outputs stay in the
+#' chunk files. [calibrate()] and [posterior_exact()] read the chunks one at a
+#' time to compute the quadratic forms \eqn{C_{ig}}, so memory holds the
+#' `N x G` table of \eqn{C_{ig}} and one chunk per worker, never the whole
+#' library.
 #'
 #' The chunks are mapped with [future.apply::future_lapply()], so the same
 #' call runs sequentially (the default plan), on local cores
@@ -92,16 +53,37 @@ write_library_chunks <- function(library, dir, chunk_size = 1e5, append = FALSE,
 #' installed and must see `dir`. Without future.apply the chunks are read
 #' sequentially.
 #'
+#' The directory is checked when it is opened (the manifest, the parameter
+#' values and the chunk files must agree) and every chunk when it is read (its
+#' dimensions against the manifest, its values finite); a damaged library
+#' stops with an error of class `griddy_error_library` naming the file at
+#' fault. A directory left by an append that died between writing
+#' `theta.rds` and `manifest.rds` (more parameter rows than chunk rows) is
+#' reported with the fix: [repair_library()] cuts `theta.rds` back to the runs
+#' the manifest lists.
+#'
 #' @param dir Directory holding the library.
 #' @return An object of class `disk_library`: a list with the directory
 #'   `dir`, the chunk `files` and their `rows`, the parameter values `theta`
-#'   (a data.frame), the settings `x` and coordinates `t`.
-#' @seealso [write_library_chunks()], [calibrate()]
+#'   (a data.frame), the settings `x`, coordinates `t` and the number of
+#'   outputs per run `n_out`.
+#' @seealso [hdf5_library()], [write_library()], [repair_library()],
+#'   [calibrate()]
 #' @examples
+#' # a directory in the old format, as write_library_chunks() wrote it
 #' ex <- griddy_example()
-#' dir <- file.path(tempdir(), "example-library-2")
-#' write_library_chunks(ex$library, dir, chunk_size = 100)
+#' dir <- file.path(tempdir(), "example-library-rds")
+#' dir.create(dir)
+#' y <- ex$library$y
+#' saveRDS(y[1:100, ], file.path(dir, "chunk-000001.rds"))
+#' saveRDS(y[-(1:100), ], file.path(dir, "chunk-000002.rds"))
+#' saveRDS(ex$library$theta, file.path(dir, "theta.rds"))
+#' saveRDS(list(x = ex$library$x, t = ex$library$t,
+#'              theta_names = names(ex$library$theta), n_out = ncol(y),
+#'              files = c("chunk-000001.rds", "chunk-000002.rds"),
+#'              rows = c(100L, nrow(y) - 100L)), file.path(dir, "manifest.rds"))
 #' lib <- disk_library(dir)
+#' lib
 #' fit <- calibrate(lib, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #' fit
 #' unlink(dir, recursive = TRUE)
@@ -110,25 +92,87 @@ disk_library <- function(dir) {
   dir <- assert_string(dir, "dir")
   manifest_file <- file.path(dir, "manifest.rds")
   if (!file.exists(manifest_file)) {
-    griddy_abort("`dir` (", dir, ") holds no library written by write_library_chunks().")
+    griddy_abort("`dir` (", dir, ") holds no library written by write_library_chunks(): ",
+                 "it has no manifest.rds.", class = "library")
   }
-  m <- readRDS(manifest_file)
-  files <- file.path(normalizePath(dir), m$files)
+  dir <- normalizePath(dir)
+  m <- read_rds_checked(file.path(dir, "manifest.rds"), "The manifest")
+  if (!is.list(m) || !is.character(m$files) || !is.numeric(m$rows) ||
+      length(m$files) != length(m$rows) || length(m$files) == 0L ||
+      any(!is.finite(m$rows) | m$rows < 1) || !is.numeric(m$n_out) || length(m$n_out) != 1L ||
+      !is.numeric(m$t)) {
+    griddy_abort("The manifest ", file.path(dir, "manifest.rds"), " is not a library manifest ",
+                 "(it needs `files`, `rows`, `n_out`, `x` and `t`): the library is damaged.",
+                 class = "library")
+  }
+  files <- file.path(dir, m$files)
   missing <- !file.exists(files)
   if (any(missing)) {
-    griddy_abort("The library in `dir` lacks chunk file(s) ", show_some(m$files[missing]), ".")
+    griddy_abort("The library in ", dir, " lacks chunk file(s) ", show_some(m$files[missing]),
+                 " that its manifest lists: it is damaged; rewrite it from the simulator's ",
+                 "outputs.", class = "library")
   }
-  structure(
-    list(dir = normalizePath(dir), files = files, rows = m$rows,
-         theta = readRDS(file.path(dir, "theta.rds")), x = m$x, t = m$t, n_out = m$n_out),
+  theta <- read_rds_checked(file.path(dir, "theta.rds"), "The parameter values")
+  if (!is.data.frame(theta)) {
+    griddy_abort("The parameter values ", file.path(dir, "theta.rds"), " are not a data.frame ",
+                 "but ", class(theta)[1], ": the library is damaged.", class = "library")
+  }
+  n_chunk_rows <- sum(m$rows)
+  if (nrow(theta) != n_chunk_rows) {
+    griddy_abort(rds_out_of_step(dir, nrow(theta), n_chunk_rows), class = "library")
+  }
+  theta <- as.data.frame(tryCatch(as_theta_matrix(theta), griddy_error = function(e) {
+    griddy_abort("The parameter values ", file.path(dir, "theta.rds"), " are damaged: ",
+                 conditionMessage(e), class = "library")
+  }))
+  lib <- structure(
+    list(dir = dir, files = files, rows = as.integer(m$rows), theta = theta, x = m$x,
+         t = as.double(m$t), n_out = as.integer(m$n_out)),
     class = "disk_library"
   )
+  if (lib_n_out(lib) != lib$n_out) {
+    griddy_abort("The manifest ", file.path(dir, "manifest.rds"), " gives ", lib$n_out,
+                 " outputs per run but its x and t give ", lib_n_x(lib), " x ", lib_n_t(lib),
+                 ": the library is damaged.", class = "library")
+  }
+  lib
+}
+
+# The message for a directory whose theta.rds and manifest.rds disagree.
+rds_out_of_step <- function(dir, n_theta, n_chunk_rows) {
+  paste0("The library in ", dir, " is incomplete: theta.rds has ", n_theta,
+         " runs but the chunks listed in manifest.rds hold ", n_chunk_rows, ". ",
+         if (n_theta > n_chunk_rows) {
+           paste0("An append died between writing theta.rds and manifest.rds. Run ",
+                  "repair_library(\"", dir, "\") to cut theta.rds back to the ", n_chunk_rows,
+                  " runs the manifest lists (the unfinished append's ", n_theta - n_chunk_rows,
+                  " runs are dropped), then write them again, e.g. after converting the ",
+                  "library to HDF5 with write_library(disk_library(dir), file).")
+         } else {
+           paste0("theta.rds has fewer runs than the chunks, which no interrupted append ",
+                  "leaves: the library cannot be repaired; rewrite it from the simulator's ",
+                  "outputs.")
+         })
+}
+
+# readRDS() with griddy's message when the file is missing or corrupt.
+read_rds_checked <- function(file, what) {
+  damaged <- function(cnd) {
+    why <- if (file.exists(file)) {
+      paste0(" cannot be read: it is corrupt or truncated (", conditionMessage(cnd), ")")
+    } else {
+      " is missing"
+    }
+    griddy_abort(what, " ", file, why, "; the library is damaged: rewrite it from the ",
+                 "simulator's outputs.", class = "library")
+  }
+  tryCatch(readRDS(file), error = damaged, warning = damaged)
 }
 
 #' @export
 print.disk_library <- function(x, ...) {
   cli::cat_line("<disk_library> ", sum(x$rows), " runs of ", ncol(x$theta),
-                " parameter(s) in ", length(x$files), " chunk(s) at ", x$dir)
+                " parameter(s) in ", length(x$files), " .rds chunk(s) at ", x$dir)
   cli::cat_line("  x:     ", if (is.null(x$x)) "one setting" else
     paste0(nrow(x$x), " setting(s) of ", paste(names(x$x), collapse = ", ")))
   cli::cat_line("  t:     ", length(x$t), " output(s)")
@@ -138,40 +182,38 @@ print.disk_library <- function(x, ...) {
   invisible(x)
 }
 
-# C of a disk library: one quad_forms_cpp() call per chunk, mapped over the
-# future plan's workers in waves of one chunk per worker, each wave's results
-# copied into C at once: memory holds C and one wave of chunk results.
-disk_quad_forms <- function(library, y_field, setup) {
-  chunk_C <- function(file, y_field, Rx_inv, phi) {
-    quad_forms_cpp(readRDS(file), y_field, Rx_inv, phi)
-  }
-  environment(chunk_C) <- asNamespace("griddy")
-  parallel <- requireNamespace("future.apply", quietly = TRUE)
-  map <- if (parallel) {
-    function(...) future.apply::future_lapply(..., future.seed = NULL,
-                                              future.packages = "griddy")
-  } else {
-    lapply
-  }
-  per_wave <- if (parallel) max(1L, as.integer(future::nbrOfWorkers())) else 1L
-  ends <- cumsum(library$rows)
-  C <- matrix(0, sum(library$rows), dim(setup$Rx_inv)[3] * ncol(setup$phi))
-  for (wave in split(seq_along(library$files), (seq_along(library$files) - 1L) %/% per_wave)) {
-    pieces <- map(library$files[wave], chunk_C, y_field = y_field, Rx_inv = setup$Rx_inv,
-                  phi = setup$phi)
-    for (j in seq_along(wave)) {
-      k <- wave[j]
-      C[ends[k] - library$rows[k] + seq_len(library$rows[k]), ] <- pieces[[j]]
-    }
-  }
-  C
+# ---- the library interface, chunks on disk (see library_interface.R) -------
+
+# One chunk file, checked against the manifest.
+rds_piece <- function(library, k) {
+  structure(list(file = library$files[k], rows = library$rows[k], n_out = library$n_out,
+                 first = sum(library$rows[seq_len(k - 1L)]) + 1L), class = "rds_piece")
+}
+
+read_piece.rds_piece <- function(piece) {
+  y <- read_rds_checked(piece$file, "The chunk file")
+  check_piece(y, piece$rows, piece$n_out, paste0("The chunk file ", piece$file),
+              piece$first)
 }
 
 lib_quad_forms.disk_library <- function(library, y_field, setup) {
-  disk_quad_forms(library, y_field, setup)
+  pieces <- lapply(seq_along(library$files), rds_piece, library = library)
+  chunked_quad_forms(pieces, library$rows, y_field, setup)
 }
 
-lib_check_integrity.disk_library <- function(library) invisible(library)
+lib_check_integrity.disk_library <- function(library) {
+  files <- library$files
+  rows <- library$rows
+  if (!is.character(files) || !is.numeric(rows) || length(files) != length(rows) ||
+      length(rows) == 0L || anyNA(rows) || any(rows < 1) || !is.numeric(library$n_out) ||
+      length(library$n_out) != 1L) {
+    griddy_abort("The disk_library has been edited: `files` and `rows` must list each chunk ",
+                 "file and its number of runs. Open it again with disk_library().",
+                 class = "shape")
+  }
+  check_library_parts(library, sum(rows), library$n_out, "disk_library",
+                      fix = "Open it again with disk_library().")
+}
 
 lib_outputs.disk_library <- function(library, rows = NULL) {
   runs <- lib_check_rows(library, rows)
@@ -180,8 +222,33 @@ lib_outputs.disk_library <- function(library, rows = NULL) {
   out <- matrix(0, length(runs), library$n_out)
   for (k in unique(chunk)) {
     at <- which(chunk == k)
-    y <- readRDS(library$files[k])
+    y <- read_piece(rds_piece(library, k))
     out[at, ] <- y[runs[at] - (ends[k] - library$rows[k]), , drop = FALSE]
   }
   out
+}
+
+# Repairs a directory left by an append that died between theta.rds and
+# manifest.rds: theta.rds is cut to the runs the manifest lists (written to a
+# temporary file and renamed over it), and chunk files the manifest does not
+# list (written by the unfinished append) are removed.
+repair_rds_library <- function(dir) {
+  dir <- normalizePath(dir)
+  token <- library_lock(dir, "library directory")
+  on.exit(library_unlock(token), add = TRUE)
+  m <- read_rds_checked(file.path(dir, "manifest.rds"), "The manifest")
+  theta <- read_rds_checked(file.path(dir, "theta.rds"), "The parameter values")
+  n_keep <- sum(m$rows)
+  orphans <- setdiff(list.files(dir, pattern = "^chunk-[0-9]+\\.rds$"), m$files)
+  if (nrow(theta) < n_keep) {
+    griddy_abort(rds_out_of_step(dir, nrow(theta), n_keep), class = "library")
+  }
+  dropped <- nrow(theta) - n_keep
+  if (dropped > 0L) {
+    tmp <- file.path(dir, "theta.rds.repair")
+    saveRDS(theta[seq_len(n_keep), , drop = FALSE], tmp)
+    file.rename(tmp, file.path(dir, "theta.rds"))
+  }
+  unlink(file.path(dir, orphans))
+  list(path = dir, runs = n_keep, dropped = dropped, removed_files = orphans)
 }

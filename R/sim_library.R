@@ -99,7 +99,12 @@ lib_check_integrity.sim_library <- function(library) {
                  " x ", lib_n_t(library), " = ", lib_n_out(library), " outputs per run; ",
                  "rebuild it with sim_library().", class = "shape")
   }
-  assert_finite(y, "library$y")
+  check_library_parts(library, nrow(y), ncol(y), "sim_library",
+                      fix = "Rebuild it with sim_library().")
+  tryCatch(assert_finite(y, "library$y"), griddy_error = function(e) {
+    griddy_abort("The sim_library has been edited: ", conditionMessage(e),
+                 " Rebuild it with sim_library().", class = "shape")
+  })
   invisible(library)
 }
 

@@ -1,7 +1,8 @@
 # A library larger than memory, in miniature: 10^6 runs x 54 outputs (432 MB)
-# written to disk in 10 chunks of 10^5 runs, piece by piece (the whole
-# library is never in memory while writing), then calibrated from disk with
-# the chunks mapped by future.apply under plan(sequential) and
+# written to an HDF5 file with write_library() in 10 appends of 10^5 runs,
+# piece by piece (the whole library is never in memory while writing), then
+# calibrated from disk with hdf5_library() reading 10 chunks of 10^5 runs,
+# mapped by future.apply under plan(sequential) and
 # plan(multisession, workers = 2), and, for comparison, from memory. Each
 # calibration runs in a fresh R process, so `peak_mb` (VmHWM) is its own;
 # the disk runs' main process holds C (8 MB here) and the parameter values,
@@ -9,7 +10,7 @@
 # three modes. 35,000 iterations (burn-in 15,000), collapsed and thesis
 # updates.
 #
-# Usage, from the package root after installing griddy:
+# Usage, from the package root after installing griddy (with hdf5r):
 #   Rscript bench/disk-library.R [directory, default a temporary one]
 # Writes bench/results/disk-library.csv and prints the table.
 source("bench/helpers.R")
@@ -25,18 +26,12 @@ if (length(args) == 3 && args[1] == "--calibrate") {
   base <- peak_mb()
   t_open <- time_it({
     lib <- if (mode == "memory") {
-      d <- disk_library(dir)
-      y <- matrix(0, sum(d$rows), d$n_out)
-      at <- 0
-      for (f in d$files) {
-        piece <- readRDS(f)
-        y[at + seq_len(nrow(piece)), ] <- piece
-        at <- at + nrow(piece)
-      }
-      rm(piece)
+      d <- hdf5_library(file.path(dir, "library.h5"), chunk_size = chunk)
+      # all outputs through the library interface (internal to griddy)
+      y <- eval(quote(lib_outputs(d)), list(d = d), asNamespace("griddy"))
       sim_library(d$theta, y, t = d$t)
     } else {
-      disk_library(dir)
+      hdf5_library(file.path(dir, "library.h5"), chunk_size = chunk)
     }
   })
   # workers start (and load griddy) before the timed calls: `workers_s`
@@ -65,16 +60,17 @@ if (length(args) == 3 && args[1] == "--calibrate") {
 suppressPackageStartupMessages(library(griddy))
 dir <- if (length(args) >= 1) args[1] else file.path(tempdir(), "griddy-1e6")
 unlink(dir, recursive = TRUE)
+dir.create(dir, recursive = TRUE)
 locations <- seq(0, 1, length.out = n)
 theta <- thesis_theta(n_runs = N)
 t_write <- time_it(for (k in seq_len(N / chunk)) {
   rows <- (k - 1) * chunk + seq_len(chunk)
   piece <- sim_library(theta[rows, ], thesis_response(as.matrix(theta[rows, ]), locations),
                        t = locations)
-  write_library_chunks(piece, dir, chunk_size = chunk, append = k > 1)
+  write_library(piece, file.path(dir, "library.h5"), append = k > 1)
 })
 write_peak <- peak_mb()
-disk_mb <- sum(file.size(list.files(dir, full.names = TRUE))) / 2^20
+disk_mb <- file.size(file.path(dir, "library.h5")) / 2^20
 
 rscript <- file.path(R.home("bin"), "Rscript")
 modes <- c("sequential", "multisession", "memory")

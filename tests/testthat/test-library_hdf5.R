@@ -1,0 +1,222 @@
+skip_if_not_installed("hdf5r")
+
+test_that("a user's HDF5 file is read in both orientations, without conversion", {
+  toy <- toy_xt(n_per_dim = 5)
+  lib <- toy$library
+  for (layout in c("runs_first", "runs_last")) {
+    for (theta_as in c("compound", "matrix")) {
+      file <- withr::local_tempfile(fileext = ".h5")
+      write_user_h5(lib, file, layout = layout, theta_as = theta_as)
+      h5 <- hdf5_library(file, theta = "params", outputs = "sim/out", x = lib$x,
+                         t = "sim/time", chunk_size = 7)
+      expect_s3_class(h5, "hdf5_library")
+      expect_identical(h5$layout, layout)
+      expect_identical(h5$theta, lib$theta)
+      expect_identical(h5$t, lib$t)
+      expect_identical(lib_outputs(h5), lib$y)
+      expect_identical(lib_outputs(h5, c(25L, 3L, 8L, 3L)), lib$y[c(25, 3, 8, 3), ])
+      # an explicit layout gives the same
+      h5b <- hdf5_library(file, theta = "params", outputs = "sim/out", x = lib$x,
+                          t = "sim/time", layout = layout)
+      expect_identical(lib_outputs(h5b), lib$y)
+    }
+  }
+  expect_output(print(h5), "<hdf5_library> 25 runs of 2 parameter\\(s\\)")
+  expect_output(print(h5), "from dataset 'sim/out', runs last in HDF5's order; read 7 runs")
+})
+
+test_that("parameter names come from the user, the fields or an attribute", {
+  toy <- toy_ar1(n_runs = 20, n_t = 6)
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(toy$library, file, layout = "runs_first", theta_as = "bare")
+  expect_error(hdf5_library(file, theta = "params", outputs = "sim/out"),
+               "'params'.*without column names: give them with `theta_names`")
+  # one parameter: a one-dimensional dataset read as runs_first 20 x 1
+  h5 <- hdf5_library(file, theta = "params", outputs = "sim/out", theta_names = "theta")
+  expect_identical(h5$theta, toy$library$theta)
+  expect_identical(h5$t, as.double(1:6))
+  # compound: theta_names selects and orders the fields
+  file2 <- withr::local_tempfile(fileext = ".h5")
+  lib2 <- toy_xt(n_per_dim = 4)$library
+  write_user_h5(lib2, file2, theta_as = "compound")
+  h5 <- hdf5_library(file2, theta = "params", outputs = "sim/out", x = lib2$x,
+                     theta_names = c("b", "a"))
+  expect_identical(names(h5$theta), c("b", "a"))
+  expect_error(hdf5_library(file2, theta = "params", outputs = "sim/out", x = lib2$x,
+                            theta_names = c("a", "z")), "has no field\\(s\\) z")
+})
+
+test_that("an ambiguous or mismatched orientation is refused", {
+  # 3 runs of 3 outputs and 3 parameters: either dimension could be the runs
+  theta <- data.frame(a = c(1, 2, 3), b = c(3, 1, 2), c = c(0, 1, 5))
+  lib <- sim_library(theta, matrix(as.double(1:9), 3))
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(lib, file, layout = "runs_last", theta_as = "matrix")
+  expect_error(hdf5_library(file, theta = "params", outputs = "sim/out"),
+               "orientation is ambiguous.*Give `layout = \"runs_first\"`",
+               class = "griddy_error_shape")
+  h5 <- hdf5_library(file, theta = "params", outputs = "sim/out", layout = "runs_last")
+  expect_identical(lib_outputs(h5), lib$y)
+  expect_identical(h5$theta, lib$theta)
+  # per-dataset layouts
+  h5 <- hdf5_library(file, theta = "params", outputs = "sim/out",
+                     layout = c(theta = "runs_last", outputs = "runs_last"))
+  expect_identical(lib_outputs(h5), lib$y)
+  # the wrong explicit layout, when the sizes show it
+  toy <- toy_ar1(n_runs = 20, n_t = 6)
+  file2 <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(toy$library, file2, layout = "runs_first")
+  expect_error(hdf5_library(file2, theta = "params", outputs = "sim/out", layout = "runs_last"),
+               "is 20 x 6 \\(in HDF5's order.*does not fit layout \"runs_last\" with 20 runs",
+               class = "griddy_error_shape")
+  # outputs with another number of runs than theta
+  h <- hdf5r::H5File$new(file2, "r+")
+  h[["short"]] <- t(toy$library$y[1:19, ])
+  h$close_all()
+  expect_error(hdf5_library(file2, theta = "params", outputs = "short"),
+               "neither dimension fits 20 runs", class = "griddy_error_shape")
+  expect_error(hdf5_library(file2, theta = "params", outputs = "nothing"),
+               "has no dataset 'nothing'; its datasets are 'params', 'short', 'sim/out'")
+  expect_error(hdf5_library(file2, theta = "params", outputs = "sim/out", layout = "sideways"),
+               "`layout` must be")
+  expect_error(hdf5_library(tempfile()), "does not exist")
+  writeLines("not hdf5", file2)
+  expect_error(hdf5_library(file2), "cannot be opened as an HDF5 file: not an hdf5 file",
+               class = "griddy_error_library")
+})
+
+test_that("write_library() writes, appends and converts; reads are chunked", {
+  toy <- toy_xt(n_per_dim = 7)
+  lib <- toy$library
+  file <- withr::local_tempfile(fileext = ".h5")
+  h5 <- write_library(lib_rows(lib, 1:20), file, chunk_size = 6)
+  expect_identical(h5$n_runs, 20L)
+  expect_error(write_library(lib_rows(lib, 21:49), file), "already exists")
+  expect_error(write_library(lib_rows(lib, 15:30), file, append = TRUE), "duplicated runs")
+  h5 <- write_library(lib_rows(lib, 21:49), file, append = TRUE)
+  expect_output(print(h5), "written by write_library\\(\\): 49 committed runs")
+  expect_identical(lib_outputs(h5), lib$y)
+  expect_identical(h5$theta, lib$theta)
+  expect_identical(h5$x, lib$x)
+  small <- hdf5_library(file, chunk_size = 5)
+  expect_identical(lib_outputs(small, c(49L, 1L, 6L, 5L, 6L)), lib$y[c(49, 1, 6, 5, 6), ])
+  expect_identical(lib_quad_forms(small, toy$field$y, correlation_setup(lib, 0.3, 0.5)),
+                   lib_quad_forms(lib, toy$field$y, correlation_setup(lib, 0.3, 0.5)))
+  other <- sim_library(data.frame(a = c(9, 8), z = c(1, 2)), lib$y[1:2, ], x = lib$x,
+                       t = lib$t)
+  expect_error(write_library(other, file, append = TRUE), "its parameters differ")
+  other <- sim_library(lib$theta[c(1, 9), ], lib$y[1:2, ], x = lib$x, t = lib$t + 1)
+  expect_error(write_library(other, file, append = TRUE), "coordinates t differ")
+  expect_error(write_library(lib, tempfile(), append = TRUE), "holds no library to append to")
+  expect_error(write_library(lib, 3), "`file` must be a single non-empty string")
+  # a copy: from one HDF5 library to another, a piece at a time
+  file2 <- withr::local_tempfile(fileext = ".h5")
+  expect_identical(lib_outputs(write_library(small, file2)), lib$y)
+  # a user's file is read, not appended to
+  file3 <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(lib, file3)
+  expect_error(write_library(lib, file3, append = TRUE), "was not written by write_library")
+  expect_error(repair_library(file3), "was not written by write_library")
+})
+
+test_that("the outputs are checked as they are read", {
+  toy <- toy_ar1(n_runs = 30, n_t = 6)
+  y <- toy$library$y
+  y[17, 2] <- NA
+  file <- withr::local_tempfile(fileext = ".h5")
+  h <- hdf5r::H5File$new(file, "w")
+  h[["theta"]] <- toy$library$theta
+  h[["y"]] <- y
+  h$close_all()
+  h5 <- hdf5_library(file, chunk_size = 10)
+  expect_error(posterior_exact(h5, toy$field),
+               "Dataset 'y' of .* \\(runs 11 to 20\\) holds non-finite outputs \\(NA\\) at run\\(s\\) 17",
+               class = "griddy_error_library")
+  expect_identical(lib_outputs(h5, 1:10), toy$library$y[1:10, ])
+  # the file changed after it was opened
+  h <- hdf5r::H5File$new(file, "r+")
+  h$link_delete("y")
+  h[["y"]] <- toy$library$y[1:25, ]
+  h$close_all()
+  expect_error(lib_outputs(h5, 28), "is now 6 x 25 .* the file changed after it was opened",
+               class = "griddy_error_library")
+})
+
+test_that("an edited hdf5_library is a shape error before any C++", {
+  toy <- toy_ar1(n_runs = 30, n_t = 6)
+  file <- withr::local_tempfile(fileext = ".h5")
+  h5 <- write_library(toy$library, file)
+  bad <- h5
+  bad$theta$theta[2] <- NA
+  expect_error(posterior_exact(bad, toy$field), "hdf5_library has been edited.*NA at \\[2, theta\\]",
+               class = "griddy_error_shape")
+  bad <- h5
+  bad$theta <- bad$theta[-1, , drop = FALSE]
+  expect_error(calibrate(bad, toy$field, n_iter = 100, burn_in = 10),
+               "`theta` has 29 rows but the library holds 30 runs", class = "griddy_error_shape")
+  bad <- h5
+  bad$n_out <- 5L
+  expect_error(posterior_exact(bad, toy$field), "library holds 5", class = "griddy_error_shape")
+  bad <- h5
+  bad$layout <- "sideways"
+  expect_error(check_library(bad), "hdf5_library has been edited", class = "griddy_error_shape")
+  bad <- h5
+  bad$theta$theta <- as.integer(seq_len(30))
+  expect_error(check_library(bad), "data.frame of double", class = "griddy_error_shape")
+})
+
+test_that("an append that fails part-way leaves the committed library; the next append or repair discards the rest", {
+  toy <- toy_ar1(n_runs = 40, n_t = 6)
+  lib <- toy$library
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(lib_rows(lib, 1:20), file, chunk_size = 4)
+  for (step in c("extended", "piece", "rows_written")) {
+    withr::with_options(list(griddy.write_hook = function(s) if (s == step) stop("injected")), {
+      expect_error(suppressWarnings(write_library(lib_rows(lib, 21:30), file, append = TRUE)),
+                   "injected")
+    })
+    expect_false(dir.exists(paste0(file, ".lock"))) # the lock went with the writer
+    expect_warning(h5 <- hdf5_library(file), paste0(
+      "holds 10 uncommitted run\\(s\\) past its 20 committed runs.*repair_library"),
+      class = "griddy_warning_library")
+    expect_identical(lib_outputs(h5), lib$y[1:20, ])
+    expect_identical(posterior_exact(h5, toy$field)$joint,
+                     posterior_exact(lib_rows(lib, 1:20), toy$field)$joint)
+  }
+  expect_message(res <- repair_library(file), "holds 20 runs; 10 uncommitted run\\(s\\) discarded")
+  expect_identical(res$dropped, 10L)
+  expect_silent(h5 <- hdf5_library(file))
+  withr::with_options(list(griddy.write_hook = function(s) if (s == "piece") stop("injected")), {
+    expect_error(write_library(lib_rows(lib, 21:30), file, append = TRUE), "injected")
+  })
+  expect_warning(h5 <- write_library(lib_rows(lib, 21:40), file, append = TRUE),
+                 "Discarded 10 uncommitted run\\(s\\)")
+  expect_identical(lib_outputs(h5), lib$y)
+  expect_identical(h5$theta, lib$theta)
+  # a first write that dies leaves no file
+  file2 <- withr::local_tempfile(fileext = ".h5")
+  withr::with_options(list(griddy.write_hook = function(s) if (s == "locked") stop("injected")), {
+    expect_error(write_library(lib, file2), "injected")
+  })
+  expect_false(file.exists(file2))
+})
+
+test_that("HDF5 chunks mapped on two future workers give the same C and draws", {
+  skip_on_cran()
+  skip_if_not_installed("future.apply")
+  skip_if_not(installed_griddy_is_current("hdf5_library"),
+              "the installed griddy is not this version")
+  toy <- toy_xt(n_per_dim = 7) # 49 runs x 36 outputs: not ambiguous
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(toy$library, file, layout = "runs_first")
+  lib <- hdf5_library(file, theta = "params", outputs = "sim/out", x = toy$library$x,
+                      t = "sim/time", chunk_size = 10)
+  serial <- posterior_exact(lib, toy$field, rho_t = c(0, 0.5))
+  old <- future::plan(future::multisession, workers = 2)
+  on.exit(future::plan(old), add = TRUE)
+  expect_identical(posterior_exact(lib, toy$field, rho_t = c(0, 0.5))$joint, serial$joint)
+  a <- calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2)
+  future::plan(future::sequential)
+  b <- calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2)
+  expect_identical(a$draws, b$draws)
+})

@@ -1,0 +1,146 @@
+# Writers in separate R processes: the lock refuses a second writer, and a
+# writer killed part-way leaves the committed library.
+skip_on_cran()
+skip_if_not_installed("hdf5r")
+
+# R code for a child that appends the sim_library saved in `piece_rds` to
+# `file`, with `hook` (code of a function(step)) as the write hook, and records
+# "ok" or the error's class in `result`.
+append_code <- function(file, piece_rds, result, hook = "NULL") {
+  c(sprintf("options(griddy.write_hook = %s)", hook),
+    sprintf("piece <- readRDS(%s)", deparse(piece_rds)),
+    sprintf("out <- tryCatch({write_library(piece, %s, append = TRUE); 'ok'},",
+            deparse(file)),
+    "  griddy_error_lock = function(e) 'lock', error = function(e) conditionMessage(e))",
+    sprintf("writeLines(out, %s)", deparse(result)))
+}
+
+# A hook that, at `step`, touches `marker` and then runs `then`.
+hook_code <- function(step, marker, then) {
+  sprintf("function(s) if (s == %s) { file.create(%s); %s }", deparse(step), deparse(marker),
+          then)
+}
+
+save_piece <- function(library) {
+  f <- tempfile(fileext = ".rds")
+  saveRDS(library, f)
+  f
+}
+
+test_that("a second writer is refused while the first holds the lock, and readers wait", {
+  toy <- toy_ar1(n_runs = 60, n_t = 8)
+  lib <- toy$library
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(lib_rows(lib, 1:20), file)
+  marker <- tempfile()
+  result <- tempfile()
+  run_child(append_code(file, save_piece(lib_rows(lib, 21:40)), result,
+                        hook_code("extended", marker, "Sys.sleep(4)")), wait = FALSE)
+  wait_for_file(marker)
+  err <- expect_error(write_library(lib_rows(lib, 41:60), file, append = TRUE),
+                      class = "griddy_error_lock")
+  expect_match(conditionMessage(err), "is being written by another writer: the lock .*\\.lock is held by process [0-9]+ on host")
+  expect_match(conditionMessage(err), "Wait for that writer to finish")
+  # HDF5 refuses readers while the writer has the file open; griddy says why
+  expect_error(hdf5_library(file), "open for writing by another process \\(the lock .* is held by process",
+               class = "griddy_error_lock")
+  wait_for_file(result)
+  expect_identical(readLines(result), "ok")
+  h5 <- write_library(lib_rows(lib, 41:60), file, append = TRUE)
+  expect_identical(lib_outputs(h5), lib$y)
+  expect_identical(h5$theta, lib$theta)
+})
+
+test_that("two writers started together: one writes, the other is refused, runs never mixed", {
+  toy <- toy_ar1(n_runs = 60, n_t = 8)
+  lib <- toy$library
+  pieces <- list(a = 21:40, b = 41:60)
+  for (trial in 1:2) {
+    file <- withr::local_tempfile(fileext = ".h5")
+    write_library(lib_rows(lib, 1:20), file)
+    go <- tempfile()
+    results <- c(a = tempfile(), b = tempfile())
+    for (w in names(pieces)) {
+      # both wait for `go`, then race for the lock; the winner holds it a while
+      code <- append_code(file, save_piece(lib_rows(lib, pieces[[w]])), results[[w]],
+                          "function(s) if (s == 'locked') Sys.sleep(1.5)")
+      run_child(c(sprintf("while (!file.exists(%s)) Sys.sleep(0.01)", deparse(go)), code),
+                wait = FALSE)
+    }
+    Sys.sleep(4) # both children loaded and waiting
+    file.create(go)
+    for (r in results) wait_for_file(r)
+    Sys.sleep(0.2)
+    out <- vapply(results, readLines, "")
+    expect_setequal(unname(out), c("ok", "lock"))
+    winner <- names(out)[out == "ok"]
+    h5 <- hdf5_library(file)
+    expect_identical(lib_outputs(h5), lib$y[c(1:20, pieces[[winner]]), ])
+    expect_identical(h5$theta$theta, lib$theta$theta[c(1:20, pieces[[winner]])])
+    expect_false(dir.exists(paste0(file, ".lock")))
+  }
+})
+
+test_that("a writer killed part-way leaves the committed library, a stale lock and how to repair", {
+  toy <- toy_ar1(n_runs = 60, n_t = 8)
+  lib <- toy$library
+  for (step in c("extended", "piece", "rows_written", "committed")) {
+    file <- withr::local_tempfile(fileext = ".h5")
+    write_library(lib_rows(lib, 1:20), file, chunk_size = 3)
+    marker <- tempfile()
+    status <- run_child(append_code(file, save_piece(lib_rows(lib, 21:40)), tempfile(),
+                                    hook_code(step, marker,
+                                              "tools::pskill(Sys.getpid(), tools::SIGKILL)")))
+    expect_true(file.exists(marker))
+    expect_true(dir.exists(paste0(file, ".lock"))) # the dead writer's lock stays
+    committed <- if (step == "committed") 40L else 20L
+    if (step == "committed") {
+      h5 <- hdf5_library(file)
+    } else {
+      expect_warning(h5 <- hdf5_library(file), paste0(
+        "holds 20 uncommitted run\\(s\\) past its 20 committed runs, left by an append that ",
+        "did not finish.*repair_library.*first remove the dead writer's lock"),
+        class = "griddy_warning_library")
+    }
+    expect_identical(lib_outputs(h5), lib$y[seq_len(committed), ])
+    expect_identical(posterior_exact(h5, toy$field)$joint,
+                     posterior_exact(lib_rows(lib, seq_len(committed)), toy$field)$joint)
+    err <- expect_error(write_library(lib_rows(lib, 41:60), file, append = TRUE),
+                        class = "griddy_error_lock")
+    expect_match(conditionMessage(err), "no longer running: the lock is stale.*unlink\\(")
+    expect_error(repair_library(file), class = "griddy_error_lock")
+    unlink(paste0(file, ".lock"), recursive = TRUE) # as the message says
+    expect_message(repair_library(file), sprintf("holds %d runs", committed))
+    expect_silent(hdf5_library(file))
+    rest <- setdiff(21:60, seq_len(committed))
+    h5 <- write_library(lib_rows(lib, rest), file, append = TRUE)
+    expect_identical(lib_outputs(h5), lib$y)
+  }
+})
+
+test_that("a writer killed at a random moment of a long append leaves a readable library", {
+  set.seed(1)
+  n <- 3e5
+  theta <- data.frame(a = seq_len(n) / n)
+  lib <- sim_library(theta, matrix(as.double(seq_len(n * 30)), n, 30))
+  outcomes <- integer(0)
+  for (delay in c(0.02, 0.1, 0.25)) {
+    file <- withr::local_tempfile(fileext = ".h5")
+    write_library(lib_rows(lib, 1:1000), file)
+    marker <- tempfile()
+    run_child(append_code(file, save_piece(lib_rows(lib, 1001:n)), tempfile(),
+                          hook_code("locked", marker, "NULL")), wait = FALSE)
+    wait_for_file(marker)
+    Sys.sleep(delay)
+    pid <- as.integer(lock_owner(paste0(file, ".lock"))$pid)
+    tools::pskill(pid, tools::SIGKILL)
+    Sys.sleep(0.3)
+    h5 <- suppressWarnings(hdf5_library(file))
+    expect_true(h5$n_runs %in% c(1000L, n))
+    outcomes <- c(outcomes, h5$n_runs)
+    expect_identical(lib_outputs(h5, c(1L, h5$n_runs)), lib$y[c(1L, h5$n_runs), ])
+    unlink(paste0(file, ".lock"), recursive = TRUE)
+    suppressMessages(repair_library(file))
+  }
+  if (nzchar(Sys.getenv("GRIDDY_SHOW_KILLS"))) message("committed after kills: ", toString(outcomes))
+})
