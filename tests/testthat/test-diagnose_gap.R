@@ -151,3 +151,17 @@ test_that("one call builds the base model's runs x grid table once, from the fit
   diagnose_gap(toy$fit, list(quadratic = toy$quad, scale = toy$scale))
   expect_identical(calls$base, 1L)
 })
+
+test_that("diagnose_gap() on a fit from a library on disk equals the in-memory diagnosis", {
+  skip_if_not_installed("hdf5r")
+  toy <- toy_gap(0.2)
+  file <- withr::local_tempfile(fileext = ".h5")
+  disk <- write_library(toy$lib, file)
+  fit_disk <- suppressWarnings(calibrate(disk, toy$field, n_iter = 300, burn_in = 100,
+                                         seed = 1))
+  gap_mem <- diagnose_gap(toy$fit, list(quadratic = toy$quad))
+  gap_disk <- diagnose_gap(fit_disk, list(quadratic = toy$quad))
+  expect_equal(gap_disk$which, gap_mem$which)
+  expect_equal(gap_disk$where, gap_mem$where)
+  expect_equal(gap_disk$shrinkage, gap_mem$shrinkage)
+})

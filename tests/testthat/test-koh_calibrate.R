@@ -83,3 +83,16 @@ test_that("the shipped chapter-4 comparison has the thesis's tables 4.1-4.5", {
   expect_equal(as.vector(table(rt$method)), rep(4L, 4))
   expect_true(all(rt$seconds > 0))
 })
+
+test_that("koh_calibrate() reads a library on disk through the library interface", {
+  skip_if_not_installed("RobustCalibration")
+  skip_if_not_installed("hdf5r")
+  toy <- koh_toy()
+  file <- withr::local_tempfile(fileext = ".h5")
+  disk <- write_library(toy$library, file)
+  run <- function(lib) {
+    koh_calibrate(lib, toy$field, discrepancy = "none", n_iter = 400, burn_in = 100,
+                  tune_rounds = 0, seed = 2)
+  }
+  expect_identical(run(disk)$draws, run(toy$library)$draws)
+})
