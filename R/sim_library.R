@@ -142,7 +142,8 @@ as_settings <- function(x, arg) {
     griddy_abort("`", arg, "` must be a data.frame of control settings, one row each; ",
                  "received ", class(x)[1], ".")
   }
-  as_numeric_matrix(x, arg)
+  # plain doubles: integer and integer64 columns are read as their numbers
+  x <- as.data.frame(as_numeric_matrix(x, arg))
   dup <- which(duplicated(x))
   if (length(dup) > 0L) {
     griddy_abort("`", arg, "` has duplicated settings at row(s) ", show_some(dup), ".")

@@ -129,6 +129,7 @@ void draw_tau(const arma::mat& C, const SamplerOptions& o, ChainState& st) {
 // Every column's run order (0-based), for the thesis update, whose weights
 // exp(-tau C_ig / 2) change with tau: the head is found per draw.
 Rcpp::IntegerMatrix run_order(const arma::mat& C) {
+  if (!C.is_finite()) Rcpp::stop("run_order: C holds NA, NaN or Inf");
   Rcpp::IntegerMatrix order(C.n_rows, C.n_cols);
   for (arma::uword g = 0; g < C.n_cols; ++g) {
     Rcpp::checkUserInterrupt();

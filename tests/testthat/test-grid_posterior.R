@@ -66,7 +66,8 @@ test_that("the C++ entry points refuse shapes that do not fit", {
                   log_prior_grid = 0)
   # a draw never returns a run of zero weight: all-NaN weights are an error
   C <- matrix(NaN, 2, 1)
-  expect_error(gibbs_chain_cpp(C, list(order = run_order_cpp(C)), options, 0L, 1),
+  expect_error(run_order_cpp(C), "NA, NaN or Inf")
+  expect_error(gibbs_chain_cpp(C, list(order = matrix(0:1, 2, 1)), options, 0L, 1),
                "weights sum to")
   options$log_prior_run <- 0
   expect_error(gibbs_chain_cpp(matrix(1, 2, 1), list(order = matrix(0L, 2, 1)), options, 0L, 1),

@@ -40,3 +40,10 @@ test_that("sim_library rejects bad input with clear errors", {
 test_that("a constant theta column is a warning, not an error", {
   expect_warning(sim_library(data.frame(k = 1:3, c = 1), matrix(1:6, 3)), "column\\(s\\) c are constant")
 })
+
+test_that("integer and integer64 x settings are stored as plain doubles", {
+  skip_if_not_installed("bit64")
+  x <- data.frame(load = bit64::as.integer64(c(3000000000, 3000000001)), speed = 1:2)
+  lib <- sim_library(data.frame(k = 1:3), matrix(1:12, 3), x = x)
+  expect_identical(lib$x, data.frame(load = c(3e9, 3e9 + 1), speed = c(1, 2)))
+})
