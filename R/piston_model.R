@@ -408,8 +408,9 @@ piston_location_ids <- function(n_per_surface = 9) {
 #'   temperatures in deg C, one row per row of `htc`; columns in blocks by
 #'   condition, locations in the given order within a block, named
 #'   `"<condition>:<surface><index>"`.
-#' @references Stewart, T. (2023). Bayesian calibration of computer models
-#'   using Griddy Gibbs sampling. MS thesis, Clemson University.
+#' @references Stewart, H. (2023). Creation and Validation of a Novel Bayesian
+#'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
+#'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [piston_locations()], [piston_library()], [piston_heat_balance()]
 #' @export
 #' @examples

@@ -226,8 +226,9 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #'   for one height), with attributes `time` (the `n_samples` sample times in
 #'   s; with `sample = "mean"` sample j is the mean over the interval ending
 #'   at `time[j]`) and `height` (mm).
-#' @references Stewart, T. (2023). Bayesian calibration of computer models
-#'   using Griddy Gibbs sampling. MS thesis, Clemson University.
+#' @references Stewart, H. (2023). Creation and Validation of a Novel Bayesian
+#'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
+#'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [tyre_library()], [tyre_rig()], [tyre_cleat_heights()]
 #' @export
 #' @examples
