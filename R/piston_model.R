@@ -364,8 +364,8 @@ piston_location_ids <- function(n_per_surface = 9) {
 #' to 110 C); the axis is a symmetry line.  Material: steel 42CrMo4,
 #' k = 42.6 W/mK (Meusburger data sheet), or an aluminium piston alloy,
 #' k = 134 W/mK (Meteor piston materials page).  The oil, ring-belt and gas
-#' values are engineering assumptions in the ranges collected in
-#' `physics.md` (section 2.3) and are not taken from the thesis, whose model
+#' values are engineering assumptions in typical published ranges and are
+#' not taken from the thesis, whose model
 #' is not public.  Temperatures are the cycle-mean (steady) field, which is
 #' what the thesis's "temporally averaged" temperatures are for a linear
 #' problem.

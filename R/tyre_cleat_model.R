@@ -197,7 +197,7 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' point follower with large damping (tens to hundreds of kN at
 #' c = 5 N s/mm); disc contact has no such spike.
 #'
-#' **Defaults and sources** (see `physics.md`, 1.4-1.5): R0 = 0.3135 m
+#' **Defaults and sources**: R0 = 0.3135 m
 #' (205/60 R15: rim 0.1905 m + 0.6 x 0.205 m sidewall); wheel + tyre mass
 #' 25 kg (tyre 17.45 kg in a public MF 6.1 .tir file, plus a rim; assumption);
 #' Fz0 = 4000 N (between FNOMIN 3800 and 4850 N in public PAC2002 .tir files);
