@@ -25,6 +25,23 @@ repos <- getOption("repos")
 if (is.na(repos["CRAN"]) || repos["CRAN"] == "@CRAN@") repos["CRAN"] <- "https://cloud.r-project.org"
 have <- function(p) vapply(p, function(q) nzchar(system.file(package = q)), logical(1))
 missing <- wanted[!have(wanted)]
+
+# testthat needs pkgload, which needs fs; fs compiled from source links to the system libuv or,
+# with USE_BUNDLED_LIBUV=1, builds the copy it ships, which takes cmake.
+source_install <- .Platform$OS.type == "unix" && getOption("pkgType") == "source"
+if (length(missing) && source_install && !have("fs") && !nzchar(Sys.getenv("USE_BUNDLED_LIBUV"))) {
+  libuv <- nzchar(Sys.which("pkg-config")) &&
+    system2("pkg-config", c("--exists", "libuv"), stdout = FALSE, stderr = FALSE) == 0
+  if (!libuv && nzchar(Sys.which("cmake"))) {
+    message("No system libuv: fs (for testthat) will build its bundled copy with cmake")
+    Sys.setenv(USE_BUNDLED_LIBUV = "1")
+  } else if (!libuv) {
+    stop("testthat needs the fs package, which needs the libuv library (libuv1-dev on ",
+         "Debian/Ubuntu, libuv-devel on Fedora) or cmake to build its own copy; ",
+         "install one of them and run this again", call. = FALSE)
+  }
+}
+
 if (length(missing)) {
   message("Installing from CRAN: ", paste(missing, collapse = ", "))
   ncpus <- max(1L, min(4L, parallel::detectCores(logical = FALSE), na.rm = TRUE))
