@@ -327,8 +327,8 @@ piston_location_ids <- function(n_per_surface = 9) {
 #' to 110 C); the axis is a symmetry line.  Material: steel 42CrMo4,
 #' k = 42.6 W/mK (Meusburger data sheet), or an aluminium piston alloy,
 #' k = 134 W/mK (Meteor piston materials page).  The oil, ring-belt and gas
-#' values are engineering assumptions in the ranges collected in
-#' `physics.md` (section 2.3) and are not taken from the thesis, whose model
+#' values are engineering assumptions in typical published ranges and are
+#' not taken from the thesis, whose model
 #' is not public.  Temperatures are the cycle-mean (steady) field, which is
 #' what the thesis's "temporally averaged" temperatures are for a linear
 #' problem.
@@ -371,8 +371,9 @@ piston_location_ids <- function(n_per_surface = 9) {
 #'   temperatures in deg C, one row per row of `htc`; columns in blocks by
 #'   condition, locations in the given order within a block, named
 #'   `"<condition>:<surface><index>"`.
-#' @references Stewart, T. (2023). Bayesian calibration of computer models
-#'   using Griddy Gibbs sampling. MS thesis, Clemson University.
+#' @references Stewart, H. (2023). Creation and Validation of a Novel Bayesian
+#'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
+#'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [piston_locations()], [piston_library()], [piston_heat_balance()]
 #' @family piston stand-in
 #' @export

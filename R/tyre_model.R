@@ -211,7 +211,7 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' point follower with large damping (tens to hundreds of kN at
 #' c = 5 N s/mm); disc contact has no such spike.
 #'
-#' **Defaults and sources** (see `physics.md`, 1.4-1.5): R0 = 0.3135 m
+#' **Defaults and sources**: R0 = 0.3135 m
 #' (205/60 R15: rim 0.1905 m + 0.6 x 0.205 m sidewall); wheel + tyre mass
 #' 25 kg (tyre 17.45 kg in a public MF 6.1 .tir file, plus a rim; assumption);
 #' Fz0 = 4000 N (between FNOMIN 3800 and 4850 N in public PAC2002 .tir files);
@@ -240,8 +240,9 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #'   for one height), with attributes `time` (the `n_samples` sample times in
 #'   s; with `sample = "mean"` sample j is the mean over the interval ending
 #'   at `time[j]`) and `height` (mm).
-#' @references Stewart, T. (2023). Bayesian calibration of computer models
-#'   using Griddy Gibbs sampling. MS thesis, Clemson University.
+#' @references Stewart, H. (2023). Creation and Validation of a Novel Bayesian
+#'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
+#'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [tyre_library()], [tyre_rig()], [tyre_cleat_heights()]
 #' @family tyre stand-in
 #' @export

@@ -4,7 +4,7 @@
 //
 // The R side (R/piston_model.R) builds the geometry, the conductances and the
 // boundary faces and validates everything; the functions here trust their
-// inputs (style.md, house rule 1).
+// inputs.
 
 #include <RcppArmadillo.h>
 #include <cmath>
