@@ -21,8 +21,12 @@ pkgs <- setdiff(unique(c(pkgs[nzchar(pkgs)], "pkgload", "pkgbuild")), c(base, "R
 needed <- setdiff(pkgs, optional)
 wanted <- if (all) pkgs else needed
 
+# R's configured CRAN mirror; where none is set, the first of R's own list of
+# mirrors (read from R's installation, no network)
+if (is.na(getOption("repos")["CRAN"]) || getOption("repos")["CRAN"] == "@CRAN@") {
+  utils::chooseCRANmirror(graphics = FALSE, ind = 1, local.only = TRUE)
+}
 repos <- getOption("repos")
-if (is.na(repos["CRAN"]) || repos["CRAN"] == "@CRAN@") repos["CRAN"] <- "https://cloud.r-project.org"
 have <- function(p) vapply(p, function(q) nzchar(system.file(package = q)), logical(1))
 missing <- wanted[!have(wanted)]
 
