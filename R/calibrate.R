@@ -220,14 +220,18 @@ parallel_plan <- function() {
     future::nbrOfWorkers() > 1L
 }
 
-# One chain, in pieces of a fiftieth of n_iter but at most `max_piece`
-# iterations (for the progress bar and the stop file: a piece is what a
-# worker finishes after an interrupt), each piece continuing the last one's
-# state and random stream.
+# One chain: in one piece, or, with a progress bar or a stop file, in pieces
+# of a fiftieth of n_iter but at most `max_piece` iterations (a piece is what
+# a worker finishes after an interrupt), each piece continuing the last one's
+# state and random stream, so the draws are the same either way.
 max_piece <- 1000L
 
 run_chain <- function(seed, inputs, control, bar, stop_file = NULL) {
-  piece <- min(max(1L, ceiling(control$n_iter / 50)), max_piece)
+  piece <- if (is.null(bar) && is.null(stop_file)) {
+    control$n_iter
+  } else {
+    min(max(1L, ceiling(control$n_iter / 50)), max_piece)
+  }
   with_seed(seed, {
     state <- list(grid_point = sample.int(ncol(inputs$C), 1L) - 1L, tau = inputs$tau_start)
     if (!is.finite(state$tau)) state$tau <- 1

@@ -18,7 +18,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   }
   problem <- list(library = library, y_field = y_field, n_obs = length(y_field),
                   prior = prior, log_prior_run = log_prior_run, setup = setup,
-                  grid = rho_grid(library, rho_x, rho_t), C = C,
+                  grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
                   log_prior_grid = rep(-log(ncol(C)), ncol(C)))
   if (default_prior) warn_prior_scale(problem)
   problem

@@ -32,7 +32,12 @@
 #' @export
 rho_grid <- function(library, rho_x = 0, rho_t = 0) {
   check_library(library)
-  grids <- rho_grids(library, rho_x, rho_t)
+  grid_table(library, rho_grids(library, rho_x, rho_t))
+}
+
+# The grid as a table from validated grids (rho_grids()): the correlation
+# parameters that vary in this library.
+grid_table <- function(library, grids) {
   grid <- expand.grid(c(grids$x, list(rho_t = grids$t)), KEEP.OUT.ATTRS = FALSE)
   keep <- c(if (lib_n_x(library) > 1L) names(grids$x), if (lib_n_t(library) > 1L) "rho_t")
   grid[keep]

@@ -82,8 +82,8 @@ print.griddy_field <- function(x, ...) {
 
 # The field measurements as one vector in the library's order (blocks by x
 # setting), after checking that their x and t are the library's.
+# The caller has checked `library` (check_library()).
 field_vector <- function(library, field) {
-  check_library(library)
   if (!inherits(field, "griddy_field")) {
     griddy_abort("`field` must be a griddy_field (see ?field_data); received ",
                  class(field)[1], ".")

@@ -85,6 +85,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   tune_rounds <- assert_count(tune_rounds, "tune_rounds", min = 0L)
   tune_iter <- assert_count(tune_iter, "tune_iter", min = 10L)
   assert_flag(quiet, "quiet")
+  check_library(library)
   y <- field_vector(library, field)
   theta <- as.matrix(lib_theta(library))
   p <- ncol(theta)

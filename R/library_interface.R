@@ -135,10 +135,12 @@ check_library_parts <- function(library, n_runs, n_out, what,
                  "the library holds ", n_runs, " runs. ", fix,
                  class = "shape")
   }
-  tryCatch(assert_finite(as.matrix(theta), "library$theta"), griddy_error = function(e) {
-    griddy_abort("The ", what, " has been edited: ", conditionMessage(e),
-                 " ", fix, class = "shape")
-  })
+  if (!all(vapply(theta, function(v) is.finite(sum(v)), logical(1)))) {
+    tryCatch(assert_finite(as.matrix(theta), "library$theta"), griddy_error = function(e) {
+      griddy_abort("The ", what, " has been edited: ", conditionMessage(e),
+                   " ", fix, class = "shape")
+    })
+  }
   if (!is.null(library$x) && !is.data.frame(library$x) || !is.numeric(library$t)) {
     griddy_abort("The ", what, " has been edited: `x` must be a data.frame or NULL and `t` ",
                  "a numeric vector. ", fix, class = "shape")

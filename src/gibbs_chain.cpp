@@ -224,9 +224,12 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
       sorted.budget[g] = log_budget(n_runs, o.tol, lp_max, o.log_prior_run[sorted.order(0, g)]);
     }
   }
+  // the thesis draw skips the run prior when it is flat (O(N) to find out,
+  // so only for that update)
   const double lp_first = o.log_prior_run[0];
-  const bool flat_runs = std::all_of(o.log_prior_run.begin(), o.log_prior_run.end(),
-                                     [lp_first](double v) { return v == lp_first; });
+  const bool flat_runs = !o.collapsed &&
+    std::all_of(o.log_prior_run.begin(), o.log_prior_run.end(),
+                [lp_first](double v) { return v == lp_first; });
 
   int n_keep = 0;
   for (int it = o.first_iter; it < o.first_iter + o.n_iter; ++it) {
@@ -235,7 +238,9 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
   Rcpp::IntegerVector run_out(n_keep), grid_out(n_keep);
   Rcpp::NumericVector tau_out(n_keep);
 
-  std::vector<double> log_w(std::max(n_runs, n_grid)), work(std::max(n_runs, n_grid));
+  // log weights over the head of the runs (thesis update) or over the grid
+  const arma::uword n_weights = o.collapsed ? n_grid : std::max(n_runs, n_grid);
+  std::vector<double> log_w(n_weights), work(n_weights);
   ChainState st;
   st.grid = static_cast<arma::uword>(grid_start);
   st.tau = tau_start;

@@ -31,7 +31,7 @@ test_that("field_vector rejects fields that do not match the library", {
                "no measurements at library x setting\\(s\\) 3")
   expect_error(field_vector(lib, field_data(matrix(1:8, 4), x = data.frame(h = c(10, 20, 30, 40)))),
                "x setting\\(s\\) at row\\(s\\) 4 that the library does not have")
-  expect_error(field_vector(list(), field_data(1)), "`library` must be a sim_library")
+  expect_error(calibrate(list(), field_data(1)), "`library` must be a sim_library")
   expect_error(field_vector(lib, 1:6), "`field` must be a griddy_field")
 })
 

@@ -29,7 +29,7 @@ test_that("piston_library subsets locations and adds operating conditions", {
   lib54 <- piston_library(3, condition = c("full", "part"))
   expect_identical(dim(lib54$y), c(27L, 54L))
   expect_identical(names(lib54$x), c("r", "z", "condition"))
-  expect_identical(lib54$x$condition, rep(1:2, each = 27))
+  expect_identical(lib54$x$condition, rep(c(1, 2), each = 27))
   # the part-load block is cooler than the full-load block
   expect_true(all(lib54$y[, 28:54] < lib54$y[, 1:27]))
 })
