@@ -80,8 +80,9 @@ lib_outputs.sim_library <- function(library, rows = NULL) {
   library$y[lib_check_rows(library, rows), , drop = FALSE]
 }
 
-# quad_forms_cpp() checks that the outputs are finite in the pass it makes
-# anyway; an edited library that fails it gets the cells named here.
+# quad_forms_cpp() checks that every misfit is finite, which the outputs must
+# be for that, in the pass it makes anyway; when it fails, R says why: an
+# edited library (the cells named) or outputs whose scale overflows.
 lib_quad_forms.sim_library <- function(library, y_field, setup) {
   tryCatch(quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi),
            error = function(e) {
@@ -89,6 +90,7 @@ lib_quad_forms.sim_library <- function(library, y_field, setup) {
                griddy_abort("The sim_library has been edited: ", conditionMessage(e2),
                             " Rebuild it with sim_library().", class = "shape")
              })
+             if (grepl("misfit is not finite", conditionMessage(e))) abort_overflow(y_field)
              griddy_abort(conditionMessage(e), class = "shape")
            })
 }

@@ -19,8 +19,11 @@ griddy_abort <- function(..., class = "input") {
                call = NULL)
 }
 
+# Warnings are classed the same way; base R's warningCondition() is enough
+# here and costs a tenth of rlang::warn() (calibrate() may warn every call).
 griddy_warn <- function(..., class = "general") {
-  rlang::warn(paste0(...), class = c(paste0("griddy_warning_", class), "griddy_warning"))
+  warning(warningCondition(paste0(...), class = c(paste0("griddy_warning_", class),
+                                                  "griddy_warning"), call = NULL))
 }
 
 # Stop with a clear message when a suggested package is missing.

@@ -26,9 +26,7 @@ void check_quad_form_inputs(const arma::mat& Y, const arma::vec& y_field,
     Rcpp::stop("quad_forms: %d AR(1) lag coefficients for %d outputs per x setting",
                static_cast<int>(phi.n_rows), static_cast<int>(n / n_x));
   }
-  if (!Y.is_finite() || !y_field.is_finite()) {
-    Rcpp::stop("quad_forms: the outputs or the field data hold NA, NaN or Inf");
-  }
+  if (!y_field.is_finite()) Rcpp::stop("quad_forms: the field data hold NA, NaN or Inf");
 }
 
 }  // namespace
@@ -84,6 +82,13 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
         }
       }
     }
+  }
+  // An NA, NaN or Inf output, or a squared difference that overflows, makes
+  // its misfit non-finite: checked here, on C, rather than in another pass
+  // over the outputs.
+  if (!C.is_finite()) {
+    Rcpp::stop("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or "
+               "their squared differences from the field data overflow");
   }
   return C_out;
 }

@@ -57,7 +57,7 @@ test_that("the C++ entry points refuse shapes that do not fit", {
   expect_error(quad_forms_cpp(Y, rep(1, 8), cube, matrix(0, 3, 1)), "columns")
   expect_error(quad_forms_cpp(Y, rep(1, 6), cube, matrix(0, 3, 1)), "lag coefficients")
   Y[2, 3] <- NA
-  expect_error(quad_forms_cpp(Y, rep(1, 6), cube, matrix(0, 2, 1)), "NA")
+  expect_error(quad_forms_cpp(Y, rep(1, 6), cube, matrix(0, 2, 1)), "not finite")
   C <- matrix(c(1, NaN), 2, 1)
   expect_error(collapsed_heads_cpp(C, c(0, 0), 1, 1, 0), "NA, NaN or Inf")
   expect_error(collapsed_heads_cpp(matrix(1, 3, 1), c(0, 0), 1, 1, 0), "run priors")
