@@ -126,7 +126,8 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
   layout <- as_layout(layout)
 
   theta_ds <- h5_dataset(h5, theta, "theta", file)
-  theta_tab <- h5_read_table(theta_ds, theta_names, layout[["theta"]], "theta", theta, file)
+  theta_tab <- h5_read_table(theta_ds, theta_names, layout[["theta"]], "theta", theta, file,
+                             max_rows = if (meta$griddy) meta$n_runs)
   x <- if (is.character(x)) {
     x_ds <- h5_dataset(h5, x, "x", file)
     as.data.frame(h5_read_table(x_ds, NULL, layout[["x"]], "x", x, file, one_d_name = "x"))
@@ -146,7 +147,7 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
     griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " must be numeric; it is ",
                  as.character(out_ds$get_type()$get_class()), ".")
   }
-  n_theta <- nrow(theta_tab)
+  n_theta <- attr(theta_tab, "rows_stored")
   n_out_known <- if (!is.null(t)) n_x * length(t) else NULL
   if (length(dims) == 1L) {
     out_layout <- "runs_first"
@@ -457,7 +458,9 @@ h5_open <- function(file, mode) {
   # closing the file closes every object opened in it (H5F_CLOSE_STRONG):
   # faster than hdf5r's close_all(), which runs the garbage collector
   fapl <- hdf5r::H5P_FILE_ACCESS$new()
-  .Call("R_H5Pset_fclose_degree", fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG, PACKAGE = "hdf5r")
+  # hdf5r wraps H5Pset_fclose_degree() without an R method for it: call its
+  # registered routine, found at run time
+  .Call(h5_set_fclose_degree(), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
   tryCatch(hdf5r::H5File$new(file, mode, file_access_pl = fapl), error = function(e) {
     msg <- conditionMessage(e)
     if (!file.exists(file)) {
@@ -475,6 +478,10 @@ h5_open <- function(file, mode) {
                  if (mode != "r") " for writing", ": ", h5_error_summary(e), ".",
                  class = "library")
   })
+}
+
+h5_set_fclose_degree <- function() {
+  utils::getFromNamespace("R_H5Pset_fclose_degree", "hdf5r")
 }
 
 h5_close <- function(h5) if (h5$is_valid) h5$close()
@@ -543,7 +550,16 @@ h5_orient <- function(dims, layout, n_runs, n_other, arg, name, other, file) {
 
 # A table dataset (theta or x) as a numeric matrix with column names, one row
 # per entry (run or setting).
-h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL) {
+# Only the first `max_rows` rows are validated and kept (a library written by
+# write_library() may hold uncommitted rows, whose contents are undefined);
+# attribute "rows_stored" says how many the dataset holds.
+h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
+                          max_rows = NULL) {
+  first_rows <- function(m) {
+    stored <- nrow(m)
+    if (!is.null(max_rows) && stored > max_rows) m <- m[seq_len(max_rows), , drop = FALSE]
+    structure(as_numeric_matrix(m, arg), rows_stored = stored)
+  }
   type <- ds$get_type()
   cls <- as.character(type$get_class())
   dims <- rev(ds$dims)
@@ -559,7 +575,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
       }
       tab <- tab[names]
     }
-    return(as_numeric_matrix(tab, arg))
+    return(first_rows(tab))
   }
   if (!cls %in% c("H5T_FLOAT", "H5T_INTEGER")) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be numeric or ",
@@ -574,7 +590,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
                    else paste0(length(names), " names were given: ", show_some(names)), ".")
     }
     v <- matrix(h5_plain(ds$read()), ncol = 1L, dimnames = list(NULL, names))
-    return(as_numeric_matrix(v, arg))
+    return(first_rows(v))
   }
   if (length(dims) != 2L) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must have one or two ",
@@ -593,7 +609,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL)
   dim(v) <- ds$dims
   if (orient == "runs_first") v <- t(v)
   colnames(v) <- names
-  as_numeric_matrix(v, arg)
+  first_rows(v)
 }
 
 h5_names_attr <- function(ds) {
