@@ -166,7 +166,14 @@ read_rds_checked <- function(file, what) {
     griddy_abort(what, " ", file, why, "; the library is damaged: rewrite it from the ",
                  "simulator's outputs.", class = "library")
   }
-  tryCatch(readRDS(file), error = damaged, warning = damaged)
+  # readRDS(file) leaves a connection behind when the file cannot be opened;
+  # one created here is always destroyed (future warns about leaked ones)
+  con <- gzfile(file)
+  on.exit(close(con))
+  tryCatch({
+    open(con, "rb")
+    readRDS(con)
+  }, error = damaged, warning = damaged)
 }
 
 #' @export

@@ -155,3 +155,17 @@ test_that("chunks mapped on two future workers give the same C", {
   b <- calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2)
   expect_identical(a$draws, b$draws)
 })
+
+test_that("a corrupt chunk leaves no connection open", {
+  # found on a fresh machine: future (CRAN's newest) warned that reading a
+  # corrupt chunk left a gzfile connection open
+  dir <- withr::local_tempdir()
+  saveRDS(matrix(1, 2, 2), file.path(dir, "chunk.rds"))
+  writeBin(as.raw(c(0x1f, 0x8b, 0x08, 0x00, 1:20)), file.path(dir, "chunk.rds"))
+  before <- nrow(showConnections(all = TRUE))
+  expect_error(read_rds_checked(file.path(dir, "chunk.rds"), "Chunk"), class = "griddy_error_library")
+  expect_identical(nrow(showConnections(all = TRUE)), before)
+  expect_error(read_rds_checked(file.path(dir, "missing.rds"), "Chunk"), "is missing",
+               class = "griddy_error_library")
+  expect_identical(nrow(showConnections(all = TRUE)), before)
+})
