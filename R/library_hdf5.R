@@ -752,12 +752,9 @@ h5_append_runs <- function(library, file) {
   theta_ds <- h5[["theta"]]
   y_ds <- h5[["y"]]
   n0 <- meta$n_runs
-  n_ext <- max(theta_ds$dims[1], y_ds$dims[1])
-  if (n_ext > n0) {
-    theta_ds$set_extent(c(n0, theta_ds$dims[2]))
-    y_ds$set_extent(c(n0, y_ds$dims[2]))
-    h5$flush()
-    griddy_warn("Discarded ", n_ext - n0, " uncommitted run(s) that an interrupted append ",
+  dropped <- h5_drop_uncommitted(h5, n0)
+  if (dropped > 0L) {
+    griddy_warn("Discarded ", dropped, " uncommitted run(s) that an interrupted append ",
                 "left in ", file, "; appending after its ", n0, " committed runs.",
                 class = "library")
   }
@@ -826,13 +823,19 @@ repair_h5_library <- function(file) {
                  "committed-run count to repair to (hdf5_library() reads such files as they ",
                  "are).")
   }
+  list(path = file, runs = meta$n_runs, dropped = h5_drop_uncommitted(h5, meta$n_runs))
+}
+
+# Cuts the theta and outputs datasets of a write_library() file back to its
+# `n_runs` committed runs; returns how many uncommitted runs it dropped.
+h5_drop_uncommitted <- function(h5, n_runs) {
   theta_ds <- h5[["theta"]]
   y_ds <- h5[["y"]]
   n_ext <- max(theta_ds$dims[1], y_ds$dims[1])
-  if (n_ext > meta$n_runs) {
-    theta_ds$set_extent(c(meta$n_runs, theta_ds$dims[2]))
-    y_ds$set_extent(c(meta$n_runs, y_ds$dims[2]))
+  if (n_ext > n_runs) {
+    theta_ds$set_extent(c(n_runs, theta_ds$dims[2]))
+    y_ds$set_extent(c(n_runs, y_ds$dims[2]))
     h5$flush()
   }
-  list(path = file, runs = meta$n_runs, dropped = max(0L, n_ext - meta$n_runs))
+  as.integer(max(0L, n_ext - n_runs))
 }
