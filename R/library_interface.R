@@ -38,8 +38,8 @@ lib_n_out <- function(library) lib_n_x(library) * lib_n_t(library)
 lib_outputs <- function(library, rows = NULL) UseMethod("lib_outputs")
 
 # The quadratic forms C (runs x correlation grid points) of `y_field` under
-# every grid point of `setup`; see quad_forms() and correlation_setup() in
-# correlation.R.
+# every grid point of `setup`; see correlation_setup() and misfit_table() in
+# grid_posterior.R.
 lib_quad_forms <- function(library, y_field, setup) UseMethod("lib_quad_forms")
 
 # Checks that an object, perhaps edited after construction, still fits
