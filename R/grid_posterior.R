@@ -92,15 +92,17 @@ colour_rows <- function(Z, point, n_x, n_t) {
 
 # ---- the quadratic forms --------------------------------------------------------
 
-# C (runs x grid points) of a library, checked: a non-finite misfit means the
-# outputs' scale overflows double precision (|y - g|^2 beyond 1.8e308), which
-# would turn every weight into 0 or NaN. Backends check in their own pass
-# (quad_forms_cpp() stops); this is the guard for any that does not.
+# C (runs x grid points) of a library. Every backend computes it with
+# quad_forms_cpp(), which stops on a non-finite misfit; here, for any backend,
+# that error becomes one that says why: the outputs' scale overflows double
+# precision (|y - g|^2 beyond 1.8e308), which would turn every weight into 0
+# or NaN. (A backend whose outputs hold NA or Inf says so first, itself.)
 misfit_table <- function(library, y_field, setup) {
-  C <- lib_quad_forms(library, y_field, setup)
-  # a sum is one pass with no copy of C
-  if (!is.finite(sum(C)) && any(!is.finite(C))) abort_overflow(y_field)
-  C
+  withCallingHandlers(lib_quad_forms(library, y_field, setup), error = function(e) {
+    if (grepl("misfit is not finite", conditionMessage(e), fixed = TRUE)) {
+      abort_overflow(y_field)
+    }
+  })
 }
 
 abort_overflow <- function(y_field) {

@@ -81,18 +81,17 @@ lib_outputs.sim_library <- function(library, rows = NULL) {
 }
 
 # quad_forms_cpp() checks that every misfit is finite, which the outputs must
-# be for that, in the pass it makes anyway; when it fails, R says why: an
-# edited library (the cells named) or outputs whose scale overflows.
+# be for that, in the pass it makes anyway; when it fails because the library
+# was edited to hold NA or Inf, the cells are named here (any other failure,
+# an overflow, goes on to misfit_table()).
 lib_quad_forms.sim_library <- function(library, y_field, setup) {
-  tryCatch(quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi),
-           error = function(e) {
-             tryCatch(assert_finite(library$y, "library$y"), griddy_error = function(e2) {
-               griddy_abort("The sim_library has been edited: ", conditionMessage(e2),
-                            " Rebuild it with sim_library().", class = "shape")
-             })
-             if (grepl("misfit is not finite", conditionMessage(e))) abort_overflow(y_field)
-             griddy_abort(conditionMessage(e), class = "shape")
-           })
+  withCallingHandlers(quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi),
+                      error = function(e) {
+    tryCatch(assert_finite(library$y, "library$y"), griddy_error = function(e2) {
+      griddy_abort("The sim_library has been edited: ", conditionMessage(e2),
+                   " Rebuild it with sim_library().", class = "shape")
+    })
+  })
 }
 
 lib_check_integrity.sim_library <- function(library) {
