@@ -118,6 +118,15 @@ match_coordinates <- function(t_field, t_lib) {
   }
 }
 
+# For each row of `rows`, the first row of `table` (same columns, in the same
+# order) holding the same values to within same_values(); NA where none does.
+match_setting_rows <- function(rows, table) {
+  vapply(seq_len(nrow(rows)), function(k) {
+    same <- which(Reduce(`&`, Map(same_values, table, rows[k, ])))
+    if (length(same) == 0L) NA_integer_ else same[1]
+  }, integer(1))
+}
+
 # For each library setting, the row of the field's x holding it.
 match_settings <- function(x_field, x_lib) {
   if (is.null(x_lib)) {
@@ -130,11 +139,7 @@ match_settings <- function(x_field, x_lib) {
     griddy_abort("`field$x` has column(s) ", show_some(names(x_field)),
                  " but the library's x has ", show_some(names(x_lib)), ".")
   }
-  x_field <- x_field[names(x_lib)]
-  hit <- vapply(seq_len(nrow(x_lib)), function(k) {
-    same <- which(Reduce(`&`, Map(same_values, x_field, x_lib[k, ])))
-    if (length(same) == 0L) NA_integer_ else same[1]
-  }, integer(1))
+  hit <- match_setting_rows(x_lib, x_field[names(x_lib)])
   if (anyNA(hit)) {
     griddy_abort("`field` has no measurements at library x setting(s) ",
                  show_some(which(is.na(hit))), ".")

@@ -72,10 +72,7 @@ predict_settings <- function(lib, newdata) {
     griddy_abort("`newdata` lacks the library's x column(s) ", show_some(missing_cols), ".")
   }
   nd <- as_numeric_matrix(newdata[names(x_lib)], "newdata")
-  hit <- vapply(seq_len(nrow(nd)), function(r) {
-    same <- which(Reduce(`&`, Map(same_values, x_lib, nd[r, ])))
-    if (length(same) == 0L) NA_integer_ else same[1]
-  }, integer(1))
+  hit <- match_setting_rows(as.data.frame(nd), x_lib)
   if (anyNA(hit)) {
     bad <- which(is.na(hit))
     griddy_abort("`newdata` row(s) ", show_some(bad), " (", show_some(apply(
