@@ -18,9 +18,9 @@ fold_one <- function(ctx, tm, k, model) {
   n <- ctx$n
   m <- ctx$n_t
   cols <- (k - 1L) * m + seq_len(m)
-  # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|, (R^-1)_BB = Px_kk Pt
+  # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|, (R^-1)_BB = (R_x^-1)_kk Pt
   ld_bb <- vapply(ctx$nodes, function(node) {
-    m * log(node$Px[k, k]) - sum(log1p(-node$phi^2))
+    m * log(node$Rx_inv[k, k]) - sum(log1p(-node$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
   lj <- collapsed_log_joint(matrix(Qm, nrow(tm$Q)), n - m, ctx$logdet + ld_bb, ctx$prior,

@@ -21,12 +21,12 @@ gap_where <- function(ctx, tm, windows, fdr) {
     at <- which(pairs[, 2] == g)
     chols <- lapply(seq_len(nb), function(i) {
       W <- win[[blocks$w[i]]]
-      chol(node$Px[blocks$x[i], blocks$x[i]] * node$Pt[W, W, drop = FALSE])
+      chol(node$Rx_inv[blocks$x[i], blocks$x[i]] * node$Pt[W, W, drop = FALSE])
     })
     for (p in at) {
       j <- pairs[p, 1]
       Em <- matrix(tm$E[j, ], n_t, ctx$n_x)
-      H <- node$Pt %*% Em %*% node$Px
+      H <- node$Pt %*% Em %*% node$Rx_inv
       Q <- tm$Q[j, g]
       for (i in seq_len(nb)) {
         W <- win[[blocks$w[i]]]

@@ -296,7 +296,7 @@ gap_context <- function(fit) {
     point <- grid_point(setup, g)
     # rows of the whitened / coloured identity are the columns of A_t, L_t
     A_t <- t(ar1_whiten_rows_cpp(diag(n_t), point$phi, 1L))
-    c(point, list(Px = point$Rx_inv, Pt = crossprod(A_t),
+    c(point, list(Pt = crossprod(A_t),
                   Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), point$phi, 1L))),
                   log_prior = fit$log_prior_grid[g]))
   })
@@ -317,12 +317,12 @@ gap_terms <- function(ctx, Y, log_prior_run,
   D <- array(0, c(J, G, n_x))
   for (g in seq_len(G)) {
     node <- ctx$nodes[[g]]
-    # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = Px (x) Pt it is
-    # v_k' Pt v_k / Px_kk, v_k = sum_l Px_lk e_l (the AR(1) innovations of v_k).
-    V <- matrix(matrix(E, J * n_t, n_x) %*% node$Px, J, n_x * n_t)
+    # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = R_x^-1 (x) Pt it is
+    # v_k' Pt v_k / (R_x^-1)_kk, v_k = sum_l (R_x^-1)_lk e_l (the AR(1) innovations of v_k).
+    V <- matrix(matrix(E, J * n_t, n_x) %*% node$Rx_inv, J, n_x * n_t)
     W <- whiten_rows(V, node, n_x, n_t, over_x = FALSE)
     for (k in seq_len(n_x)) {
-      D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Px[k, k]
+      D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Rx_inv[k, k]
     }
   }
   lj <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
@@ -357,7 +357,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
   pieces <- unlist(lapply(kernels, function(K) {
     unlist(lapply(ctx$nodes, function(node) {
-      R <- kronecker(solve(node$Px), node$Rt)
+      R <- kronecker(crossprod(node$Rx_chol), node$Rt)
       vapply(ratios, function(s) {
         L <- chol(R + s * K)
         Q <- matrix(colSums(backsolve(L, Et, transpose = TRUE)^2))
