@@ -121,6 +121,16 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
+  fit <- sample_problem(problem, update, control, seed, call, start)
+  warn_single_run(fit)
+  fit
+}
+
+# Draw the posterior of a calibration problem (validated inputs, C): the
+# sampler half of calibrate(), shared with refine(). `start` is the elapsed
+# time at which the problem's precomputation began.
+sample_problem <- function(problem, update, control, seed, call,
+                           start = proc.time()[["elapsed"]]) {
   tables <- sampler_tables(problem, update)
   precompute <- proc.time()[["elapsed"]] - start
   run_all <- function() {
@@ -129,11 +139,9 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
     list(seeds = seeds, chains = chains)
   }
   out <- with_seed(seed, run_all())
-  fit <- new_griddy_fit(problem, out, update, control, call,
-                        runtime = c(precompute = precompute,
-                                    sampling = proc.time()[["elapsed"]] - start - precompute))
-  warn_single_run(fit)
-  fit
+  new_griddy_fit(problem, out, update, control, call,
+                 runtime = c(precompute = precompute,
+                             sampling = proc.time()[["elapsed"]] - start - precompute))
 }
 
 sampler_control <- function(n_iter, burn_in, thin, chains, progress) {

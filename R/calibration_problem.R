@@ -9,27 +9,35 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   y_field <- field_vector(library, field)
   default_prior <- is.null(prior)
   prior <- assert_prior(if (default_prior) thesis_prior() else prior)
-  log_prior_run <- log_run_weights(run_weights, lib_n_runs(library))
+  log_prior_run <- log_run_weights(run_weights, library)
   setup <- correlation_setup(library, rho_x, rho_t, x_power)
-  C <- misfit_table(library, y_field, setup)
+  problem <- problem_from_parts(library, y_field, prior, log_prior_run, setup)
+  if (default_prior) warn_prior_scale(problem)
+  problem
+}
+
+# The problem from validated parts; refine() builds its problems here too.
+problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
+                               C = misfit_table(library, y_field, setup, prior)) {
   if (prior$rate == 0 && any(C == 0)) {
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
-  problem <- list(library = library, y_field = y_field, n_obs = length(y_field),
-                  prior = prior, log_prior_run = log_prior_run, setup = setup,
-                  grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
-                  log_prior_grid = rep(-log(ncol(C)), ncol(C)))
-  if (default_prior) warn_prior_scale(problem)
-  problem
+  list(library = library, y_field = y_field, n_obs = length(y_field),
+       prior = prior, log_prior_run = log_prior_run, setup = setup,
+       grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
+       log_prior_grid = rep(-log(ncol(C)), ncol(C)))
 }
 
 # The thesis's vague Gamma prior on tau (eq. 3.8).
 thesis_prior <- function() list(shape = 1e-9, rate = 1e-9)
 
-log_run_weights <- function(run_weights, n_runs) {
+# The log prior weights of the runs: the user's `run_weights`, or the
+# library's own (equal, or a refined library's design correction).
+log_run_weights <- function(run_weights, library) {
+  n_runs <- lib_n_runs(library)
   if (is.null(run_weights)) {
-    return(rep(-log(n_runs), n_runs))
+    return(lib_log_prior(library))
   }
   w <- assert_numeric_vector(run_weights, "run_weights")
   if (length(w) != n_runs) {

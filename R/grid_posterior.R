@@ -97,12 +97,27 @@ colour_rows <- function(Z, point, n_x, n_t) {
 # that error becomes one that says why: the outputs' scale overflows double
 # precision (|y - g|^2 beyond 1.8e308), which would turn every weight into 0
 # or NaN. (A backend whose outputs hold NA or Inf says so first, itself.)
-misfit_table <- function(library, y_field, setup) {
-  withCallingHandlers(lib_quad_forms(library, y_field, setup), error = function(e) {
+#
+# A run whose likelihood has a covariance of its own (a run predicted by an
+# emulator, see library_refined.R) comes with an extra log-determinant
+# (attribute "extra_logdet"); it is folded into C, exactly for tau
+# integrated out under the Gamma(a, b) prior:
+#   -(a + n/2) log(b + C''/2) = -(a + n/2) log(b + C/2) - extra/2  when
+#   C'' = (2b + C) exp(extra / (2a + n)) - 2b.
+misfit_table <- function(library, y_field, setup, prior) {
+  C <- withCallingHandlers(lib_quad_forms(library, y_field, setup), error = function(e) {
     if (grepl("misfit is not finite", conditionMessage(e), fixed = TRUE)) {
       abort_overflow(y_field)
     }
   })
+  fold_extra_logdet(C, prior, length(y_field))
+}
+
+fold_extra_logdet <- function(C, prior, n_obs) {
+  extra <- attr(C, "extra_logdet")
+  attr(C, "extra_logdet") <- NULL
+  if (is.null(extra) || all(extra == 0)) return(C)
+  (2 * prior$rate + C) * exp(extra / (2 * prior$shape + n_obs)) - 2 * prior$rate
 }
 
 abort_overflow <- function(y_field) {

@@ -1,0 +1,204 @@
+# A refined library: a library (any backend) plus runs that refine() added
+# where the posterior has its mass, round by round. It is an ordinary library
+# (the interface of library_interface.R), so calibrate(), posterior_exact(),
+# predict() and refine() itself take it like any other, and saveRDS() keeps
+# it.
+#
+# Two things set its runs apart from a plain library's, and both travel with
+# it so that a later calibrate() on it gives the same posterior:
+#
+# * Prior weights. A library's uniform prior over runs is a uniform prior
+#   over theta only while the runs fill the parameter box evenly. refine()
+#   adds runs by rounds of Latin hypercubes in smaller boxes, so the design
+#   density is a sum of uniform densities: N0 / vol(B0) over the base
+#   library's box B0, plus n_r / vol(B_r) over each round's box B_r. Each run
+#   is weighed by prior density / design density (the balance heuristic of
+#   multiple importance sampling), which keeps the prior uniform over B0.
+# * Emulation error. Runs predicted by an emulator rather than simulated
+#   carry the emulator's error, delta ~ N(0, kappa_i V), with V = U diag(lambda)
+#   U' the leading components of the emulator's leave-one-out residuals on the
+#   library and kappa_i in [0, 1] the prediction's relative variance at run i
+#   (0 at a simulated run). The likelihood's covariance becomes
+#   tau^-1 R_g + kappa_i V, which with the plug-in noise variance s2 of the
+#   round (the posterior mean of 1/tau when it was refined) is
+#   tau^-1 (R_g + kappa_i V / s2): still conjugate in tau, so the engine is
+#   unchanged. See emulated_quad_forms().
+
+new_refined_library <- function(base, theta, y, rounds, round_of, rel_var) {
+  structure(
+    list(theta = theta, x = lib_x(base), t = lib_t(base), base = base,
+         added = list(y = y, round = round_of, rel_var = rel_var), rounds = rounds),
+    class = "refined_library"
+  )
+}
+
+# Add runs to a library (refined or not). `round` is list(lower, upper, n,
+# source, error), the round's box and error model (NULL for simulated runs).
+add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {
+  if (!inherits(library, "refined_library")) {
+    library <- new_refined_library(library, lib_theta(library), matrix(0, 0, lib_n_out(library)),
+                                   rounds = list(), round_of = integer(), rel_var = numeric())
+  }
+  if (is.null(rel_var)) rel_var <- numeric(nrow(theta_new))
+  r <- length(library$rounds) + 1L
+  new_refined_library(
+    library$base, rbind(library$theta, theta_new), rbind(library$added$y, y_new),
+    rounds = c(library$rounds, list(round)),
+    round_of = c(library$added$round, rep(r, nrow(theta_new))),
+    rel_var = c(library$added$rel_var, rel_var))
+}
+
+n_base_runs <- function(library) {
+  if (inherits(library, "refined_library")) lib_n_runs(library$base) else lib_n_runs(library)
+}
+
+# ---- the interface ----------------------------------------------------------
+
+lib_outputs.refined_library <- function(library, rows = NULL) {
+  rows <- lib_check_rows(library, rows)
+  n0 <- lib_n_runs(library$base)
+  out <- matrix(0, length(rows), lib_n_out(library))
+  in_base <- rows <= n0
+  if (any(in_base)) out[in_base, ] <- lib_outputs(library$base, rows[in_base])
+  if (any(!in_base)) out[!in_base, ] <- library$added$y[rows[!in_base] - n0, , drop = FALSE]
+  out
+}
+
+# C of the base runs, then of the added ones, with the added runs' extra
+# log-determinant (see emulated_quad_forms()) as attribute "extra_logdet",
+# which misfit_table() folds into C.
+lib_quad_forms.refined_library <- function(library, y_field, setup) {
+  base <- lib_quad_forms(library$base, y_field, setup)
+  added <- added_quad_forms(library, seq_len(nrow(library$added$y)), y_field, setup)
+  C <- rbind(base, added)
+  attr(C, "extra_logdet") <- rbind(matrix(0, nrow(base), ncol(base)),
+                                   attr(added, "extra_logdet"))
+  C
+}
+
+# C of added runs `which` (positions among the added runs): plain quadratic
+# forms for simulated runs, the emulation-error forms for predicted ones,
+# with attribute "extra_logdet" (0 for simulated runs).
+added_quad_forms <- function(library, which, y_field, setup) {
+  y <- library$added$y[which, , drop = FALSE]
+  C <- quad_forms_cpp(y, y_field, setup$Rx_inv, setup$phi)
+  extra <- matrix(0, nrow(C), ncol(C))
+  for (r in unique(library$added$round[which])) {
+    err <- library$rounds[[r]]$error
+    if (is.null(err)) next
+    rows <- which(library$added$round[which] == r)
+    em <- emulated_quad_forms(y[rows, , drop = FALSE], y_field, setup, err,
+                              library$added$rel_var[which][rows], lib_n_x(library),
+                              lib_n_t(library))
+    C[rows, ] <- em$C
+    extra[rows, ] <- em$logdet
+  }
+  structure(C, extra_logdet = extra)
+}
+
+lib_check_integrity.refined_library <- function(library) {
+  lib_check_integrity(library$base)
+  n_added <- nrow(library$added$y)
+  if (!is.matrix(library$added$y) || ncol(library$added$y) != lib_n_out(library$base) ||
+      length(library$added$round) != n_added || length(library$added$rel_var) != n_added) {
+    griddy_abort("The refined library has been edited: its added runs do not fit together; ",
+                 "refine the fit again.", class = "shape")
+  }
+  check_library_parts(library, lib_n_runs(library$base) + n_added, lib_n_out(library$base),
+                      "refined library", fix = "Refine the fit again.")
+  if (!all(is.finite(library$added$y))) {
+    griddy_abort("The refined library has been edited: its added outputs are not all ",
+                 "finite.", class = "shape")
+  }
+  invisible(library)
+}
+
+# The log prior weight of each run: prior density over design density (see
+# the top of this file), normalised. A plain library's runs are equally
+# weighted.
+lib_log_prior <- function(library) UseMethod("lib_log_prior")
+
+lib_log_prior.default <- function(library) {
+  rep(-log(lib_n_runs(library)), lib_n_runs(library))
+}
+
+lib_log_prior.refined_library <- function(library) {
+  w <- -log(design_density(library, library$theta))
+  w - log_sum_exp(w)
+}
+
+# The design density of a refined library at the rows of `theta`: the base
+# library's runs spread evenly over its box, plus each round's runs over its
+# box. Constant columns take no part in the volumes.
+design_density <- function(library, theta) {
+  theta <- as.matrix(theta)
+  box0 <- library_box(library$base)
+  density <- lib_n_runs(library$base) / box_volume(box0) * in_box(theta, box0)
+  for (round in library$rounds) {
+    density <- density + round$n / box_volume(round$box, box0) * in_box(theta, round$box)
+  }
+  density
+}
+
+# The box spanned by a library's runs: a 2-row matrix (lower, upper) with one
+# column per parameter.
+library_box <- function(library) {
+  theta <- as.matrix(lib_theta(library))
+  rbind(apply(theta, 2, min), apply(theta, 2, max))
+}
+
+box_volume <- function(box, reference = box) {
+  varies <- reference[2, ] > reference[1, ]
+  prod(box[2, varies] - box[1, varies])
+}
+
+in_box <- function(theta, box) {
+  tol <- 1e-12 * pmax(abs(box[2, ]), abs(box[1, ]), 1)
+  above <- sweep(theta, 2, box[1, ] - tol, ">=")
+  below <- sweep(theta, 2, box[2, ] + tol, "<=")
+  rowSums(above & below) == ncol(theta)
+}
+
+# ---- emulation error in the likelihood ----------------------------------------
+
+# The error model of an emulator from its leave-one-out residuals `E` (runs
+# x outputs): the leading principal directions of their second moment (not
+# centred: a shared bias is error too), as many as hold 99% of it, at most
+# `max_rank`; `noise_var` is the round's plug-in noise variance.
+emulation_error_model <- function(E, noise_var, max_rank = 10L) {
+  if (nrow(E) == 0L || all(E == 0)) return(NULL)
+  s <- svd(E / sqrt(nrow(E)), nu = 0L)
+  energy <- cumsum(s$d^2) / sum(s$d^2)
+  m <- min(which(energy >= 0.99)[1], max_rank, length(s$d))
+  list(U = s$v[, seq_len(m), drop = FALSE], lambda = s$d[seq_len(m)]^2,
+       noise_var = noise_var)
+}
+
+# Quadratic forms of predicted runs under covariance tau^-1 (R_g + kappa_i V /
+# s2) with V = U diag(lambda) U' (Woodbury and the matrix determinant lemma).
+# With R_g^-1 = W'W, G = (W U D^1/2)'(W U D^1/2) = Q diag(gamma) Q' and
+# D = diag(lambda / s2):
+#   C'_ig = C_ig - sum_m kappa_i e_im^2 / (1 + kappa_i gamma_m),
+#   e_i = (W r_i)' W U D^1/2 Q,
+#   log|R_g + kappa_i V / s2| - log|R_g| = sum_m log(1 + kappa_i gamma_m).
+# Returns list(C = C', logdet = the extra log-determinants), runs x grid
+# points.
+emulated_quad_forms <- function(y, y_field, setup, err, kappa, n_x, n_t) {
+  n <- length(y_field)
+  resid <- matrix(y_field, nrow(y), n, byrow = TRUE) - y
+  scale <- sqrt(err$lambda / err$noise_var)
+  C <- matrix(0, nrow(y), n_grid_points(setup))
+  extra <- C
+  for (g in seq_len(n_grid_points(setup))) {
+    point <- grid_point(setup, g)
+    Wr <- whiten_rows(resid, point, n_x, n_t)
+    WU <- whiten_rows(t(err$U), point, n_x, n_t) * scale
+    eg <- eigen(tcrossprod(WU), symmetric = TRUE)
+    gamma <- pmax(eg$values, 0)
+    e <- Wr %*% t(WU) %*% eg$vectors
+    shrink <- outer(kappa, gamma, function(k, g) k / (1 + k * g))
+    C[, g] <- rowSums(Wr^2) - rowSums(e^2 * shrink)
+    extra[, g] <- rowSums(log1p(outer(kappa, gamma)))
+  }
+  list(C = C, logdet = extra)
+}

@@ -1,0 +1,381 @@
+#' Refine the library where the posterior has its mass
+#'
+#' Griddy Gibbs treats the library as the whole parameter space, so when the
+#' true \eqn{\theta} lies between runs and the data are many, the posterior
+#' collapses onto the runs nearest the truth and its intervals show the
+#' library's spacing, not the data's uncertainty (see the warning of
+#' [calibrate()] and the `resolution` column of
+#' [summary()][summary.griddy_fit]). `refine()` adds runs where the posterior
+#' has its mass, round by round, until every parameter's interval is resolved
+#' or `max_runs` runs have been added, and returns the fit calibrated on the
+#' refined library, with the same settings. The engine is unchanged: the
+#' draws are inverse-CDF draws over a finite library, which is now finer
+#' where it matters.
+#'
+#' **A round.** From the exact posterior over runs ([posterior_exact()]), the
+#' box that holds 99.9% of its mass, widened on each side by the library's
+#' local spacing (the spread of the nearest runs around the most probable
+#' one) and kept inside the library's range, receives a Latin hypercube of
+#' `runs_per_round` new runs. A collapsed posterior thus zooms in around its
+#' run; a spread one is filled in.
+#'
+#' **The prior stays the library's.** A library's equal weights over runs
+#' are a uniform prior over \eqn{\theta} only while runs fill the range
+#' evenly. Each run of the refined library is therefore weighed by the prior
+#' density over the density of the design that produced it (the base
+#' library spread over its range plus every round's hypercube over its box),
+#' so the prior stays uniform over the library's range. The weights travel
+#' with the library: [calibrate()] on it uses them.
+#'
+#' **Resolved** means that every parameter's marginal posterior spreads
+#' over at least 10 effective distinct values (\eqn{1 / \sum_v m_v^2}, the
+#' criterion of [summary()][summary.griddy_fit]; for a Gaussian marginal of
+#' sd \eqn{s} on runs spaced \eqn{h} apart this is \eqn{3.5 s / h}, so runs
+#' at most about a third of a standard deviation apart) and that no
+#' interval bound moved by more than a fifth of the interval's width in the
+#' last round. `refine()` of a resolved fit returns it unchanged.
+#'
+#' **With a simulator**, new runs are simulated: `simulator(theta, ...)`
+#' receives a data.frame of \eqn{\theta} rows (the library's columns) and
+#' returns the matrix of their outputs in the library's layout (one row per
+#' run, blocks by x setting; see [sim_library()]). The calls are spread over
+#' the workers of the user's [future][future::plan] plan when future.apply is
+#' installed (a `multisession` plan, or cluster workers through
+#' future.batchtools), in chunks, with a progress bar; each chunk gets its
+#' own random stream, so a stochastic simulator is reproducible with `seed`.
+#'
+#' **Without a simulator**, new runs are predicted from the library itself
+#' (tensor-product cubic interpolation on a full-factorial grid; a Gaussian
+#' process, RobustGaSP's `ppgasp()`, on the runs nearest the region for a
+#' scattered design, or a local quadratic fit when RobustGaSP is not
+#' installed). The prediction error, measured on the library by leave-one-out
+#' and summarised by its leading principal directions over the outputs,
+#' enters the likelihood of every predicted run as an extra covariance,
+#' scaled by the prediction's relative variance there (0 at a library run).
+#' The error is correlated over the outputs, so it is not averaged away by
+#' many data: intervals widen where the library is too coarse to tell the
+#' runs apart, and never fall below what the data allow. The noise variance
+#' that puts this covariance on the scale of \eqn{\tau^{-1}} is the
+#' posterior mean of \eqn{1/\tau} of the round; with it the model stays
+#' conjugate in \eqn{\tau}, exactly so for `update = "collapsed"` and
+#' [posterior_exact()] (the thesis's update draws \eqn{\theta} given
+#' \eqn{\tau} from the same folded misfit, an approximation).
+#'
+#' @param fit A `griddy_fit` from [calibrate()] or `refine()`, whose runs are
+#'   weighed equally a priori (no `run_weights`) or by an earlier `refine()`.
+#' @param simulator `NULL`, or a function of a data.frame of \eqn{\theta}
+#'   rows (and `...`) that returns their outputs: see Details.
+#' @param max_runs The most runs to add, over all rounds.
+#' @param ... Further arguments to `simulator`.
+#' @param runs_per_round Runs added per round; `NULL` is
+#'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters, at most
+#'   `max_runs`.
+#' @param seed `NULL`, or a seed for this call only; either way the result is
+#'   reproducible with [set.seed()].
+#' @param progress Show progress (the simulator's runs and the sampling).
+#' @return A `griddy_fit` calibrated on the refined library (a library of
+#'   class `refined_library`, usable wherever a library is), with the settings
+#'   of `fit` (correlation grids, prior, update, iterations, chains), and an
+#'   element `refinement`: a list with `runs_added`, `rounds`, `reason` (why
+#'   it stopped: `"resolved"` or `"max_runs"`), `source` (`"simulator"` or
+#'   `"emulator"`) and `history`, the per-parameter resolution table after
+#'   each round. A fit that is already resolved is returned as it was.
+#' @seealso [calibrate()], [summary.griddy_fit()], [posterior_exact()]
+#' @references Ritter, C. and Tanner, M. A. (1992). Facilitating the Gibbs
+#'   sampler: the Gibbs stopper and the griddy-Gibbs sampler. Journal of the
+#'   American Statistical Association 87, 861-868.
+#' @examples
+#' sim <- function(theta) {
+#'   t <- seq(0, 1, length.out = 40)
+#'   t(vapply(theta$k, function(k) sin(k * t), numeric(40)))
+#' }
+#' lib <- sim_library(data.frame(k = seq(1, 4, by = 0.5)), sim(data.frame(k = seq(1, 4, by = 0.5))))
+#' set.seed(1)
+#' field <- field_data(sim(data.frame(k = 2.23)) + rnorm(40, sd = 0.02), t = lib$t)
+#' fit <- suppressWarnings(calibrate(lib, field, n_iter = 2000, burn_in = 500, seed = 1))
+#' refined <- refine(fit, sim, max_runs = 300, seed = 1)
+#' refined$refinement$reason
+#' summary(refined)
+#' @export
+refine <- function(fit, simulator = NULL, max_runs = 1000, ..., runs_per_round = NULL,
+                   seed = NULL, progress = interactive()) {
+  call <- match.call()
+  check_refinable(fit)
+  if (!is.null(simulator) && !is.function(simulator)) {
+    griddy_abort("`simulator` must be NULL or a function of a data.frame of theta rows; ",
+                 "received ", class(simulator)[1], ".")
+  }
+  max_runs <- assert_count(max_runs, "max_runs")
+  runs_per_round <- if (is.null(runs_per_round)) {
+    min(default_runs_per_round(lib_theta(fit$library)), max_runs)
+  } else {
+    assert_count(runs_per_round, "runs_per_round")
+  }
+  seed <- assert_seed(seed)
+  progress <- assert_flag(progress, "progress")
+  if (!is.null(simulator)) simulator <- simulator_caller(simulator, list(...))
+  with_seed(seed, refine_fit(fit, simulator, max_runs, runs_per_round, progress, call))
+}
+
+check_refinable <- function(fit) {
+  if (!inherits(fit, "griddy_fit")) {
+    griddy_abort("`fit` must be a griddy_fit from calibrate() or refine(); received ",
+                 class(fit)[1], ".")
+  }
+  if (!isTRUE(all.equal(fit$log_prior_run, lib_log_prior(fit$library)))) {
+    griddy_abort("refine() keeps the library's own prior over runs, but this fit was ",
+                 "calibrated with `run_weights`; calibrate without them first.")
+  }
+}
+
+default_runs_per_round <- function(theta) {
+  p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
+  100L * 2L^(max(p, 1L) - 1L)
+}
+
+# The rounds, then one calibration of the refined library with the fit's
+# settings.
+refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call) {
+  state <- refine_state(fit)
+  if (is_resolved(state$table, NULL)) {
+    cli::cli_inform(c(i = "The posterior is already resolved: nothing to refine."),
+                    class = "griddy_message_resolved")
+    return(fit)
+  }
+  history <- list(state$table)
+  emulator <- NULL
+  added <- 0L
+  repeat {
+    if (added >= max_runs) {
+      reason <- "max_runs"
+      break
+    }
+    n_new <- min(runs_per_round, max_runs - added)
+    box <- refine_box(state)
+    theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
+    if (is.null(simulator)) {
+      if (is.null(emulator) || !box_inside(box, emulator$region)) {
+        emulator <- round_emulator(state, box)
+      }
+      batch <- emulated_batch(emulator, theta_new, state)
+    } else {
+      batch <- list(y = simulator(theta_new, lib_n_out(fit$library), progress),
+                    error = NULL, rel_var = NULL)
+    }
+    round <- list(box = box, n = n_new, source = if (is.null(simulator)) "emulator" else
+      "simulator", error = batch$error)
+    state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
+                                         batch$rel_var))
+    added <- added + n_new
+    previous <- history[[length(history)]]
+    history[[length(history) + 1L]] <- state$table
+    if (is_resolved(state$table, previous)) {
+      reason <- "resolved"
+      break
+    }
+  }
+  out <- sample_problem(state$problem, fit$update, fit$control, seed = NULL, call = call)
+  out$refinement <- list(runs_added = added, rounds = length(history) - 1L, reason = reason,
+                         source = if (is.null(simulator)) "emulator" else "simulator",
+                         history = history)
+  out
+}
+
+# The exact posterior over runs of a problem and its resolution table.
+refine_state <- function(problem) {
+  joint <- grid_posterior(problem)$joint
+  p <- rowSums(joint)
+  list(problem = problem, joint = joint, p = p,
+       table = resolution_table(p, lib_theta(problem$library)))
+}
+
+# Resolved: no parameter limited by the library, and (after a round) no
+# interval bound moved by more than `interval_tol` of the interval's width.
+interval_tol <- 0.2
+
+is_resolved <- function(table, previous) {
+  if (any(table$limited)) return(FALSE)
+  if (is.null(previous)) return(TRUE)
+  width <- pmax(table$upper - table$lower, previous$upper - previous$lower)
+  moved <- pmax(abs(table$lower - previous$lower), abs(table$upper - previous$upper))
+  all(moved <= interval_tol * width)
+}
+
+# ---- where the new runs go -------------------------------------------------------
+
+# The box of the runs holding 99.9% of the posterior, widened on each side by
+# the local spacing around the most probable run or a quarter of its width,
+# whichever is larger, inside the base library's range. A box only as wide
+# as the posterior's runs would cut off what the last round's runs could not
+# reach, and keep cutting it off; widening by a share of the width lets a
+# truncated posterior grow its box by half each round until it is whole.
+box_margin <- 0.25
+
+refine_box <- function(state) {
+  library <- state$problem$library
+  theta <- as.matrix(lib_theta(library))
+  range0 <- library_box(if (inherits(library, "refined_library")) library$base else library)
+  ord <- order(state$p, decreasing = TRUE)
+  mass <- ord[seq_len(min(which(cumsum(state$p[ord]) >= 0.999)[1], length(ord)))]
+  lower <- apply(theta[mass, , drop = FALSE], 2, min)
+  upper <- apply(theta[mass, , drop = FALSE], 2, max)
+  margin <- pmax(local_spacing(theta, ord[1], range0), box_margin * (upper - lower))
+  rbind(pmax(lower - margin, range0[1, ]), pmin(upper + margin, range0[2, ]))
+}
+
+# The spread, per parameter, of the 2p runs nearest run `centre` (distances
+# on columns scaled by the library's range): one step of a grid, the typical
+# gap of a scattered design.
+local_spacing <- function(theta, centre, range0) {
+  width <- range0[2, ] - range0[1, ]
+  varies <- width > 0
+  scaled <- sweep(theta[, varies, drop = FALSE], 2, width[varies], "/")
+  d2 <- colSums((t(scaled) - scaled[centre, ])^2)
+  near <- order(d2)[seq_len(min(2L * sum(varies) + 1L, nrow(theta)))]
+  spacing <- numeric(ncol(theta))
+  spacing[varies] <- apply(abs(sweep(theta[near, varies, drop = FALSE], 2,
+                                     theta[centre, varies], "-")), 2, max)
+  spacing
+}
+
+box_inside <- function(box, region) {
+  all(box[1, ] >= region[1, ]) && all(box[2, ] <= region[2, ])
+}
+
+# n runs in `box` by a Latin hypercube (one run in each of n equal slices of
+# every parameter, at a uniform place in its slice), from R's random stream.
+latin_hypercube <- function(n, box, names) {
+  u <- vapply(seq_len(ncol(box)), function(j) (sample.int(n) - stats::runif(n)) / n,
+              numeric(n))
+  u <- matrix(u, n, ncol(box))
+  theta <- sweep(sweep(u, 2, box[2, ] - box[1, ], "*"), 2, box[1, ], "+")
+  stats::setNames(as.data.frame(theta), names)
+}
+
+# ---- new runs into the problem -------------------------------------------------
+
+# The problem with runs added: their quadratic forms appended to C, every
+# run's prior weight recomputed for the new design.
+extend_problem <- function(problem, theta_new, y_new, round, rel_var) {
+  library <- add_runs(problem$library, theta_new, y_new, round, rel_var)
+  n_added <- nrow(library$added$y)
+  which <- seq(n_added - nrow(theta_new) + 1L, n_added)
+  C_new <- fold_extra_logdet(added_quad_forms(library, which, problem$y_field, problem$setup),
+                             problem$prior, problem$n_obs)
+  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
+                     problem$setup, C = rbind(problem$C, C_new))
+}
+
+# ---- runs from the simulator -------------------------------------------------------
+
+# A function(theta, n_out, progress) that runs the user's simulator over the
+# rows of theta in chunks, on the future plan's workers when there are any,
+# and checks what comes back.
+#
+# Each chunk runs with its own seed, that of its first row among seeds drawn
+# for every row from R's stream, so the stream moves on by the same amount
+# under any plan, and a deterministic simulator gives the same library under
+# any plan (a stochastic one, under plans with the same number of workers).
+simulator_caller <- function(simulator, dots) {
+  force(simulator)
+  function(theta, n_out, progress) {
+    chunks <- simulator_chunks(nrow(theta))
+    seeds <- sample.int(.Machine$integer.max, nrow(theta))
+    bar <- if (progress) cli::cli_progress_bar("Simulating", total = nrow(theta),
+                                               .envir = environment())
+    call_chunk <- function(rows) {
+      with_seed(seeds[rows[1]], do.call(simulator, c(list(theta[rows, , drop = FALSE]), dots)))
+    }
+    map <- simulator_map()
+    out <- vector("list", length(chunks))
+    for (wave in split(seq_along(chunks), (seq_along(chunks) - 1L) %/% map$per_wave)) {
+      out[wave] <- map$apply(chunks[wave], call_chunk)
+      if (progress) cli::cli_progress_update(inc = sum(lengths(chunks[wave])), id = bar)
+    }
+    do.call(rbind, Map(check_simulated, out, chunks, MoreArgs = list(theta = theta,
+                                                                     n_out = n_out)))
+  }
+}
+
+# Chunks of rows: about four per worker, and at least ten for the progress
+# bar, so a slow run holds up little.
+simulator_chunks <- function(n) {
+  workers <- if (parallel_plan()) future::nbrOfWorkers() else 1L
+  k <- min(n, max(10L, 4L * workers))
+  unname(split(seq_len(n), cut(seq_len(n), k, labels = FALSE)))
+}
+
+simulator_map <- function() {
+  if (parallel_plan()) {
+    list(per_wave = future::nbrOfWorkers(),
+         apply = function(x, f) {
+           future.apply::future_lapply(x, f, future.seed = NULL, future.packages = "griddy")
+         })
+  } else {
+    list(per_wave = 1L, apply = function(x, f) lapply(x, f))
+  }
+}
+
+check_simulated <- function(y, rows, theta, n_out) {
+  if (is.numeric(y) && is.null(dim(y)) && length(rows) == 1L) y <- matrix(y, 1L)
+  if (!is.matrix(y) || !is.numeric(y) || nrow(y) != length(rows) || ncol(y) != n_out) {
+    griddy_abort("`simulator` must return a numeric matrix with one row per theta row and ",
+                 n_out, " columns (the library's outputs); for rows ",
+                 show_some(rows), " it returned ",
+                 if (is.matrix(y)) paste0("a ", nrow(y), " x ", ncol(y), " ", typeof(y),
+                                          " matrix") else class(y)[1], ".", class = "shape")
+  }
+  if (!all(is.finite(y))) {
+    bad <- rows[!apply(is.finite(y), 1, all)]
+    griddy_abort("`simulator` returned non-finite outputs for theta ",
+                 paste0(names(theta), " = ", format(unlist(theta[bad[1], ]), digits = 4),
+                        collapse = ", "), " (", length(bad), " run(s)).", class = "numeric")
+  }
+  storage.mode(y) <- "double"
+  y
+}
+
+# ---- runs from the library itself -------------------------------------------------------
+
+# The emulator of a round: built from the library's simulated runs over a
+# region that leaves room for the boxes of later rounds (half the box's
+# width on each side, inside the library's range).
+round_emulator <- function(state, box) {
+  library <- state$problem$library
+  source <- simulated_runs(library)
+  range0 <- library_box(source)
+  pad <- (box[2, ] - box[1, ]) / 2
+  region <- rbind(pmax(box[1, ] - pad, range0[1, ]), pmin(box[2, ] + pad, range0[2, ]))
+  emulator <- library_emulator(source, region = as.data.frame(region))
+  emulator$region <- region
+  emulator$loo <- emulator_loo(emulator)$residuals
+  emulator
+}
+
+# The runs of a library that were simulated (not predicted): the library
+# itself, the base of a refined library, or those with the runs a simulator
+# added.
+simulated_runs <- function(library) {
+  if (!inherits(library, "refined_library")) return(library)
+  simulated <- which(library$added$rel_var == 0 & vapply(
+    library$added$round, function(r) is.null(library$rounds[[r]]$error), logical(1)))
+  if (length(simulated) == 0L) return(library$base)
+  rows <- c(seq_len(lib_n_runs(library$base)), lib_n_runs(library$base) + simulated)
+  sim_library(lib_theta(library)[rows, , drop = FALSE], lib_outputs(library, rows),
+              x = lib_x(library), t = lib_t(library))
+}
+
+# Predicted outputs, their relative variances and the round's error model
+# (on the scale of the round's posterior mean noise variance).
+emulated_batch <- function(emulator, theta_new, state) {
+  pred <- emulator_predict(emulator, theta_new)
+  list(y = pred$outputs, rel_var = pred$rel_var,
+       error = emulation_error_model(emulator$loo, posterior_noise_var(state)))
+}
+
+# The posterior mean of 1/tau: (b + C/2) / (a + n/2 - 1) averaged over the
+# exact posterior over (run, grid point).
+posterior_noise_var <- function(state) {
+  pr <- state$problem
+  sum(state$joint * (pr$prior$rate + pr$C / 2)) / (pr$prior$shape + pr$n_obs / 2 - 1)
+}

@@ -1,0 +1,25 @@
+# A one-parameter model y = sin(k t) at 40 times, its coarse library (k in
+# 1..4 by 0.5) and field data at k = 2.23: the truth lies between runs and
+# the data pin k down far more finely than the library's spacing.
+refine_sim <- function(theta) {
+  t <- seq(0, 1, length.out = 40)
+  t(vapply(theta$k, function(k) sin(k * t), numeric(40)))
+}
+
+refine_toy <- function(sd = 0.02, seed = 1, k = 2.23) {
+  theta <- data.frame(k = seq(1, 4, by = 0.5))
+  lib <- sim_library(theta, refine_sim(theta))
+  set.seed(seed)
+  field <- field_data(refine_sim(data.frame(k = k)) + stats::rnorm(40, sd = sd), t = lib$t)
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 1500, burn_in = 500, seed = 1))
+  list(lib = lib, field = field, fit = fit, k = k)
+}
+
+# The continuous posterior's 95% interval of k, from a dense library.
+refine_toy_reference <- function(toy) {
+  dense <- data.frame(k = seq(1, 4, length.out = 30001))
+  lib <- sim_library(dense, refine_sim(dense))
+  p <- posterior_exact(lib, toy$field)$run
+  cdf <- cumsum(p)
+  dense$k[c(which(cdf >= 0.025)[1], which(cdf >= 0.975)[1])]
+}

@@ -1,0 +1,124 @@
+test_that("refine() with a simulator resolves a posterior that sat on one run", {
+  toy <- refine_toy()
+  exact <- griddy:::exact_from_problem(toy$fit)
+  expect_gt(max(exact$run), 0.9)        # collapsed onto the run k = 2 or 2.5
+  refined <- refine(toy$fit, refine_sim, max_runs = 2000, seed = 1)
+  expect_s3_class(refined, "griddy_fit")
+  expect_identical(refined$refinement$reason, "resolved")
+  expect_identical(refined$refinement$source, "simulator")
+  tab <- griddy:::resolution_table(griddy:::exact_from_problem(refined)$run,
+                                   lib_theta(refined$library))
+  expect_false(any(tab$limited))
+  reference <- refine_toy_reference(toy)
+  width <- diff(reference)
+  expect_lt(abs(tab$lower - reference[1]), 0.25 * width)
+  expect_lt(abs(tab$upper - reference[2]), 0.25 * width)
+  expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
+})
+
+test_that("refine() of a resolved fit returns it unchanged", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 2000, seed = 1)
+  expect_message(again <- refine(refined, refine_sim, seed = 2),
+                 class = "griddy_message_resolved")
+  expect_identical(again, refined)
+})
+
+test_that("the refined library keeps the prior uniform over the base library's range", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 600, runs_per_round = 200, seed = 3)
+  lib <- refined$library
+  expect_s3_class(lib, "refined_library")
+  w <- exp(griddy:::log_run_weights(NULL, lib))
+  expect_equal(sum(w), 1)
+  k <- lib_theta(lib)$k
+  # the weighted runs integrate a smooth function against the uniform prior
+  # on [1, 4] as well as the base grid does (its quadrature error is the
+  # tolerance): the added runs' density does not bias the prior
+  f <- function(k) sin(2 * k) + k^2 / 4
+  exact <- integrate(f, 1, 4)$value / 3
+  base_error <- abs(mean(f(seq(1, 4, by = 0.5))) - exact)
+  expect_lt(abs(sum(w * f(k)) - exact), 2 * base_error + 0.01)
+  # and weighs runs equally where one density holds: inside the last box
+  last <- lib$rounds[[length(lib$rounds)]]$box
+  inner <- Reduce(function(a, b) c(max(a[1], b[1]), min(a[2], b[2])),
+                  lapply(lib$rounds, function(r) r$box[, 1]))
+  inside <- k > inner[1] & k < inner[2]
+  expect_gt(sum(inside), 10)
+  expect_equal(min(w[inside]), max(w[inside]))
+})
+
+test_that("calibrate() on a refined library uses its prior weights", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 600, seed = 1)
+  again <- posterior_exact(refined$library, toy$field)
+  expect_equal(again$run, griddy:::exact_from_problem(refined)$run)
+  expect_equal(again$log_evidence, griddy:::grid_posterior(refined)$log_evidence)
+})
+
+test_that("refine() stops at max_runs and says so", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 50, runs_per_round = 25, seed = 1)
+  expect_identical(refined$refinement$reason, "max_runs")
+  expect_identical(refined$refinement$runs_added, 50L)
+  expect_identical(refined$refinement$rounds, 2L)
+  expect_identical(lib_n_runs(refined$library), 7L + 50L)
+})
+
+test_that("refine() is reproducible with a seed and with set.seed()", {
+  toy <- refine_toy()
+  a <- refine(toy$fit, refine_sim, max_runs = 300, seed = 5)
+  b <- refine(toy$fit, refine_sim, max_runs = 300, seed = 5)
+  expect_identical(lib_theta(a$library), lib_theta(b$library))
+  expect_identical(a$draws, b$draws)
+  set.seed(9)
+  c1 <- refine(toy$fit, refine_sim, max_runs = 300)
+  set.seed(9)
+  c2 <- refine(toy$fit, refine_sim, max_runs = 300)
+  expect_identical(c1$draws, c2$draws)
+})
+
+test_that("refine() passes ... to the simulator and refines a refined fit again", {
+  toy <- refine_toy()
+  scaled <- function(theta, amplitude) amplitude * refine_sim(theta)
+  refined <- refine(toy$fit, scaled, max_runs = 100, runs_per_round = 100, amplitude = 1,
+                    seed = 1)
+  expect_identical(refined$refinement$reason, "max_runs")
+  twice <- refine(refined, refine_sim, max_runs = 2000, seed = 2)
+  expect_gt(lib_n_runs(twice$library), lib_n_runs(refined$library))
+  expect_length(twice$library$rounds, twice$refinement$rounds + 1L)
+})
+
+test_that("refine() refuses bad input with classed errors", {
+  toy <- refine_toy()
+  expect_error(refine(list()), class = "griddy_error_input")
+  expect_error(refine(toy$fit, "sim"), class = "griddy_error_input")
+  expect_error(refine(toy$fit, refine_sim, max_runs = 0), class = "griddy_error_input")
+  expect_error(refine(toy$fit, refine_sim, max_runs = 10, seed = 1,
+                      runs_per_round = -1), class = "griddy_error_input")
+  wrong_shape <- function(theta) refine_sim(theta)[, 1:10]
+  expect_error(refine(toy$fit, wrong_shape, max_runs = 10, seed = 1),
+               class = "griddy_error_shape")
+  not_finite <- function(theta) {
+    y <- refine_sim(theta)
+    y[1, 1] <- NaN
+    y
+  }
+  expect_error(refine(toy$fit, not_finite, max_runs = 10, seed = 1),
+               class = "griddy_error_numeric")
+  weighted <- suppressWarnings(calibrate(toy$lib, toy$field, n_iter = 200, burn_in = 50,
+                                         run_weights = 1:7, seed = 1))
+  expect_error(refine(weighted, refine_sim, max_runs = 10), class = "griddy_error_input")
+})
+
+test_that("refine() runs the simulator on the workers of a future plan, same result", {
+  skip_if_not_installed("future.apply")
+  skip_on_cran()
+  toy <- refine_toy()
+  sequential <- refine(toy$fit, refine_sim, max_runs = 200, seed = 4)
+  future::plan("multisession", workers = 2)
+  on.exit(future::plan("sequential"), add = TRUE)
+  parallel <- refine(toy$fit, refine_sim, max_runs = 200, seed = 4)
+  expect_identical(lib_theta(parallel$library), lib_theta(sequential$library))
+  expect_equal(parallel$C, sequential$C)
+})
