@@ -45,8 +45,10 @@ marginal_resolution <- function(p, v, level, min_values) {
   values <- vapply(split(v, group), min, numeric(1))
   mass <- vapply(split(p, group), sum, numeric(1))
   tail <- (1 - level) / 2
-  lower <- weighted_quantile(values, mass, tail)
-  upper <- weighted_quantile(values, mass, 1 - tail)
+  # the smallest value whose cumulative mass reaches each probability
+  bounds <- unname(weighted_quantile(values, mass, c(tail, 1 - tail)))
+  lower <- bounds[1]
+  upper <- bounds[2]
   effective <- 1 / sum(mass^2)
   data.frame(lower = lower, upper = upper, effective_values = effective,
              distinct_in_interval = sum(mass > 0 & values >= lower & values <= upper),
@@ -62,13 +64,6 @@ value_groups <- function(v, tol) {
   o <- order(v)
   ids <- cumsum(c(TRUE, diff(v[o]) > tol))
   ids[order(o)]
-}
-
-# The smallest of the (sorted) values whose cumulative mass reaches `prob`;
-# the cumulative sum may fall short of a mass it should reach by rounding, so
-# it is compared with a slack of 1e-12.
-weighted_quantile <- function(values, mass, prob) {
-  values[which(cumsum(mass) >= prob - 1e-12)[1]]
 }
 
 # The resolution table of a fit, from its exact posterior over runs.

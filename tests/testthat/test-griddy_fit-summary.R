@@ -28,7 +28,9 @@ test_that("summary has one row per sampled parameter with coda diagnostics", {
 
 test_that("one chain gives NA rhat; print shows the table and the adequacy lines", {
   toy <- toy_ar1(n_runs = 40, n_t = 20)
-  fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1),
+    classes = "griddy_warning_resolution")
   s <- summary(fit)
   expect_true(all(is.na(s$rhat)))
   expect_output(print(s), "collapsed update\\) over 40 runs x 1 correlation grid point")
