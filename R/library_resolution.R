@@ -12,8 +12,9 @@
 # sum m_v^2 ~ (h / s) int phi^2 = h / (2 sqrt(pi) s): effective values
 # ~ 2 sqrt(pi) s / h ~ 3.5 s / h. Ten of them means h <~ s / 3, and a
 # quantile of the discrete marginal (a grid value) then lies within one step,
-# about a third of an sd, of the continuous one (in practice within half a
-# step; test-library_resolution.R checks this on grids of several steps).
+# about a third of an sd, of the continuous one (in practice within little
+# more than half a step; test-library_resolution.R checks this on grids of
+# several steps).
 resolution_min_values <- 10
 
 # Share of the posterior on a parameter's minimum or maximum above which the
@@ -104,7 +105,7 @@ warn_resolution <- function(fit) {
     paste0(tab$parameter, " (", format_values(tab$effective_values), " effective values)",
            collapse = ", "),
     if (nrow(tab) == 1L) " is" else " are", " carried by fewer than ", resolution_min_values,
-    " library values, so the intervals show the library's spacing, not the data's ",
+    " effective library values, so the intervals show the library's spacing, not the data's ",
     "uncertainty, and may miss a truth between runs. Add runs where the posterior has ",
     "its mass (see ?refine).", class = "resolution")
 }

@@ -29,7 +29,7 @@ test_that("values within 1e-9 of the range count as one value", {
   expect_identical(tab$distinct_in_interval, 3L)
 })
 
-test_that("a Gaussian marginal has 2 sqrt(pi) s / h effective values, and 10 keep its quantiles within s / 3", {
+test_that("a Gaussian marginal has 3.5 s / h effective values; 10 keep its quantiles within s / 3", {
   s <- 1
   errors <- function(h) {
     vapply(seq(0, 0.95, by = 0.05), function(offset) {
