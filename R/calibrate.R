@@ -27,6 +27,16 @@
 #' the coupling; use `"thesis"` to reproduce the thesis's figures, and compare
 #' either with [posterior_exact()].
 #'
+#' **Resolution.** The library is the whole parameter space: when the data
+#' determine \eqn{\theta} more finely than the library's spacing, the
+#' posterior collapses onto a few runs and its intervals show the spacing, not
+#' the data's uncertainty (a truth between runs falls outside them). So
+#' `calibrate()` warns (class `griddy_warning_resolution`) when, under the
+#' exact posterior over runs, the marginal of some parameter is carried by
+#' fewer than 10 effective library values (\eqn{1 / \sum_v m_v^2} over the
+#' marginal masses \eqn{m_v} of its distinct values); see
+#' [summary()][summary.griddy_fit] and `?refine`.
+#'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'
@@ -122,7 +132,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
   start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
   fit <- sample_problem(problem, update, control, seed, call, start)
-  warn_single_run(fit)
+  warn_resolution(fit)
   fit
 }
 

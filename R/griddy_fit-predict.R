@@ -83,6 +83,8 @@ predict_settings <- function(lib, newdata) {
   hit
 }
 
+# The smallest value whose cumulative weight reaches each probability (also
+# the interval of resolution_table(), library_resolution.R).
 weighted_quantile <- function(v, w, probs) {
   o <- order(v)
   cw <- cumsum(w[o])

@@ -1,12 +1,23 @@
 #' Summarise a griddy fit
 #'
 #' One row per sampled parameter (each \eqn{\theta} column, `tau`, each
-#' correlation parameter), with the library adequacy checks: the effective
-#' number of runs that carry the posterior (\eqn{1 / \sum p_i^2}), the
-#' posterior mass on runs at the edge of the library's \eqn{\theta} range,
-#' the distance between the sampled and the exact posterior over runs, and a
-#' warning when the posterior sits on one run (its interval then shows the
-#' library's resolution, not the data's uncertainty).
+#' correlation parameter), with checks of whether the library is fine and wide
+#' enough for the posterior. They use the exact posterior over runs (see
+#' [posterior_exact()]):
+#'
+#' * **Resolution.** For each \eqn{\theta} parameter, the effective number of
+#'   distinct library values that carry its marginal, \eqn{1 / \sum_v m_v^2}
+#'   over the marginal masses \eqn{m_v}. Below 10 the parameter is
+#'   `"limited"`: its interval shows the library's spacing, not the data's
+#'   uncertainty, and may miss a truth between runs; add runs where the
+#'   posterior has its mass (see `?refine`). For a Gaussian marginal of sd
+#'   \eqn{s} on a grid of step \eqn{h} the effective number is about
+#'   \eqn{3.5 s / h}, so 10 values mean a step below about \eqn{s / 3}.
+#' * **Range.** The posterior mass on each parameter's minimum and maximum in
+#'   the library; above 5% the truth may lie outside the library's range.
+#' * **Runs.** The effective number of runs (\eqn{1 / \sum p_i^2}), and the
+#'   total-variation distance between the sampled and the exact posterior
+#'   over runs.
 #'
 #' Bounds are quantiles of the draws (type 1, so for \eqn{\theta} they are
 #' library values). `ess` is [coda::effectiveSize()] summed over chains;
@@ -18,9 +29,18 @@
 #' @param digits Significant digits to print.
 #' @param ... Ignored.
 #' @return `summary()`: a data.frame of class `griddy_summary` with columns
-#'   `parameter`, `mean`, `median`, `lower`, `upper`, `ess` and `rhat`, and
-#'   the adequacy checks in attribute `"adequacy"`. `print()` returns its
-#'   argument invisibly.
+#'   `parameter`, `mean`, `median`, `lower`, `upper`, `ess`, `rhat` and
+#'   `resolution` (`"resolved"` or `"limited"` for each \eqn{\theta}
+#'   parameter, `NA` for the others). Attribute `"adequacy"` holds the checks:
+#'   `parameters`, a data.frame with one row per \eqn{\theta} parameter and
+#'   columns `parameter`, `lower` and `upper` (the interval of the exact
+#'   marginal, over library values), `effective_values`,
+#'   `distinct_in_interval` (distinct values with positive mass in the
+#'   interval), `limited`, `mass_at_min`, `mass_at_max` and `library_values`
+#'   (distinct values in the library); `effective_runs` (exact) and
+#'   `effective_runs_sampled`; and `tv_distance`. `print()` prints the
+#'   table, then one line per limited parameter and per parameter with mass at
+#'   the edge of its range, and returns its argument invisibly.
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200,
@@ -42,8 +62,12 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
                rhat = potential_scale_reduction(lapply(chains, `[[`, p)))
   })
   out <- do.call(rbind, rows)
+  adequacy <- library_adequacy(object, level)
+  tab <- adequacy$parameters
+  out$resolution <- ifelse(tab$limited, "limited", "resolved")[match(out$parameter,
+                                                                     tab$parameter)]
   structure(out, class = c("griddy_summary", "data.frame"),
-            adequacy = library_adequacy(object), level = level,
+            adequacy = adequacy, level = level,
             info = fit_description(object))
 }
 
@@ -81,6 +105,7 @@ print.griddy_summary <- function(x, digits = 4, ...) {
   level <- if (is.null(attr(x, "level"))) 0.95 else attr(x, "level")
   tab <- as.data.frame(x)
   class(tab) <- "data.frame"
+  if (!is.null(tab$resolution)) tab$resolution[is.na(tab$resolution)] <- ""
   bounds <- names(tab) %in% c("lower", "upper")
   names(tab)[bounds] <- paste0(names(tab)[bounds], " (", format(100 * level), "%)")
   print(tab, digits = digits, row.names = FALSE)

@@ -31,24 +31,32 @@ subset_library <- function(lib54, field) {
   sim_library(theta = lib54$theta, y = lib54$y[, cols, drop = FALSE], x = x)
 }
 
-summarise_fit <- function(fit, keys) {
+# One row per coefficient: the summary, the library checks of summary()
+# (resolution and edge mass per coefficient, effective runs, sampled vs
+# exact) and the exact share of the most probable run.
+summarise_fit <- function(fit, keys, field, rho_x) {
   s <- summary(fit)
   a <- attr(s, "adequacy")
   th <- s[s$parameter %in% names(truth), ]
+  res <- a$parameters[match(th$parameter, a$parameters$parameter), ]
+  exact <- posterior_exact(fit$library, field, rho_x = rho_x)$run
   data.table(keys, parameter = th$parameter, mean = th$mean, median = th$median,
              lower = th$lower, upper = th$upper, truth = truth[th$parameter],
-             effective_runs = a$exact$effective_runs, top_share = a$exact$top_share,
-             edge_mass = a$exact$edge_mass, tv_distance = a$tv_distance,
+             effective_values = res$effective_values, limited = res$limited,
+             mass_at_min = res$mass_at_min, mass_at_max = res$mass_at_max,
+             effective_runs = a$effective_runs, top_share = max(exact),
+             tv_distance = a$tv_distance,
              precompute = fit$runtime[["precompute"]], sampling = fit$runtime[["sampling"]])
 }
 
+# calibrate() without its resolution warning, recording whether it warned.
 quietly <- function(expr) {
   warned <- FALSE
-  value <- withCallingHandlers(expr, warning = function(w) {
+  value <- withCallingHandlers(expr, griddy_warning_resolution = function(w) {
     warned <<- TRUE
     invokeRestart("muffleWarning")
   })
-  attr(value, "single_run_warning") <- warned
+  attr(value, "resolution_warning") <- warned
   value
 }
 
@@ -78,9 +86,9 @@ for (k in sizes) {
       fit <- quietly(calibrate(lib, field, rho_x = m$rho_x, n_iter = n_iter,
                                burn_in = burn_in, seed = seed, progress = FALSE,
                                update = m$update))
-      row <- summarise_fit(fit, keys)
+      row <- summarise_fit(fit, keys, field, m$rho_x)
       row[, `:=`(error_model = m$label, update = m$update,
-                 single_run_warning = attr(fit, "single_run_warning"))]
+                 resolution_warning = attr(fit, "resolution_warning"))]
       estimates[[length(estimates) + 1]] <- row
       if (k %in% ppc_sizes && n %in% ppc_points && m$update == "collapsed") {
         p <- as.data.table(predict(fit, seed = seed))

@@ -51,7 +51,9 @@ test_that("fits are reproducible and chains have their own streams", {
 
 test_that("burn-in and thinning keep the right iterations", {
   toy <- toy_ar1(n_runs = 30, n_t = 10)
-  fit <- calibrate(toy$library, toy$field, n_iter = 100, burn_in = 40, thin = 7, chains = 3, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 100, burn_in = 40, thin = 7, chains = 3, seed = 1),
+    classes = "griddy_warning_resolution")
   expect_identical(fit$draws$iteration, rep(seq(47L, 100L, by = 7L), 3))
   expect_identical(fit$draws$chain, rep(1:3, each = 8))
   expect_true(all(fit$draws$tau > 0))
@@ -64,8 +66,10 @@ test_that("runs with zero prior weight are never drawn", {
   w <- rep(1, 50)
   w[order(exact$run, decreasing = TRUE)[1:2]] <- 0
   for (u in c("collapsed", "thesis")) {
-    fit <- calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 0, seed = 2,
-                     update = u, run_weights = w)
+    fit <- suppressWarnings(
+      calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 0, seed = 2,
+                update = u, run_weights = w),
+      classes = "griddy_warning_resolution")
     expect_false(any(fit$draws$run %in% which(w == 0)))
   }
 })
@@ -85,10 +89,37 @@ test_that("calibrate validates its arguments before any C++ runs", {
   expect_error(calibrate(lib, f, rho_t = -0.1), "`rho_t` must lie in")
 })
 
-test_that("a posterior on one run is flagged", {
-  toy <- toy_ar1(n_runs = 20, n_t = 60, sd = 0.01, lag_cor = 0)
-  expect_warning(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1),
-                 "The posterior sits on one library run: run \\d+ holds 100% of the draws")
+test_that("a posterior finer than the library's spacing is flagged", {
+  # 200 precise data on a 20-run library; the truth 0.395 lies between runs
+  toy <- toy_ar1(n_runs = 20, n_t = 200, sd = 0.05, lag_cor = 0, theta_true = 0.395)
+  expect_warning(fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 200, seed = 1),
+                 class = "griddy_warning_resolution",
+                 regexp = "resolution: theta \\(1.0 effective values\\).*see \\?refine")
+  # ... and rightly: the 95% interval misses the truth
+  s <- summary(fit)
+  expect_false(s$lower[1] <= 0.395 && 0.395 <= s$upper[1])
+})
+
+test_that("a posterior spread over many library values is not flagged", {
+  # 10 noisy data on a 500-run library: the marginal spans ~100 values
+  toy <- toy_ar1(n_runs = 500, n_t = 10, sd = 0.3, lag_cor = 0)
+  expect_no_warning(fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 200,
+                                     seed = 1), class = "griddy_warning_resolution")
+  tab <- resolution_limited(fit)
+  expect_gt(tab$effective_values, 10)
+  expect_gt(tab$distinct_in_interval, 10)
+})
+
+test_that("the resolution warning names every limited parameter, not a constant one", {
+  toy <- toy_xt(n_per_dim = 4, sd = 0.1)
+  lib <- toy$library
+  expect_warning(calibrate(lib, toy$field, n_iter = 300, burn_in = 100, seed = 1),
+                 class = "griddy_warning_resolution",
+                 regexp = "a \\([0-9.]+ effective values\\), b \\([0-9.]+ effective values\\) are")
+  one_b <- lib$theta$b == lib$theta$b[1]
+  lib1 <- suppressWarnings(sim_library(lib$theta[one_b, ], lib$y[one_b, ], x = lib$x, t = lib$t))
+  expect_warning(calibrate(lib1, toy$field, n_iter = 300, burn_in = 100, seed = 1),
+                 class = "griddy_warning_resolution", regexp = "resolution: a \\([0-9.]+ effective values\\) is")
 })
 
 test_that("truncated theta draws equal the full draws for the same seed", {

@@ -1,7 +1,9 @@
 test_that("each plot type returns a ggplot built from the fit", {
   toy <- toy_xt(n_per_dim = 5, n_t = 6)
-  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 600, burn_in = 100,
-                   chains = 2, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 600, burn_in = 100,
+              chains = 2, seed = 1),
+    classes = "griddy_warning_resolution")
   tr <- plot(fit)
   expect_s3_class(tr, "ggplot")
   expect_identical(levels(tr$data$parameter), c("a", "b", "tau", "rho_t"))

@@ -1,7 +1,9 @@
 test_that("predict gives the outputs at the drawn runs and wider noisy bounds", {
   toy <- toy_xt(n_per_dim = 5, n_t = 6)
-  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 1500, burn_in = 500,
-                   chains = 2, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, rho_t = c(0, 0.3), n_iter = 1500, burn_in = 500,
+              chains = 2, seed = 1),
+    classes = "griddy_warning_resolution")
   p <- predict(fit, ndraws = 300, seed = 3)
   expect_identical(names(p), c("x", "load", "speed", "t", "observed", "mean", "lower", "upper",
                                "pred_lower", "pred_upper"))
@@ -19,8 +21,10 @@ test_that("predict gives the outputs at the drawn runs and wider noisy bounds", 
 
 test_that("noisy outputs have the covariance R_x (x) R_t / tau", {
   toy <- toy_xt(n_per_dim = 2, n_t = 4)
-  fit <- calibrate(toy$library, toy$field, rho_x = list(load = 0.7, speed = 0.4), rho_t = 0.3,
-                   n_iter = 20, burn_in = 0, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, rho_x = list(load = 0.7, speed = 0.4), rho_t = 0.3,
+              n_iter = 20, burn_in = 0, seed = 1),
+    classes = "griddy_warning_resolution")
   fit$draws <- fit$draws[rep(1, 20000), ]
   fit$draws$tau <- 4
   set.seed(1)
@@ -35,7 +39,9 @@ test_that("weighted_quantile inverts the weighted CDF", {
 
 test_that("predict(newdata =) predicts at the given library settings or stops", {
   toy <- toy_xt(n_per_dim = 4, n_t = 5)
-  fit <- calibrate(toy$library, toy$field, n_iter = 600, burn_in = 100, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 600, burn_in = 100, seed = 1),
+    classes = "griddy_warning_resolution")
   all <- predict(fit, ndraws = 100, seed = 2)
   two <- predict(fit, newdata = data.frame(speed = c(20, 10), load = c(3, 1)), ndraws = 100,
                  seed = 2)
@@ -47,6 +53,8 @@ test_that("predict(newdata =) predicts at the given library settings or stops", 
   expect_error(predict(fit, newdata = data.frame(load = 1)), "lacks the library's x column")
   expect_error(predict(fit, newdata = list(load = 1, speed = 10)), "data.frame")
   one <- toy_ar1(n_runs = 20, n_t = 8)
-  fit1 <- calibrate(one$library, one$field, n_iter = 200, burn_in = 50, seed = 1)
+  fit1 <- suppressWarnings(
+    calibrate(one$library, one$field, n_iter = 200, burn_in = 50, seed = 1),
+    classes = "griddy_warning_resolution")
   expect_error(predict(fit1, newdata = data.frame(x = 1)), "single x setting")
 })

@@ -6,7 +6,8 @@ test_that("summary has one row per sampled parameter with coda diagnostics", {
   expect_s3_class(s, "griddy_summary")
   expect_s3_class(s, "data.frame")
   expect_identical(s$parameter, c("theta", "tau", "rho_t"))
-  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess", "rhat"))
+  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess", "rhat",
+                               "resolution"))
   d <- as.data.frame(fit)
   expect_equal(s$mean[1], mean(d$theta))
   expect_true(all(s$lower <= s$median & s$median <= s$upper))
@@ -17,14 +18,19 @@ test_that("summary has one row per sampled parameter with coda diagnostics", {
   expect_gte(narrow$lower[1], s$lower[1])
   expect_error(summary(fit, level = 1), "`level` must be a single number in \\(0, 1\\)")
   a <- attr(s, "adequacy")
-  expect_equal(a$exact$effective_runs, 1 / sum(posterior_exact(toy$library, toy$field,
-                                                                 rho_t = c(0, 1e-3, 0.1))$run^2))
+  exact <- posterior_exact(toy$library, toy$field, rho_t = c(0, 1e-3, 0.1))$run
+  expect_equal(a$effective_runs, 1 / sum(exact^2))
+  expect_equal(a$parameters, resolution_table(exact, toy$library$theta))
+  expect_equal(attr(narrow, "adequacy")$parameters,
+               resolution_table(exact, toy$library$theta, level = 0.5))
   expect_lt(a$tv_distance, 0.2)
 })
 
 test_that("one chain gives NA rhat; print shows the table and the adequacy lines", {
   toy <- toy_ar1(n_runs = 40, n_t = 20)
-  fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1),
+    classes = "griddy_warning_resolution")
   s <- summary(fit)
   expect_true(all(is.na(s$rhat)))
   expect_output(print(s), "collapsed update\\) over 40 runs x 1 correlation grid point")
@@ -34,9 +40,36 @@ test_that("one chain gives NA rhat; print shows the table and the adequacy lines
   expect_identical(out, fit)
 })
 
-test_that("print warns about a single-run posterior and edge mass", {
+test_that("summary marks limited parameters and print explains them and edge mass", {
   toy <- toy_ar1(n_runs = 20, n_t = 60, sd = 0.01, lag_cor = 0, theta_true = 1)
-  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1))
-  expect_output(print(fit), "sits on run 20 \\(100% of draws: theta = 1\\)")
-  expect_output(print(fit), "at the edge of the library")
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1),
+                          classes = "griddy_warning_resolution")
+  s <- summary(fit)
+  expect_identical(s$resolution, c("limited", NA))
+  expect_output(print(fit), paste0("theta: interval limited by the library's resolution ",
+                                   "\\(1.0 effective values; 10 needed\\); see \\?refine"))
+  expect_output(print(fit), paste0("theta: 100% of the posterior at the library's maximum; ",
+                                   "the truth may lie outside the library's range of theta"))
+})
+
+test_that("a fine library resolves its parameters and prints no resolution line", {
+  toy <- toy_ar1(n_runs = 500, n_t = 10, sd = 0.3, lag_cor = 0)
+  fit <- calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 200, seed = 1)
+  s <- summary(fit)
+  expect_identical(s$resolution, c("resolved", NA))
+  out <- utils::capture.output(print(s))
+  expect_false(any(grepl("limited|outside the library's range", out)))
+})
+
+test_that("two parameters: each gets its own resolution", {
+  # a 12 x 40 grid; data pin `a` between its 12 values, `b` spreads over its 40
+  grid <- expand.grid(a = seq(0, 1, length.out = 12), b = seq(0, 1, length.out = 40))
+  t <- seq(0, 1, length.out = 50)
+  sim <- function(a, b) 5 * a * t + 0.05 * b * cos(3 * t)
+  y <- t(mapply(sim, grid$a, grid$b))
+  set.seed(2)
+  f <- field_data(sim(0.52, 0.5) + stats::rnorm(50, sd = 0.1))
+  fit <- suppressWarnings(calibrate(sim_library(grid, y, t = t), f, n_iter = 1000, burn_in = 200,
+                                    seed = 1), classes = "griddy_warning_resolution")
+  expect_identical(summary(fit)$resolution, c("limited", "resolved", NA))
 })

@@ -171,8 +171,10 @@ test_that("end to end: a small tyre library calibrates to within one library ste
   f <- tyre_field_data(k = 460, c = 1.6, height = heights, noise_sd = 60, seed = 1, rig = rig)
   # 300 data points put (nearly) all the mass on one run, and calibrate() says so
   expect_warning(fit <- calibrate(lib, f, n_iter = 3000, burn_in = 1000, seed = 2),
-                 "sits on one library run")
+                 class = "griddy_warning_resolution",
+                 regexp = "resolution: k \\([0-9.]+ effective values\\), c \\(")
   s <- summary(fit)
+  expect_identical(s$resolution[1:2], c("limited", "limited"))
   expect_lte(abs(s$median[s$parameter == "k"] - 460), 50)
   expect_lte(abs(s$median[s$parameter == "c"] - 1.6), 0.5)
   # the fitted misfit is at least the noise we added

@@ -1,0 +1,144 @@
+# Is the library fine and wide enough for this posterior? Griddy treats the
+# library as the whole parameter space, so when the data pin theta down more
+# tightly than the library's spacing, the posterior collapses onto a few runs
+# and its intervals show the spacing, not the data's uncertainty (and miss a
+# truth that lies between runs). The checks here work per parameter, on the
+# marginal of the posterior over runs: how many distinct values carry it, and
+# how much of it sits on the library's minimum or maximum.
+
+# The fewest effective values (1 / sum m_v^2 over the marginal masses m_v of a
+# parameter's distinct values) at which a marginal resolves its interval. For
+# a Gaussian marginal of sd s on a grid of step h, m_v ~ h phi(v / s) / s, so
+# sum m_v^2 ~ (h / s) int phi^2 = h / (2 sqrt(pi) s): effective values
+# ~ 2 sqrt(pi) s / h ~ 3.5 s / h. Ten of them means h <~ s / 3, and a
+# quantile of the discrete marginal (a grid value) then lies within one step,
+# about a third of an sd, of the continuous one (in practice within little
+# more than half a step; test-library_resolution.R checks this on grids of
+# several steps).
+resolution_min_values <- 10
+
+# Share of the posterior on a parameter's minimum or maximum above which the
+# truth may lie outside the library's range.
+edge_mass_threshold <- 0.05
+
+# Values closer than this fraction of a column's range count as the same
+# value (and as the minimum or maximum): designs written to text files
+# round-trip with such differences.
+value_tolerance <- 1e-9
+
+# Per parameter: the interval of the marginal posterior over the library's
+# values, how many distinct values carry it, and the mass on the column's
+# minimum and maximum. `p`: posterior probability of each run (sums to 1);
+# `theta`: the runs' parameters (data.frame, one row per run).
+resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values) {
+  rows <- lapply(names(theta), function(j) {
+    marginal_resolution(p, theta[[j]], level, min_values)
+  })
+  out <- cbind(data.frame(parameter = names(theta)), do.call(rbind, rows))
+  rownames(out) <- NULL
+  out
+}
+
+# One column of resolution_table().
+marginal_resolution <- function(p, v, level, min_values) {
+  tol <- value_tolerance * (max(v) - min(v))
+  group <- value_groups(v, tol)
+  values <- vapply(split(v, group), min, numeric(1))
+  mass <- vapply(split(p, group), sum, numeric(1))
+  tail <- (1 - level) / 2
+  # the smallest value whose cumulative mass reaches each probability
+  bounds <- unname(weighted_quantile(values, mass, c(tail, 1 - tail)))
+  lower <- bounds[1]
+  upper <- bounds[2]
+  effective <- 1 / sum(mass^2)
+  data.frame(lower = lower, upper = upper, effective_values = effective,
+             distinct_in_interval = sum(mass > 0 & values >= lower & values <= upper),
+             limited = effective < min_values,
+             mass_at_min = sum(p[v <= min(v) + tol]),
+             mass_at_max = sum(p[v >= max(v) - tol]),
+             library_values = length(values))
+}
+
+# Group ids (1, 2, ... in increasing order of value) that merge values closer
+# than `tol` to the previous one.
+value_groups <- function(v, tol) {
+  o <- order(v)
+  ids <- cumsum(c(TRUE, diff(v[o]) > tol))
+  ids[order(o)]
+}
+
+# The resolution table of a fit, from its exact posterior over runs.
+resolution_limited <- function(fit, level = 0.95) {
+  resolution_table(exact_from_problem(fit)$run, lib_theta(fit$library), level)
+}
+
+# Posterior probability of each run: sampled frequencies, and exact values
+# from the stored quadratic forms.
+run_probabilities <- function(fit) {
+  n_runs <- lib_n_runs(fit$library)
+  sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
+  exact <- exact_from_problem(fit)$run
+  list(sampled = sampled, exact = exact)
+}
+
+# What summary() reports: the resolution table (exact posterior), the
+# effective number of runs (exact and sampled) and the total-variation
+# distance between the sampled and the exact posterior over runs.
+library_adequacy <- function(fit, level = 0.95) {
+  p <- run_probabilities(fit)
+  list(parameters = resolution_table(p$exact, lib_theta(fit$library), level),
+       effective_runs = 1 / sum(p$exact^2),
+       effective_runs_sampled = 1 / sum(p$sampled^2),
+       tv_distance = sum(abs(p$sampled - p$exact)) / 2)
+}
+
+# calibrate()'s warning. A constant column is left out: sim_library() has
+# warned about it, and more runs cannot resolve it.
+warn_resolution <- function(fit) {
+  tab <- resolution_limited(fit)
+  tab <- tab[tab$limited & tab$library_values > 1L, , drop = FALSE]
+  if (nrow(tab) == 0L) {
+    return(invisible(NULL))
+  }
+  griddy_warn(
+    "The posterior is limited by the library's resolution: ",
+    paste0(tab$parameter, " (", format_values(tab$effective_values), " effective values)",
+           collapse = ", "),
+    if (nrow(tab) == 1L) " is" else " are", " carried by fewer than ", resolution_min_values,
+    " effective library values, so the intervals show the library's spacing, not the data's ",
+    "uncertainty, and may miss a truth between runs. Add runs where the posterior has ",
+    "its mass (see ?refine).", class = "resolution")
+}
+
+format_values <- function(v) vapply(v, format, "", digits = 2, nsmall = 1, USE.NAMES = FALSE)
+
+# summary()'s printed checks: one line for the runs, one per limited
+# parameter and one per parameter with mass at the edge of its range.
+format_adequacy <- function(adequacy) {
+  tab <- adequacy$parameters
+  lines <- c(
+    paste0("Library: effective number of runs ", format(adequacy$effective_runs, digits = 3),
+           " (sampled ", format(adequacy$effective_runs_sampled, digits = 3), ")."),
+    paste0("Draws vs exact posterior over runs: total-variation distance ",
+           format(adequacy$tv_distance, digits = 2), "."))
+  constant <- tab$library_values == 1L
+  lim <- tab$limited & !constant
+  c(lines,
+    paste0(tab$parameter[constant], ": constant in the library, not calibrated.",
+           recycle0 = TRUE),
+    paste0(tab$parameter[lim], ": interval limited by the library's resolution (",
+           format_values(tab$effective_values[lim]), " effective values; ",
+           resolution_min_values, " needed); see ?refine", recycle0 = TRUE),
+    format_edges(tab[!constant, , drop = FALSE]))
+}
+
+format_edges <- function(tab) {
+  side <- function(mass, where) {
+    hit <- mass > edge_mass_threshold
+    percent <- vapply(100 * mass[hit], format, "", digits = 2)
+    paste0(tab$parameter[hit], ": ", percent, "% of the posterior at the library's ", where,
+           "; the truth may lie outside the library's range of ", tab$parameter[hit], ".",
+           recycle0 = TRUE)
+  }
+  c(side(tab$mass_at_min, "minimum"), side(tab$mass_at_max, "maximum"))
+}
