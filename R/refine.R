@@ -136,16 +136,31 @@ default_runs_per_round <- function(theta) {
 # The rounds, then one calibration of the refined library with the fit's
 # settings.
 refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call) {
-  state <- refine_state(fit)
-  if (is_resolved(state$table, NULL)) {
+  rounds <- refine_rounds(fit, simulator, max_runs, runs_per_round, progress)
+  if (rounds$runs_added == 0L) {
     cli::cli_inform(c(i = "The posterior is already resolved: nothing to refine."),
                     class = "griddy_message_resolved")
     return(fit)
   }
+  out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
+  out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history")]
+  if (rounds$reason != "resolved") warn_resolution(out)
+  out
+}
+
+# Add runs to a problem (a fit is one) round by round until its posterior is
+# resolved or `max_runs` are spent; with `simulator = NULL` the runs are
+# predicted from the library. Returns the refined problem, the runs added,
+# the number of rounds, why it stopped and the resolution table after each
+# round (the first is the problem's own).
+refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE) {
+  state <- refine_state(problem)
   history <- list(state$table)
+  source <- if (is.null(simulator)) "emulator" else "simulator"
   emulator <- NULL
   added <- 0L
-  repeat {
+  reason <- "resolved"
+  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]])) {
     if (added >= max_runs) {
       reason <- "max_runs"
       break
@@ -159,26 +174,17 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call)
       }
       batch <- emulated_batch(emulator, theta_new, state)
     } else {
-      batch <- list(y = simulator(theta_new, lib_n_out(fit$library), progress),
+      batch <- list(y = simulator(theta_new, lib_n_out(problem$library), progress),
                     error = NULL, rel_var = NULL)
     }
-    round <- list(box = box, n = n_new, source = if (is.null(simulator)) "emulator" else
-      "simulator", error = batch$error)
+    round <- list(box = box, n = n_new, source = source, error = batch$error)
     state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
                                          batch$rel_var))
     added <- added + n_new
-    previous <- history[[length(history)]]
     history[[length(history) + 1L]] <- state$table
-    if (is_resolved(state$table, previous)) {
-      reason <- "resolved"
-      break
-    }
   }
-  out <- sample_problem(state$problem, fit$update, fit$control, seed = NULL, call = call)
-  out$refinement <- list(runs_added = added, rounds = length(history) - 1L, reason = reason,
-                         source = if (is.null(simulator)) "emulator" else "simulator",
-                         history = history)
-  out
+  list(problem = state$problem, runs_added = added, rounds = length(history) - 1L,
+       reason = reason, source = source, history = history)
 }
 
 # The exact posterior over runs of a problem and its resolution table.
@@ -194,7 +200,8 @@ refine_state <- function(problem) {
 interval_tol <- 0.2
 
 is_resolved <- function(table, previous) {
-  if (any(table$limited)) return(FALSE)
+  # a parameter the library holds constant is not calibrated, nor refined
+  if (any(table$limited & table$library_values > 1L)) return(FALSE)
   if (is.null(previous)) return(TRUE)
   width <- pmax(table$upper - table$lower, previous$upper - previous$lower)
   moved <- pmax(abs(table$lower - previous$lower), abs(table$upper - previous$upper))

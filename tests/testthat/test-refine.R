@@ -58,7 +58,9 @@ test_that("calibrate() on a refined library uses its prior weights", {
 
 test_that("refine() stops at max_runs and says so", {
   toy <- refine_toy()
-  refined <- refine(toy$fit, refine_sim, max_runs = 50, runs_per_round = 25, seed = 1)
+  expect_warning(
+    refined <- refine(toy$fit, refine_sim, max_runs = 50, runs_per_round = 25, seed = 1),
+    "resolution", class = "griddy_warning_resolution")
   expect_identical(refined$refinement$reason, "max_runs")
   expect_identical(refined$refinement$runs_added, 50L)
   expect_identical(refined$refinement$rounds, 2L)
@@ -81,8 +83,10 @@ test_that("refine() is reproducible with a seed and with set.seed()", {
 test_that("refine() passes ... to the simulator and refines a refined fit again", {
   toy <- refine_toy()
   scaled <- function(theta, amplitude) amplitude * refine_sim(theta)
-  refined <- refine(toy$fit, scaled, max_runs = 100, runs_per_round = 100, amplitude = 1,
-                    seed = 1)
+  expect_warning(
+    refined <- refine(toy$fit, scaled, max_runs = 100, runs_per_round = 100, amplitude = 1,
+                      seed = 1),
+    class = "griddy_warning_resolution")
   expect_identical(refined$refinement$reason, "max_runs")
   twice <- refine(refined, refine_sim, max_runs = 2000, seed = 2)
   expect_gt(lib_n_runs(twice$library), lib_n_runs(refined$library))
