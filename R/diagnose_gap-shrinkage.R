@@ -25,7 +25,7 @@ fold_one <- function(ctx, tm, k, model) {
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
   lj <- collapsed_log_joint(matrix(Qm, nrow(tm$Q)), n - m, ctx$logdet + ld_bb, ctx$prior,
                             tm$log_prior_run, ctx$log_prior_grid)
-  lpd <- log_sum_exp(tm$lj) - log_sum_exp(lj)
+  lpd <- log_sum_exp(tm$lj_plain) - log_sum_exp(lj)
   w <- normalise_log(lj)
   y_b <- ctx$y[cols]
   pred <- drop(rowSums(w) %*% tm$Y[, cols, drop = FALSE])

@@ -12,6 +12,17 @@
 #' * **how much** each candidate shrinks the gap on data it has not seen:
 #'   each x setting is left out in turn and predicted from the others.
 #'
+#' **Matched resolution.** On a coarse library a truth between runs leaves
+#' a misfit no run removes, which a candidate with one more dimension, or the
+#' smooth discrepancy "other", would explain although there is no effect. So
+#' every model is compared where its own posterior is resolved: the base
+#' library and each non-zero strength level of each candidate are refined as
+#' [refine()] does without a simulator (runs predicted from the library,
+#' their prediction error in the likelihood; at most `max_runs` runs each),
+#' and a candidate's zero level is the refined base itself. Models that are
+#' already resolved are left as they are. Every part of the diagnosis below
+#' uses the refined libraries.
+#'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
 #' columns; the runs whose strength columns are all 0 must be the base
@@ -89,6 +100,10 @@
 #'   generic smooth discrepancy "other".
 #' @param confounding_threshold Threshold on `separable` below which a
 #'   candidate is reported as confounded with theta.
+#' @param max_runs The most runs predicted to bring each model to matched
+#'   resolution (see Details); 0 compares the libraries as they are.
+#' @param seed `NULL`, or a seed for this call only (the predicted runs'
+#'   places are random).
 #' @return An object of class `gap_diagnosis`, a list with
 #'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
 #'     (t range), `n` (points), `score`, `p_value`, `flagged`;
@@ -121,7 +136,8 @@
 #' gap$which
 #' @export
 diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
-                         other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05) {
+                         other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05,
+                         max_runs = 2000, seed = NULL) {
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
@@ -134,11 +150,21 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   models <- c("none", names(candidates), "other")
   log_prior_model <- model_prior(prior_models, models)
 
-  ctx <- gap_context(fit)
+  max_runs <- assert_count(max_runs, "max_runs", min = 0L)
+  seed <- assert_seed(seed)
+  # every model at matched resolution (diagnose_gap-resolution.R)
+  matched <- with_seed(seed, {
+    base_problem <- matched_base(fit, max_runs)
+    list(base = base_problem,
+         candidates = lapply(candidates, matched_candidate, base_problem = base_problem,
+                             max_runs = max_runs))
+  })
+  ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
-  base_terms <- gap_terms(ctx, lib_outputs(base), fit$log_prior_run, Q = fit$C)
-  cand_terms <- lapply(candidates, function(cand) {
-    gap_terms(ctx, lib_outputs(cand), candidate_log_prior(cand, names(lib_theta(base))))
+  base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
+                              matched$base$log_prior_run, matched$base$C)
+  cand_terms <- lapply(matched$candidates, function(m) {
+    matched_terms(ctx, m$Y, m$log_prior, m$C)
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
@@ -256,8 +282,9 @@ check_zero_strength <- function(cand, base, zero, what) {
   }
 }
 
-# Prior over a candidate's runs: uniform over the distinct strength values,
-# uniform over the runs within each.
+# Prior over a candidate's runs before refinement: uniform over the distinct
+# strength values, uniform over the runs within each (matched_candidate()
+# keeps the first part and refines the second).
 candidate_log_prior <- function(cand, base_cols) {
   strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
   level <- strength_levels(strength)
@@ -306,9 +333,13 @@ gap_context <- function(fit) {
 }
 
 # Per model: Q (runs x nodes), its log joint lj, the leave-setting-out pieces
-# D (runs x nodes x settings) and the outputs.
+# D (runs x nodes x settings) and the outputs. `C`, when given, is the
+# model's own table of misfits (a refined library's, with the prediction
+# error of its predicted runs): it sets the posterior and evidence (lj),
+# while the leave-out algebra (Q, D, lj_plain) works on the plain quadratic
+# forms, which leave-out identities hold for.
 gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)) {
+                      Q = quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi), C = NULL) {
   n_x <- ctx$n_x
   n_t <- ctx$n_t
   J <- nrow(Y)
@@ -325,8 +356,11 @@ gap_terms <- function(ctx, Y, log_prior_run,
       D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Rx_inv[k, k]
     }
   }
-  lj <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
-  list(Y = Y, E = E, Q = Q, lj = lj, D = D, log_prior_run = log_prior_run)
+  lj_plain <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run,
+                                  ctx$log_prior_grid)
+  lj <- if (is.null(C)) lj_plain else
+    collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
+  list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
 }
 
 # ---- "other": the base model plus a generic smooth discrepancy ---------------

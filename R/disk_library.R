@@ -197,17 +197,20 @@ rds_piece <- function(library, k) {
                  first = sum(library$rows[seq_len(k - 1L)]) + 1L), class = "rds_piece")
 }
 
+#' @exportS3Method
 read_piece.rds_piece <- function(piece) {
   y <- read_rds_checked(piece$file, "The chunk file")
   check_piece(y, piece$rows, piece$n_out, paste0("The chunk file ", piece$file),
               piece$first)
 }
 
+#' @exportS3Method
 lib_quad_forms.disk_library <- function(library, y_field, setup) {
   pieces <- lapply(seq_along(library$files), rds_piece, library = library)
   chunked_quad_forms(pieces, library$rows, y_field, setup)
 }
 
+#' @exportS3Method
 lib_check_integrity.disk_library <- function(library) {
   files <- library$files
   rows <- library$rows
@@ -222,6 +225,7 @@ lib_check_integrity.disk_library <- function(library) {
                       fix = "Open it again with disk_library().")
 }
 
+#' @exportS3Method
 lib_outputs.disk_library <- function(library, rows = NULL) {
   runs <- lib_check_rows(library, rows)
   ends <- cumsum(library$rows)

@@ -368,6 +368,7 @@ h5_pieces <- function(library) {
   list(pieces = Map(h5_piece, list(library), starts, ends), rows = ends - starts + 1L)
 }
 
+#' @exportS3Method
 read_piece.h5_piece <- function(piece) {
   h5 <- h5_open(piece$file, "r")
   on.exit(h5_close(h5), add = TRUE)
@@ -411,11 +412,13 @@ h5_read_runs <- function(h5, piece, runs) {
               paste0(where, " (runs ", min(runs), " to ", max(runs), ")"), min(runs))
 }
 
+#' @exportS3Method
 lib_quad_forms.hdf5_library <- function(library, y_field, setup) {
   p <- h5_pieces(library)
   chunked_quad_forms(p$pieces, p$rows, y_field, setup)
 }
 
+#' @exportS3Method
 lib_outputs.hdf5_library <- function(library, rows = NULL) {
   runs <- lib_check_rows(library, rows)
   wanted <- sort(unique(runs))
@@ -429,6 +432,7 @@ lib_outputs.hdf5_library <- function(library, rows = NULL) {
   if (identical(runs, wanted)) out else out[match(runs, wanted), , drop = FALSE]
 }
 
+#' @exportS3Method
 lib_check_integrity.hdf5_library <- function(library) {
   ok <- is.character(library$file) && length(library$file) == 1L &&
     is.character(library$outputs) && length(library$outputs) == 1L &&

@@ -54,6 +54,7 @@ n_base_runs <- function(library) {
 
 # ---- the interface ----------------------------------------------------------
 
+#' @exportS3Method
 lib_outputs.refined_library <- function(library, rows = NULL) {
   rows <- lib_check_rows(library, rows)
   n0 <- lib_n_runs(library$base)
@@ -67,6 +68,7 @@ lib_outputs.refined_library <- function(library, rows = NULL) {
 # C of the base runs, then of the added ones, with the added runs' extra
 # log-determinant (see emulated_quad_forms()) as attribute "extra_logdet",
 # which misfit_table() folds into C.
+#' @exportS3Method
 lib_quad_forms.refined_library <- function(library, y_field, setup) {
   base <- lib_quad_forms(library$base, y_field, setup)
   added <- added_quad_forms(library, seq_len(nrow(library$added$y)), y_field, setup)
@@ -96,6 +98,7 @@ added_quad_forms <- function(library, which, y_field, setup) {
   structure(C, extra_logdet = extra)
 }
 
+#' @exportS3Method
 lib_check_integrity.refined_library <- function(library) {
   lib_check_integrity(library$base)
   n_added <- nrow(library$added$y)
@@ -118,10 +121,12 @@ lib_check_integrity.refined_library <- function(library) {
 # weighted.
 lib_log_prior <- function(library) UseMethod("lib_log_prior")
 
+#' @exportS3Method
 lib_log_prior.default <- function(library) {
   rep(-log(lib_n_runs(library)), lib_n_runs(library))
 }
 
+#' @exportS3Method
 lib_log_prior.refined_library <- function(library) {
   w <- -log(design_density(library, library$theta))
   w - log_sum_exp(w)

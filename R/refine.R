@@ -169,7 +169,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     box <- refine_box(state)
     theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
     if (is.null(simulator)) {
-      if (is.null(emulator) || !box_inside(box, emulator$region)) {
+      if (is.null(emulator) || !box_inside(box, emulator$refine_region)) {
         emulator <- round_emulator(state, box)
       }
       batch <- emulated_batch(emulator, theta_new, state)
@@ -230,9 +230,11 @@ refine_box <- function(state) {
   rbind(pmax(lower - margin, range0[1, ]), pmin(upper + margin, range0[2, ]))
 }
 
-# The spread, per parameter, of the 2p runs nearest run `centre` (distances
-# on columns scaled by the library's range): one step of a grid, the typical
-# gap of a scattered design.
+# The library's spacing around run `centre`, per parameter: the spread of
+# the 2p runs nearest it (distances on columns scaled by the library's
+# range), the typical gap of a scattered design; and at least the gap to the
+# next distinct value of the column on either side, one step of a grid even
+# when the nearest runs all lie along other axes.
 local_spacing <- function(theta, centre, range0) {
   width <- range0[2, ] - range0[1, ]
   varies <- width > 0
@@ -242,6 +244,10 @@ local_spacing <- function(theta, centre, range0) {
   spacing <- numeric(ncol(theta))
   spacing[varies] <- apply(abs(sweep(theta[near, varies, drop = FALSE], 2,
                                      theta[centre, varies], "-")), 2, max)
+  for (j in which(varies)) {
+    gaps <- abs(unique(theta[, j]) - theta[centre, j])
+    spacing[j] <- max(spacing[j], min(gaps[gaps > 1e-9 * width[j]]))
+  }
   spacing
 }
 
@@ -354,7 +360,7 @@ round_emulator <- function(state, box) {
   pad <- (box[2, ] - box[1, ]) / 2
   region <- rbind(pmax(box[1, ] - pad, range0[1, ]), pmin(box[2, ] + pad, range0[2, ]))
   emulator <- library_emulator(source, region = as.data.frame(region))
-  emulator$region <- region
+  emulator$refine_region <- region
   emulator$loo <- emulator_loo(emulator)$residuals
   emulator
 }

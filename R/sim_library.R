@@ -75,6 +75,7 @@ print.sim_library <- function(x, ...) {
 
 # ---- the library interface, in memory (see library_interface.R) -----------
 
+#' @exportS3Method
 lib_outputs.sim_library <- function(library, rows = NULL) {
   if (is.null(rows)) return(library$y)
   library$y[lib_check_rows(library, rows), , drop = FALSE]
@@ -84,6 +85,7 @@ lib_outputs.sim_library <- function(library, rows = NULL) {
 # be for that, in the pass it makes anyway; when it fails because the library
 # was edited to hold NA or Inf, the cells are named here (any other failure,
 # an overflow, goes on to misfit_table()).
+#' @exportS3Method
 lib_quad_forms.sim_library <- function(library, y_field, setup) {
   withCallingHandlers(quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi),
                       error = function(e) {
@@ -94,6 +96,7 @@ lib_quad_forms.sim_library <- function(library, y_field, setup) {
   })
 }
 
+#' @exportS3Method
 lib_check_integrity.sim_library <- function(library) {
   y <- library$y
   theta <- library$theta

@@ -8,7 +8,9 @@ test_that("a planted localised discrepancy is found, and only there", {
   hit <- wh$x == 2 & wh$from <= 0.5 & wh$to >= 0.45
   expect_true(all(wh$flagged[hit]))
   expect_false(any(wh$flagged[wh$x != 2]))
-  expect_gt(min(wh$score[hit]), 5)
+  # (4, not 5: the base model is refined to matched resolution, and a finer
+  # library absorbs a little more of the bump than the 21-run grid)
+  expect_gt(min(wh$score[hit]), 4)
 })
 
 test_that("without a gap no block is flagged and scores sit near 1", {

@@ -1,0 +1,85 @@
+# Matched resolution for diagnose_gap(). On a coarse library a truth between
+# runs leaves a misfit that no run removes; compared with that, a candidate
+# with one more dimension, or the smooth discrepancy "other", explains the
+# misfit and wins although there is no effect at all. So every model is
+# compared at a resolution where its own posterior is resolved: the base
+# library is refined by refine_rounds() without a simulator (runs predicted
+# from the library, their prediction error in the likelihood), and so are a
+# candidate's non-zero strength levels, over theta and strength; its zero
+# level is the refined base itself, so a candidate still nests the base
+# model exactly. A model that is already resolved is left as it is.
+
+# The refined base problem.
+matched_base <- function(fit, max_runs) {
+  if (max_runs == 0L) return(fit)
+  refine_rounds(fit, NULL, max_runs, matched_runs_per_round(fit$library))$problem
+}
+
+matched_runs_per_round <- function(library) {
+  default_runs_per_round(lib_theta(library))
+}
+
+# A candidate at matched resolution: its runs' theta (base columns plus
+# strength), outputs Y, quadratic forms C and log prior weights. Its prior
+# keeps the weight 1/S of each of its S strength levels: the zero level is
+# the refined base (so the candidate nests the base model exactly), and the
+# non-zero levels, together, are refined over theta and strength at once,
+# so that an effect whose strength lies between the levels is resolved too
+# (the prior over the non-zero part becomes uniform over the box of theta and
+# the non-zero strengths).
+matched_candidate <- function(cand, base_problem, max_runs) {
+  base_cols <- names(lib_theta(base_problem$library))
+  strength_cols <- setdiff(names(lib_theta(cand)), base_cols)
+  strength <- as.matrix(lib_theta(cand)[strength_cols])
+  n_levels <- max(strength_levels(strength))
+  if (max_runs == 0L) {
+    Y <- lib_outputs(cand)
+    return(list(theta = lib_theta(cand), Y = Y,
+                C = quad_forms_cpp(Y, base_problem$y_field, base_problem$setup$Rx_inv,
+                                   base_problem$setup$phi),
+                log_prior = candidate_log_prior(cand, base_cols)))
+  }
+  zero <- problem_part(base_problem)
+  zero$theta <- cbind(zero$theta, matrix(0, nrow(zero$theta), length(strength_cols),
+                                         dimnames = list(NULL, strength_cols)))
+  zero$log_prior <- zero$log_prior - log(n_levels)
+  on <- nonzero_part(cand, which(rowSums(abs(strength)) > 0), base_problem, max_runs)
+  on$theta <- on$theta[names(zero$theta)]
+  on$log_prior <- on$log_prior + log((n_levels - 1) / n_levels)
+  list(theta = rbind(zero$theta, on$theta), Y = rbind(zero$Y, on$Y), C = rbind(zero$C, on$C),
+       log_prior = c(zero$log_prior, on$log_prior))
+}
+
+problem_part <- function(problem) {
+  list(theta = lib_theta(problem$library), Y = lib_outputs(problem$library), C = problem$C,
+       log_prior = problem$log_prior_run)
+}
+
+# The non-zero strength runs of a candidate as one library over theta and
+# strength, refined like the base. Too few runs to emulate are left as they
+# are.
+nonzero_part <- function(cand, rows, base_problem, max_runs) {
+  theta <- lib_theta(cand)[rows, , drop = FALSE]
+  Y <- lib_outputs(cand, rows)
+  if (length(rows) < 2L * ncol(theta) + 2L) {
+    C <- quad_forms_cpp(Y, base_problem$y_field, base_problem$setup$Rx_inv,
+                        base_problem$setup$phi)
+    return(list(theta = theta, Y = Y, C = C, log_prior = rep(-log(length(rows)), length(rows))))
+  }
+  part <- suppressWarnings(sim_library(theta, Y, x = lib_x(cand), t = lib_t(cand)))
+  problem <- problem_from_parts(part, base_problem$y_field, base_problem$prior,
+                                lib_log_prior(part), base_problem$setup)
+  problem_part(refine_rounds(problem, NULL, max_runs, matched_runs_per_round(part))$problem)
+}
+
+# gap_terms() of a model at matched resolution: its table C is the plain
+# quadratic forms of Y unless some runs were predicted (their C holds the
+# prediction error), which the leave-out algebra then computes apart.
+matched_terms <- function(ctx, Y, log_prior, C) {
+  plain <- quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)
+  if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
+    gap_terms(ctx, Y, log_prior, Q = C)
+  } else {
+    gap_terms(ctx, Y, log_prior, Q = plain, C = C)
+  }
+}
