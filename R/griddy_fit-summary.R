@@ -95,7 +95,14 @@ fit_description <- function(fit) {
          " runs x ", nrow(fit$grid), " correlation grid point(s); ", length(fit$y_field),
          " data points; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",
-         format(sum(fit$runtime), digits = 3), " s")
+         format(sum(fit$runtime), digits = 3), " s", refinement_description(fit$refinement))
+}
+
+refinement_description <- function(refinement) {
+  if (is.null(refinement)) return("")
+  paste0("\nRefined: ", refinement$runs_added, " ", refinement$source, " run(s) added in ",
+         refinement$rounds, " round(s); stopped: ",
+         if (refinement$reason == "resolved") "resolved" else "max_runs reached")
 }
 
 #' @rdname summary.griddy_fit

@@ -32,6 +32,25 @@ new_refined_library <- function(base, theta, y, rounds, round_of, rel_var) {
   )
 }
 
+#' @export
+print.refined_library <- function(x, ...) {
+  n0 <- lib_n_runs(x$base)
+  sources <- vapply(x$rounds, `[[`, "", "source")
+  runs <- vapply(x$rounds, `[[`, numeric(1), "n")
+  cli::cat_line("<refined_library> ", lib_n_runs(x), " runs of ", ncol(x$theta),
+                " parameter(s): ", n0, " of the base library (", class(x$base)[1], ") + ",
+                lib_n_runs(x) - n0, " added in ", length(x$rounds), " round(s) (",
+                sum(runs[sources == "simulator"]), " simulated, ",
+                sum(runs[sources == "emulator"]), " predicted)")
+  ranges <- vapply(x$theta, function(v) {
+    paste0(format(min(v), digits = 4), " to ", format(max(v), digits = 4))
+  }, "")
+  cli::cat_line("  theta: ", paste0(names(ranges), " [", ranges, "]", collapse = ", "))
+  cli::cat_line("  outputs: ", lib_n_out(x), " per run; prior weights correct for the ",
+                "added runs' density (see ?refine)")
+  invisible(x)
+}
+
 # Add runs to a library (refined or not). `round` is list(lower, upper, n,
 # source, error), the round's box and error model (NULL for simulated runs).
 add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {

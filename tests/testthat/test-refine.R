@@ -126,3 +126,13 @@ test_that("refine() runs the simulator on the workers of a future plan, same res
   expect_identical(lib_theta(parallel$library), lib_theta(sequential$library))
   expect_equal(parallel$C, sequential$C)
 })
+
+test_that("a refined fit and its library print what was added", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 2000, seed = 1)
+  out <- paste(capture.output(print(refined)), collapse = "\n")
+  expect_match(out, "Refined: [0-9]+ simulator run\\(s\\) added in [0-9]+ round\\(s\\); stopped: resolved")
+  lib_out <- paste(capture.output(print(refined$library)), collapse = "\n")
+  expect_match(lib_out, "<refined_library> [0-9]+ runs of 1 parameter\\(s\\): 7 of the base library")
+  expect_match(lib_out, "simulated, 0 predicted")
+})
