@@ -41,8 +41,9 @@ grid_keys <- function(index, sizes) {
 }
 
 # Reads the runs of the cells that touch the region, with the 2 nodes on each
-# side that the interpolation stencils (and 3 that leave-one-out stencils)
-# reach: a sub-grid, whose outputs are stored in its own key order.
+# side that the leave-one-out stencils of their nodes reach (interpolation
+# stencils reach 1): a sub-grid, whose outputs are stored in its own key
+# order.
 grid_emulator <- function(library, base, grid) {
   box <- base$region$theta
   cells <- lapply(seq_along(grid$axes), function(j) {
@@ -53,7 +54,7 @@ grid_emulator <- function(library, base, grid) {
     c(first, last + 1L)  # the first and last nodes of the touching cells
   })
   keep <- lapply(seq_along(cells), function(j) {
-    max(1L, cells[[j]][1] - 2L):min(grid$sizes[j], cells[[j]][2] + 3L)
+    max(1L, cells[[j]][1] - 2L):min(grid$sizes[j], cells[[j]][2] + 2L)
   })
   rows <- grid$row_of_key[grid_keys(keep, grid$sizes)]
   em <- c(base, list(axes = grid$axes, keep = keep,
@@ -112,10 +113,14 @@ axis_stencil <- function(x, v) {
 }
 
 # The leave-one-out stencil of node i of an axis of n nodes: the 2 nodes on
-# each side, not i (an axis of one node keeps it: nothing to leave out).
+# each side, not i; at an end of the axis the 3 nearest, so that the end is
+# extrapolated by a quadratic as the interpolation's end cells are (an axis
+# of one node keeps it: nothing to leave out).
 axis_loo_stencil <- function(n, i) {
   if (n == 1L) return(matrix(1L, length(i), 1L))
   index <- cbind(i - 2L, i - 1L, i + 1L, i + 2L)
+  index[i == 1L, 1L] <- 4L
+  index[i == n, 4L] <- n - 3L
   index[index < 1L | index > n] <- NA
   index
 }

@@ -72,21 +72,30 @@ library_emulator <- function(library, region = NULL,
 # relative to the largest it can be in the region, in [0, 1], 0 at a run).
 emulator_predict <- function(emulator, theta_new) {
   pts <- emulator_points(emulator, theta_new)
-  switch(emulator$method,
+  out <- switch(emulator$method,
     grid = grid_predict(emulator, pts),
     gp = gp_predict(emulator, pts),
     local = local_predict(emulator, pts)
   )
+  dimnames(out$outputs) <- output_dimnames(emulator)
+  out
 }
 
 # The emulator's errors on its own runs: list(rows = library rows, residuals =
 # length(rows) x n_out matrix of output - prediction without that run).
 emulator_loo <- function(emulator) {
-  switch(emulator$method,
+  out <- switch(emulator$method,
     grid = grid_loo(emulator),
     gp = gp_loo(emulator),
     local = local_loo(emulator)
   )
+  dimnames(out$residuals) <- output_dimnames(emulator)
+  out
+}
+
+# Results carry the outputs' names, if the library has them, and no run names.
+output_dimnames <- function(emulator) {
+  if (!is.null(colnames(emulator$y))) list(NULL, colnames(emulator$y))
 }
 
 # ---- region and points -------------------------------------------------------
