@@ -1,0 +1,105 @@
+# The "gp" library emulator (see library_emulator.R): a parallel partial
+# Gaussian process (RobustGaSP::ppgasp(), Gu & Berger 2016) from theta to all
+# outputs at once, one set of range parameters shared by the outputs and a
+# variance and mean for each. Fitted on at most `max_runs` runs nearest to the
+# region (its cost grows with the cube of the runs), inputs scaled to [0, 1]
+# over those runs. Outputs constant over them are not modelled but returned
+# as they are (ppgasp refuses them).
+
+gp_emulator <- function(library, base, theta, max_runs) {
+  require_package("RobustGaSP", "for the \"gp\" library emulator")
+  u_all <- scale_theta(theta, base)
+  rows <- runs_for_region(u_all, base$region$u, max_runs)
+  u <- u_all[rows, , drop = FALSE]
+  y <- lib_outputs(library, rows)
+  # a parameter constant over the runs used carries no information to them
+  x_lower <- apply(u, 2, min)
+  x_span <- apply(u, 2, max) - x_lower
+  inputs <- which(x_span > 0)
+  if (length(rows) < length(inputs) + 3L) {
+    griddy_abort("The \"gp\" emulator needs at least ", length(inputs) + 3L, " runs; the ",
+                 "region has ", length(rows), ". Use a larger region or `max_runs`.",
+                 class = "input")
+  }
+  vary <- apply(y, 2, function(v) max(v) - min(v) > 1e-12 * max(abs(v)))
+  em <- c(base, list(rows = rows, u = u, y = y, x_lower = x_lower[inputs],
+                     x_span = x_span[inputs], inputs = inputs, vary = vary))
+  em$fit <- if (any(vary)) gp_fit(gp_inputs(em, u), y[, vary, drop = FALSE])
+  em$var_max <- gp_max_variance(em)
+  em$d_nn <- median_nn_distance(u)
+  em
+}
+
+# ppgasp without a nugget (the runs are deterministic), and with an estimated
+# one when the correlation matrix of close runs is too ill-conditioned to fit.
+gp_fit <- function(x, y) {
+  fit <- function(nugget_est) {
+    tryCatch({
+      out <- NULL
+      utils::capture.output(out <- RobustGaSP::ppgasp(design = x, response = y,
+                                                       nugget.est = nugget_est))
+      if (all(is.finite(out@beta_hat)) && all(is.finite(out@sigma2_hat))) out
+    }, error = function(e) NULL)
+  }
+  out <- fit(FALSE)
+  if (is.null(out)) out <- fit(TRUE)
+  if (is.null(out)) {
+    griddy_abort("RobustGaSP::ppgasp() failed to fit the \"gp\" emulator on ", nrow(x),
+                 " runs, with and without a nugget; try method = \"local\".",
+                 class = "numeric")
+  }
+  out
+}
+
+# Scaled theta (library ranges) to the GP's [0, 1] inputs.
+gp_inputs <- function(emulator, u) {
+  u <- u[, emulator$inputs, drop = FALSE]
+  (u - rep(emulator$x_lower, each = nrow(u))) / rep(emulator$x_span, each = nrow(u))
+}
+
+# Mean and predictive variance at scaled points u: list(mean = m x n_out,
+# var = the predictive variance relative to an output's estimated variance,
+# the same for every output since they share the correlation).
+gp_mean_var <- function(emulator, u) {
+  out <- matrix(emulator$y[1, ], nrow(u), emulator$n_out, byrow = TRUE)
+  if (is.null(emulator$fit)) return(list(mean = out, var = rep(0, nrow(u))))
+  pred <- RobustGaSP::predict.ppgasp(emulator$fit, gp_inputs(emulator, u))
+  out[, emulator$vary] <- pred$mean
+  list(mean = out, var = pred$sd[, 1]^2 / emulator$fit@sigma2_hat[1])
+}
+
+# The largest predictive variance in the region, the scale of rel_var:
+# probed at a Halton set, the corners and the centre of the region.
+gp_max_variance <- function(emulator) {
+  box <- emulator$region$u
+  probes <- rbind(halton_in_box(512L, box), box_corners(box))
+  max(gp_mean_var(emulator, probes)$var)
+}
+
+gp_predict <- function(emulator, pts) {
+  pred <- gp_mean_var(emulator, pts$u)
+  rel_var <- if (emulator$var_max > 0) pmin(1, pred$var / emulator$var_max) else
+    rep(0, nrow(pts$u))
+  # at a run, the run itself (ppgasp reproduces it to rounding; with a nugget, not)
+  near <- nearest_runs(pts$u, emulator$u, 1L)
+  at_run <- near$dist[, 1] == 0
+  pred$mean[at_run, ] <- emulator$y[near$idx[at_run, 1], ]
+  rel_var[at_run] <- 0
+  list(outputs = pred$mean, rel_var = rel_var)
+}
+
+# Leave-one-out residuals in closed form for the fitted range parameters,
+# the trend re-estimated without the run (Dubrule 1983): with R the runs'
+# correlation and H the trend basis,
+#   Q = R^-1 - R^-1 H (H' R^-1 H)^-1 H' R^-1,  residual_i = (Q y)_i / Q_ii.
+gp_loo <- function(emulator) {
+  res <- matrix(0, length(emulator$rows), emulator$n_out)
+  fit <- emulator$fit
+  if (!is.null(fit)) {
+    r_inv <- chol2inv(t(fit@L))
+    r_inv_h <- r_inv %*% fit@X
+    q <- r_inv - r_inv_h %*% solve(crossprod(fit@X, r_inv_h), t(r_inv_h))
+    res[, emulator$vary] <- (q %*% fit@output) / diag(q)
+  }
+  list(rows = emulator$rows, residuals = res)
+}
