@@ -136,3 +136,48 @@ test_that("a refined fit and its library print what was added", {
   expect_match(lib_out, "<refined_library> [0-9]+ runs of 1 parameter\\(s\\): 7 of the base library")
   expect_match(lib_out, "simulated, 0 predicted")
 })
+
+test_that("refine() without a simulator predicts runs and resolves the posterior", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, max_runs = 2000, seed = 1)
+  expect_identical(refined$refinement$source, "emulator")
+  expect_identical(refined$refinement$reason, "resolved")
+  lib <- refined$library
+  expect_true(all(lib$added$rel_var >= 0 & lib$added$rel_var <= 1))
+  expect_false(is.null(lib$rounds[[1]]$error))
+  tab <- resolution_limited(refined)
+  reference <- refine_toy_reference(toy)
+  expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
+  # the prediction error widens, never narrows, the interval the data allow
+  expect_gt(tab$upper - tab$lower, 0.9 * diff(reference))
+  expect_lt(tab$upper - tab$lower, 3 * diff(reference))
+})
+
+test_that("the prediction error in the likelihood is the Woodbury form of the full covariance", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, max_runs = 300, runs_per_round = 100, seed = 2)
+  lib <- refined$library
+  err <- lib$rounds[[1]]$error
+  i <- which(lib$added$round == 1)[1:3]
+  y <- toy$fit$y_field
+  setup <- toy$fit$setup
+  got <- emulated_quad_forms(lib$added$y[i, , drop = FALSE], y, setup, err, lib$added$rel_var[i],
+                             1L, length(y))
+  for (j in seq_along(i)) {
+    V <- lib$added$rel_var[i[j]] * err$U %*% diag(err$lambda, length(err$lambda)) %*% t(err$U)
+    S <- diag(length(y)) + V / err$noise_var
+    r <- y - lib$added$y[i[j], ]
+    expect_equal(got$C[j, 1], drop(t(r) %*% solve(S, r)), tolerance = 1e-8)
+    expect_equal(got$logdet[j, 1], as.numeric(determinant(S)$modulus), tolerance = 1e-8)
+  }
+})
+
+test_that("the folded misfit gives the exact Gamma-normal likelihood of the extra covariance", {
+  prior <- list(shape = 2, rate = 0.5)
+  C <- matrix(c(3, 7), 2, 1)
+  extra <- matrix(c(0.4, 0), 2, 1)
+  folded <- fold_extra_logdet(structure(C, extra_logdet = extra), prior, 10)
+  direct <- -(prior$shape + 5) * log(prior$rate + C / 2) - extra / 2
+  via_fold <- -(prior$shape + 5) * log(prior$rate + folded / 2)
+  expect_equal(via_fold, direct)
+})
