@@ -5,15 +5,23 @@
 # inst/extdata/gap_validation_trials.csv.gz and gap_validation_examples.rds.
 #
 # Run from the package root:  Rscript data-raw/gap-validation.R  (single core,
-# about 15-20 minutes). GAP_TRIALS_TYRE / GAP_TRIALS_PISTON set the trials
-# per scenario (default 25 and 40).
+# about 15-20 minutes before diagnose_gap() compared models at matched
+# resolution; longer now). GAP_TRIALS_TYRE / GAP_TRIALS_PISTON set the trials
+# per scenario (default 25 and 40). For a subset: GAP_SCENARIOS, a
+# comma-separated list of scenario ids' first words (e.g. "T0b,P0b"), with
+# the trials written to GAP_OUT (a .csv.gz file) instead of inst/extdata;
+# GAP_MAX_RUNS is diagnose_gap()'s max_runs (0: the libraries as they are).
 
-devtools::load_all(".", quiet = TRUE)
+pkgload::load_all(".", quiet = TRUE)
 library(data.table)
 
 n_trials_tyre <- as.integer(Sys.getenv("GAP_TRIALS_TYRE", "25"))
 n_trials_piston <- as.integer(Sys.getenv("GAP_TRIALS_PISTON", "40"))
 started <- proc.time()[["elapsed"]]
+only <- strsplit(Sys.getenv("GAP_SCENARIOS", ""), ",")[[1]]
+subset_out <- Sys.getenv("GAP_OUT", "")
+max_runs <- as.integer(Sys.getenv("GAP_MAX_RUNS", "2000"))
+wanted <- function(sc) length(only) == 0L || sub(" .*", "", sc$id) %in% only
 
 # ---- tyre ---------------------------------------------------------------------
 rig <- tyre_rig(n_samples = 100)                    # first 100 ms: cleat and wheel hop
@@ -125,7 +133,7 @@ tyre_trial <- function(design, scenario, truth, offered, seed, off_grid = FALSE,
   field <- field_data(matrix(y, nrow(design$x), byrow = TRUE), x = design$x, t = design$t)
   fit <- suppressWarnings(calibrate(design$base, field, rho_t = rho_t, n_iter = 200,
                                     burn_in = 50, seed = 1))
-  gap <- diagnose_gap(fit, design$candidates[offered])
+  gap <- diagnose_gap(fit, design$candidates[offered], max_runs = max_runs, seed = seed)
   list(gap = gap, row = trial_row(gap, "tyre", scenario, truth, strength, offered, seed,
                                   bump_block, bump_t = 0.055))
 }
@@ -168,6 +176,8 @@ tyre_scenarios <- list(
   list(id = "T0b null, theta off the library grid", truth = "none", offered = all_tyre,
        off_grid = TRUE),
   list(id = "T1 quadratic stiffness", truth = "quadratic", offered = all_tyre),
+  list(id = "T1b quadratic stiffness, theta off the library grid", truth = "quadratic",
+       offered = all_tyre, off_grid = TRUE),
   list(id = "T2 rigid-disc contact", truth = "disc", offered = all_tyre),
   list(id = "T3 quadratic stiffness withheld", truth = "quadratic",
        offered = setdiff(all_tyre, "quadratic")),
@@ -186,7 +196,7 @@ tyre_scenarios <- list(
 designs <- list()
 rows <- list()
 examples <- list()
-for (sc in tyre_scenarios) {
+for (sc in Filter(wanted, tyre_scenarios)) {
   conditions <- tyre_conditions(if (is.null(sc$speeds)) 20 else sc$speeds,
                                 if (is.null(sc$cambers)) camber_meas else sc$cambers)
   key <- paste(c(conditions$speed, conditions$camber), collapse = "-")
@@ -230,32 +240,40 @@ p_cands <- lapply(stats::setNames(names(p_grids), names(p_grids)), function(e) {
               x = p_x)
 })
 
-piston_trial <- function(scenario, truth, offered, seed) {
+# Off the grid: each HTC moved by up to half a (log) step of the library.
+piston_trial <- function(scenario, truth, offered, seed, off_grid = FALSE) {
   set.seed(seed)
   node <- sample(which(Reduce(`&`, Map(function(v, h) v > 0.55 * h & v < 1.8 * h, p_theta,
                                        truth_htc))), 1)
+  theta <- p_theta[node, ]
+  if (off_grid) theta <- theta * exp(stats::runif(3, -1, 1) * log(4) / 16)
   strength <- if (truth == "none") 0 else stats::runif(1, p_truth_range[[truth]][1],
                                                        p_truth_range[[truth]][2])
-  clean <- drop(p_runs(p_theta[node, ], truth, strength))
+  clean <- drop(p_runs(theta, truth, strength))
   field <- field_data(clean + stats::rnorm(27, sd = sqrt(0.4)), x = p_x)
   fit <- suppressWarnings(calibrate(p_base, field, n_iter = 200, burn_in = 50, seed = 1))
-  gap <- diagnose_gap(fit, p_cands[offered])
+  gap <- diagnose_gap(fit, p_cands[offered], max_runs = max_runs, seed = seed)
   list(gap = gap, row = trial_row(gap, "piston", scenario, truth, strength, offered, seed,
                                   NA_integer_))
 }
 
 piston_scenarios <- list(
   list(id = "P0 null", truth = "none", offered = names(p_grids)),
+  list(id = "P0b null, theta off the library grid", truth = "none", offered = names(p_grids),
+       off_grid = TRUE),
   list(id = "P1 graded gallery HTC", truth = "gradient", offered = names(p_grids)),
+  list(id = "P1b graded gallery HTC, theta off the library grid", truth = "gradient",
+       offered = names(p_grids), off_grid = TRUE),
   list(id = "P2 temperature-dependent conductivity", truth = "conductivity",
        offered = names(p_grids)),
   list(id = "P3 graded gallery HTC withheld", truth = "gradient", offered = "conductivity"),
   list(id = "P4 conductivity withheld", truth = "conductivity", offered = "gradient")
 )
-for (sc in piston_scenarios) {
+for (sc in Filter(wanted, piston_scenarios)) {
   cli::cli_inform("{sc$id}: {n_trials_piston} trials")
   for (i in seq_len(n_trials_piston)) {
-    res <- piston_trial(sc$id, sc$truth, sc$offered, seed = 2000 + i)
+    res <- piston_trial(sc$id, sc$truth, sc$offered, seed = 2000 + i,
+                        off_grid = isTRUE(sc$off_grid))
     rows[[length(rows) + 1L]] <- res$row
     if (i == 1L) {
       examples[[sc$id]] <- res$gap[c("where", "which", "shrinkage", "folds", "map", "verdict",
@@ -267,6 +285,12 @@ for (sc in piston_scenarios) {
 trials <- rbindlist(rows)
 runtime <- c(tyre = tyre_seconds, piston = proc.time()[["elapsed"]] - started - tyre_seconds)
 print(runtime)
+if (nzchar(subset_out)) {
+  trials[, max_runs := max_runs]
+  fwrite(trials, subset_out)
+  print(trials[, .(trials = .N, right = mean(answer == truth)), by = scenario])
+  quit(save = "no")
+}
 fwrite(trials, "inst/extdata/gap_validation_trials.csv.gz")
 saveRDS(list(examples = examples, runtime = runtime,
              n_trials = c(tyre = n_trials_tyre, piston = n_trials_piston),
