@@ -75,11 +75,33 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
 # gap_terms() of a model at matched resolution: its table C is the plain
 # quadratic forms of Y unless some runs were predicted (their C holds the
 # prediction error), which the leave-out algebra then computes apart.
-matched_terms <- function(ctx, Y, log_prior, C) {
+matched_terms <- function(ctx, Y, log_prior, C, library = NULL) {
   plain <- quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)
   if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
-    gap_terms(ctx, Y, log_prior, Q = C)
-  } else {
-    gap_terms(ctx, Y, log_prior, Q = plain, C = C)
+    return(gap_terms(ctx, Y, log_prior, Q = C))
   }
+  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C)
+  terms$emulation <- run_errors(library)
+  terms
+}
+
+# Which runs of a refined library were predicted, and the error model of
+# each (NULL for a plain library): gap_where() checks those runs under their
+# own covariance.
+run_errors <- function(library) {
+  if (!inherits(library, "refined_library")) return(NULL)
+  n0 <- lib_n_runs(library$base)
+  list(n_base = n0, round = library$added$round, kappa = library$added$rel_var,
+       errors = lapply(library$rounds, `[[`, "error"))
+}
+
+# The prediction error of run j as V (outputs x rank, S = R_g + V V'), or
+# NULL when the run was simulated.
+run_emulation <- function(emulation, j) {
+  if (is.null(emulation) || j <= emulation$n_base) return(NULL)
+  k <- j - emulation$n_base
+  err <- emulation$errors[[emulation$round[k]]]
+  if (is.null(err) || emulation$kappa[k] <= 0) return(NULL)
+  list(V = err$U %*% diag(sqrt(emulation$kappa[k] * err$lambda / err$noise_var),
+                          length(err$lambda)))
 }

@@ -26,23 +26,26 @@ gap_where <- function(ctx, tm, windows, fdr) {
     for (p in at) {
       j <- pairs[p, 1]
       Em <- matrix(tm$E[j, ], n_t, ctx$n_x)
-      H <- node$Pt %*% Em %*% node$Rx_inv
-      Q <- tm$Q[j, g]
+      err <- run_emulation(tm$emulation, j)
       for (i in seq_len(nb)) {
         W <- win[[blocks$w[i]]]
-        U <- chols[[i]]
-        z <- backsolve(U, H[W, blocks$x[i]], transpose = TRUE)
-        D <- sum(z^2)
+        bs <- if (is.null(err)) {
+          if (i == 1L) H <- node$Pt %*% Em %*% node$Rx_inv
+          plain_block(H[W, blocks$x[i]], chols[[i]], tm$Q[j, g])
+        } else {
+          if (i == 1L) wood <- emulated_inverse(node, Em, err, n_t, ctx$n_x)
+          emulated_block(wood, node, W, blocks$x[i], n_t)
+        }
         m <- length(W)
-        rest <- max(2 * b + Q - D, 1e-300)
+        rest <- max(2 * b + bs$Q - bs$D, 1e-300)
         nu <- 2 * a + n - m
-        f <- (D / m) / (rest / nu)
+        f <- (bs$D / m) / (rest / nu)
         stat[p, i] <- f
         pval[p, i] <- stats::pf(f, m, nu, lower.tail = FALSE)
         # log p(y_B | y_-B) = log p(y) - log p(y_-B) at this (run, grid point);
-        # |R_-B| = |R| |(R^-1)_BB|
-        lcond[p, i] <- collapsed_log_lik(Q, n, 0, ctx$prior) -
-          collapsed_log_lik(rest - 2 * b, n - m, 2 * sum(log(diag(U))), ctx$prior)
+        # |S_-B| = |S| |(S^-1)_BB|, with S the run's covariance relative to R_g
+        lcond[p, i] <- collapsed_log_lik(bs$Q, n, bs$logdet, ctx$prior) -
+          collapsed_log_lik(rest - 2 * b, n - m, bs$logdet + bs$logdet_BB, ctx$prior)
       }
     }
   }
@@ -58,6 +61,38 @@ gap_where <- function(ctx, tm, windows, fdr) {
                     score = score, p_value = p_value,
                     flagged = stats::p.adjust(p_value, "BH") <= fdr)
   list(blocks = out, map = gap_map(ctx, tm, w), breaks = win)
+}
+
+# The leave-block pieces of a run whose covariance is R_g: with h = R_g^-1 r
+# (its block `h_B`) and U'U = (R_g^-1)_BB, D = h_B' (R_g^-1)_BB^-1 h_B.
+plain_block <- function(h_B, U, Q) {
+  z <- backsolve(U, h_B, transpose = TRUE)
+  list(D = sum(z^2), Q = Q, logdet = 0, logdet_BB = 2 * sum(log(diag(U))))
+}
+
+# A predicted run's covariance S = R_g + V V' (V = U diag(sqrt(kappa lambda /
+# s2)), its prediction error; library_refined.R): S^-1 = P - PV K V'P with
+# P = R_g^-1 = R_x^-1 (x) P_t and K = (I + V'PV)^-1, h = S^-1 r, Q = r'S^-1 r
+# and log|S| - log|R_g| = log|I + V'PV|.
+emulated_inverse <- function(node, Em, err, n_t, n_x) {
+  apply_P <- function(v) as.vector(node$Pt %*% matrix(v, n_t, n_x) %*% node$Rx_inv)
+  PV <- apply(err$V, 2, apply_P)
+  inner <- diag(ncol(err$V)) + crossprod(err$V, PV)
+  K <- solve(inner)
+  Pr <- apply_P(as.vector(Em))
+  h <- Pr - drop(PV %*% (K %*% crossprod(PV, as.vector(Em))))
+  list(PV = PV, K = K, h = h, Q = sum(as.vector(Em) * h),
+       logdet = as.numeric(determinant(inner)$modulus))
+}
+
+# Its leave-block pieces: (S^-1)_BB = P_BB - (PV)_B K (PV)_B'.
+emulated_block <- function(wood, node, W, x, n_t) {
+  idx <- (x - 1L) * n_t + W
+  A <- wood$PV[idx, , drop = FALSE]
+  S_BB <- node$Rx_inv[x, x] * node$Pt[W, W, drop = FALSE] - A %*% wood$K %*% t(A)
+  U <- chol(S_BB)
+  z <- backsolve(U, wood$h[idx], transpose = TRUE)
+  list(D = sum(z^2), Q = wood$Q, logdet = wood$logdet, logdet_BB = 2 * sum(log(diag(U))))
 }
 
 # Indices of the largest weights holding `mass` of the total (at most `cap`).

@@ -162,7 +162,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
-                              matched$base$log_prior_run, matched$base$C)
+                              matched$base$log_prior_run, matched$base$C, matched$base$library)
   cand_terms <- lapply(matched$candidates, function(m) {
     matched_terms(ctx, m$Y, m$log_prior, m$C)
   })
