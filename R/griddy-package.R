@@ -12,3 +12,6 @@
 #' @importFrom RcppArmadillo armadillo_version
 #' @importFrom stats predict
 "_PACKAGE"
+
+# ggplot2's computed variable in after_stat(density) (plot.griddy_fit)
+utils::globalVariables("density")

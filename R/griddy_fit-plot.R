@@ -4,7 +4,7 @@
 #'   per chain.
 #' * `"posterior"`: the posterior of each \eqn{\theta} column as bars over the
 #'   library's distinct values (the thesis's figures), with the truth marked
-#'   when given.
+#'   when given; for a library from [refine()], a histogram of the draws.
 #' * `"ppc"`: posterior predictive check: the field data against the
 #'   simulator outputs at the drawn runs (mean and band) and the predictive
 #'   band with the fitted noise, per x setting.
@@ -47,6 +47,38 @@ plot_trace <- function(fit) {
 
 plot_posterior <- function(fit, truth) {
   theta <- lib_theta(fit$library)
+  p <- if (inherits(fit$library, "refined_library")) posterior_histogram(fit, theta) else
+    posterior_bars(fit, theta)
+  if (!is.null(truth)) {
+    truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
+    if (is.null(names(truth)) || !all(names(truth) %in% names(theta))) {
+      griddy_abort("`truth` must be named by theta columns (", show_some(names(theta)), ").")
+    }
+    marks <- data.frame(parameter = factor(names(truth), levels = names(theta)),
+                        value = unname(truth))
+    p <- p + ggplot2::geom_vline(data = marks, ggplot2::aes(xintercept = .data$value),
+                                 colour = "red", linewidth = 0.7)
+  }
+  p
+}
+
+# A refined library's runs are many and unevenly spread, each weighed by its
+# prior weight, so a bar per value says little: the draws' histogram is the
+# posterior density.
+posterior_histogram <- function(fit, theta) {
+  drawn <- do.call(rbind, lapply(names(theta), function(p) {
+    data.frame(parameter = factor(p, levels = names(theta)), value = theta[[p]][fit$draws$run])
+  }))
+  ggplot2::ggplot(drawn, ggplot2::aes(.data$value)) +
+    ggplot2::geom_histogram(ggplot2::aes(y = ggplot2::after_stat(density)), bins = 40,
+                            fill = "steelblue", colour = NA) +
+    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
+    ggplot2::labs(x = "Value", y = "Posterior density",
+                  title = "Posterior over the refined library") +
+    ggplot2::theme_bw()
+}
+
+posterior_bars <- function(fit, theta) {
   bars <- do.call(rbind, lapply(names(theta), function(p) {
     lib_values <- sort(unique(theta[[p]]))
     gaps <- diff(lib_values)
@@ -68,17 +100,6 @@ plot_posterior <- function(fit, truth) {
     ggplot2::labs(x = "Library value", y = "Posterior probability",
                   title = "Posterior over the library's values") +
     ggplot2::theme_bw()
-  if (!is.null(truth)) {
-    truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
-    if (is.null(names(truth)) || !all(names(truth) %in% names(theta))) {
-      griddy_abort("`truth` must be named by theta columns (", show_some(names(theta)), ").")
-    }
-    marks <- data.frame(parameter = factor(names(truth), levels = names(theta)),
-                        value = unname(truth))
-    p <- p + ggplot2::geom_vline(data = marks, ggplot2::aes(xintercept = .data$value),
-                                 colour = "red", linewidth = 0.7)
-  }
-  p
 }
 
 # The library's distinct values near the visited ones (two steps either side),

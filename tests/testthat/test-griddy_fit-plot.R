@@ -30,3 +30,12 @@ test_that("the ppc plot handles one output per setting", {
   expect_identical(pp$data$position, 1:4)
   expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
 })
+
+test_that("the posterior of a refined fit is a histogram of its draws", {
+  toy <- refine_toy()
+  refined <- refine(toy$fit, refine_sim, max_runs = 2000, seed = 1)
+  p <- plot(refined, "posterior", truth = c(k = toy$k))
+  expect_s3_class(p, "ggplot")
+  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomBar"), logical(1))))
+  expect_silent(ggplot2::ggplot_build(p))
+})
