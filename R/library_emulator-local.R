@@ -6,8 +6,10 @@
 # it returns the run itself.
 
 # The quadratic's coefficients in d parameters, and how many neighbours
-# fit it: twice as many, so a least-squares fit smooths rather than
-# interpolates the stencil (bench/emulator-accuracy.R compared 1.5, 2 and 3).
+# fit it: twice as many. On the Latin hypercubes of bench/emulator-accuracy.R
+# (projectile 343 runs, oscillator 625, piston 343), factors 2 and 3 gave the
+# smallest held-out errors, 1.5 up to twice as large, 1.2 (barely more runs
+# than coefficients) 10 to 50 times (see bench/results/emulator-accuracy.md).
 local_n_coef <- function(d, degree) {
   switch(degree + 1L, 1L, d + 1L, (d + 1L) * (d + 2L) %/% 2L)
 }

@@ -25,6 +25,7 @@
 #   per parameter (a data.frame or matrix, columns named as the library's or
 #   in its order); it is cut to the library's range. Predictions are asked
 #   inside it, and only runs in or near it are read.
+# max_runs: the most runs "gp" fits on (its cost grows with their cube).
 # Returns a list of class griddy_emulator: `method`, `names`, `lower` and
 # `range` (the scaling), `region` (see emulator_region()), `n_out`, `rows`
 # (the library rows read), `y` (their outputs), `d_nn` (median scaled
@@ -70,6 +71,9 @@ library_emulator <- function(library, region = NULL,
 # library's columns, by name when named), all inside the emulator's region:
 # list(outputs = n_new x n_out matrix, rel_var = the prediction's variance
 # relative to the largest it can be in the region, in [0, 1], 0 at a run).
+# rel_var is, for "gp", ppgasp's predictive variance over its largest at a
+# probe set of the region; for "grid" and "local" a distance measure (see
+# distance_rel_var()). At a run every method returns the run's outputs.
 emulator_predict <- function(emulator, theta_new) {
   pts <- emulator_points(emulator, theta_new)
   out <- switch(emulator$method,
@@ -83,6 +87,11 @@ emulator_predict <- function(emulator, theta_new) {
 
 # The emulator's errors on its own runs: list(rows = library rows, residuals =
 # length(rows) x n_out matrix of output - prediction without that run).
+# How they compare with the error between runs depends on the method
+# (bench/results/emulator-accuracy.md): "grid"'s, predicted across a double
+# gap, are 5-20 times larger; "local"'s and "gp"'s on scattered designs are
+# within a factor of about 4; "gp"'s on a grid are unreliable (its
+# correlation matrix is singular to working precision).
 emulator_loo <- function(emulator) {
   out <- switch(emulator$method,
     grid = grid_loo(emulator),

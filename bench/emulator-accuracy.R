@@ -15,8 +15,8 @@
 # error as the RMS over outputs of (RMSE of the output / its sd over the
 # held-out points), the same for the leave-one-out residuals
 # (emulator_loo()), and the seconds to build and to predict the 300 points.
-# "gp" fits on max_runs = 400 runs (the default) and, on the larger designs,
-# on all of them ("gp, all runs"). Then the refinement's case: a finer grid
+# "gp" fits on max_runs = 400 runs (the default) and, on the larger Latin
+# hypercubes, on all of them ("gp, all runs"; about 150 s a fit). Then the refinement's case: a finer grid
 # (21^3, 11^4) and an LHS as large, with the emulators built for a region
 # three grid cells wide and the held-out points drawn in it.
 #
@@ -125,7 +125,7 @@ one_case <- function(sim, design, theta, region = NULL) {
   y_test <- sim$f(test)
   sd_out <- apply(y_test, 2, sd)
   methods <- list(local = list(method = "local"), gp = list(method = "gp"))
-  if (nrow(theta) > 400 && is.null(region)) {
+  if (nrow(theta) > 400 && is.null(region) && !grepl("grid", design)) {
     methods[["gp, all runs"]] <- list(method = "gp", max_runs = nrow(theta))
   }
   if (grepl("grid", design)) methods <- c(list(grid = list(method = "grid")), methods)
