@@ -144,8 +144,28 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call)
   }
   out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
   out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history")]
-  if (rounds$reason != "resolved") warn_resolution(out)
+  if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
   out
+}
+
+# refine() ran out of runs: say which parameters are not resolved and why.
+warn_unresolved <- function(state, rounds) {
+  tab <- state$table
+  previous <- rounds$history[[max(1L, length(rounds$history) - 1L)]]
+  cut <- colSums(truncated_sides(state)) > 0
+  moved <- pmax(abs(tab$lower - previous$lower), abs(tab$upper - previous$upper)) >
+    interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
+  why <- ifelse(tab$limited & tab$library_values > 1L,
+                paste0(format(tab$effective_values, digits = 2), " effective values"),
+         ifelse(cut, "its interval reaches the edge of the refined region",
+         ifelse(moved, "its interval still moved in the last round", NA)))
+  bad <- !is.na(why)
+  griddy_warn("refine() stopped after ", rounds$runs_added, " runs (`max_runs`) before the ",
+              "posterior was resolved, so its intervals show the library's resolution and ",
+              "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
+                                             collapse = ", "),
+              ". Call refine() on the result again, with more `max_runs`.",
+              class = "resolution")
 }
 
 # Add runs to a problem (a fit is one) round by round until its posterior is
@@ -160,7 +180,8 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
   emulator <- NULL
   added <- 0L
   reason <- "resolved"
-  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]])) {
+  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]]) ||
+         any(truncated_sides(state))) {
     if (added >= max_runs) {
       reason <- "max_runs"
       break
@@ -227,7 +248,39 @@ refine_box <- function(state) {
   lower <- apply(theta[mass, , drop = FALSE], 2, min)
   upper <- apply(theta[mass, , drop = FALSE], 2, max)
   margin <- pmax(local_spacing(theta, ord[1], range0), box_margin * (upper - lower))
+  # a posterior cut off by the last round's box reaches for a whole box
+  # width beyond it, so a box that missed the truth finds it in a few rounds
+  cut <- truncated_sides(state)
+  if (any(cut)) {
+    last <- last_box(library)
+    width <- last[2, ] - last[1, ]
+    lower[cut[1, ]] <- pmin(lower, last[1, ] - width)[cut[1, ]]
+    upper[cut[2, ]] <- pmax(upper, last[2, ] + width)[cut[2, ]]
+  }
   rbind(pmax(lower - margin, range0[1, ]), pmin(upper + margin, range0[2, ]))
+}
+
+# Sides (rows lower, upper; one column per parameter) on which the
+# posterior's 95% interval reaches the outer tenth of the last round's box
+# while the box stops short of the library's range: there the dense runs
+# end, and the posterior is cut off by them rather than by the data.
+truncated_sides <- function(state) {
+  library <- state$problem$library
+  p <- ncol(lib_theta(library))
+  last <- last_box(library)
+  if (is.null(last)) return(matrix(FALSE, 2, p))
+  range0 <- library_box(library$base)
+  band <- edge_band * (last[2, ] - last[1, ])
+  tab <- state$table
+  rbind(tab$lower <= last[1, ] + band & last[1, ] > range0[1, ] & band > 0,
+        tab$upper >= last[2, ] - band & last[2, ] < range0[2, ] & band > 0)
+}
+
+edge_band <- 0.1
+
+last_box <- function(library) {
+  if (!inherits(library, "refined_library") || length(library$rounds) == 0L) return(NULL)
+  library$rounds[[length(library$rounds)]]$box
 }
 
 # The library's spacing around run `centre`, per parameter: the spread of
