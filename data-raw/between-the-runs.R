@@ -25,7 +25,8 @@
 # the grid's border, which must be negligible.
 #
 # Run from the package root, with griddy installed:
-#   Rscript data-raw/between-the-runs.R
+#   Rscript data-raw/between-the-runs.R   (single core, about 11 minutes on a shared
+#   2-core machine; the run time is stored in the .rds)
 # BTR_TRIALS sets the number of trials (default 500). Writes
 # inst/extdata/between_the_runs.rds.
 
