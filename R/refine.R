@@ -201,6 +201,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     round <- list(box = box, n = n_new, source = source, error = batch$error)
     state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
                                          batch$rel_var))
+    if (is.null(simulator)) state <- restate_noise_var(state)
     added <- added + n_new
     history[[length(history) + 1L]] <- state$table
   }
@@ -231,9 +232,12 @@ is_resolved <- function(table, previous) {
 
 # ---- where the new runs go -------------------------------------------------------
 
-# The box of the runs holding 99.9% of the posterior, widened on each side by
+# The box of the marginal posteriors' central 99%, widened on each side by
 # the local spacing around the most probable run or a quarter of its width,
-# whichever is larger, inside the base library's range. A box only as wide
+# whichever is larger, inside the base library's range. (Central quantiles,
+# not the runs holding 99.9% of the mass: with few data the posterior's
+# tails are long, and a box around all of them spreads each round's runs
+# over the whole range. The tails keep the runs of earlier rounds.) A box only as wide
 # as the posterior's runs would cut off what the last round's runs could not
 # reach, and keep cutting it off; widening by a share of the width lets a
 # truncated posterior grow its box by half each round until it is whole.
@@ -243,11 +247,10 @@ refine_box <- function(state) {
   library <- state$problem$library
   theta <- as.matrix(lib_theta(library))
   range0 <- library_box(if (inherits(library, "refined_library")) library$base else library)
-  ord <- order(state$p, decreasing = TRUE)
-  mass <- ord[seq_len(min(which(cumsum(state$p[ord]) >= 0.999)[1], length(ord)))]
-  lower <- apply(theta[mass, , drop = FALSE], 2, min)
-  upper <- apply(theta[mass, , drop = FALSE], 2, max)
-  margin <- pmax(local_spacing(theta, ord[1], range0), box_margin * (upper - lower))
+  bounds <- apply(theta, 2, weighted_quantile, w = state$p, probs = c(0.005, 0.995))
+  lower <- bounds[1, ]
+  upper <- bounds[2, ]
+  margin <- pmax(local_spacing(theta, which.max(state$p), range0), box_margin * (upper - lower))
   # a posterior cut off by the last round's box reaches for a whole box
   # width beyond it, so a box that missed the truth finds it in a few rounds
   cut <- truncated_sides(state)
@@ -439,9 +442,36 @@ emulated_batch <- function(emulator, theta_new, state) {
        error = emulation_error_model(emulator$loo, posterior_noise_var(state)))
 }
 
+# Every round's prediction error on the scale of the current posterior's
+# noise variance, and the posterior again. The scale is a plug-in; the first
+# rounds' posteriors, still on a coarse library, overstate the noise by the
+# library's misfit, which would understate the prediction error relative to
+# it; so each round puts all rounds on the newest estimate, a few times, to
+# a fixed point.
+restate_noise_var <- function(state, times = 3L) {
+  for (i in seq_len(times)) {
+    problem <- state$problem
+    library <- problem$library
+    s2 <- posterior_noise_var(state)
+    emulated <- which(vapply(library$rounds, function(r) !is.null(r$error), logical(1)))
+    if (length(emulated) == 0L) return(state)
+    old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, numeric(1))
+    if (all(abs(old - s2) <= 0.01 * s2)) return(state)
+    for (r in emulated) library$rounds[[r]]$error$noise_var <- s2
+    which <- which(library$added$round %in% emulated)
+    rows <- lib_n_runs(library$base) + which
+    problem$C[rows, ] <- fold_extra_logdet(
+      added_quad_forms(library, which, problem$y_field, problem$setup),
+      problem$prior, problem$n_obs)
+    problem$library <- library
+    state <- refine_state(problem)
+  }
+  state
+}
+
 # The posterior mean of 1/tau: (b + C/2) / (a + n/2 - 1) averaged over the
 # exact posterior over (run, grid point).
 posterior_noise_var <- function(state) {
   pr <- state$problem
-  sum(state$joint * (pr$prior$rate + pr$C / 2)) / (pr$prior$shape + pr$n_obs / 2 - 1)
+  sum(state$joint * (pr$prior$rate + pr$C / 2)) / max(pr$prior$shape + pr$n_obs / 2 - 1, 0.5)
 }
