@@ -24,8 +24,11 @@
 #
 # Run from the package root with the worktree's griddy installed:
 #   R_LIBS=<lib> Rscript data-raw/ch3-refine.R
-# 7 minutes here (2 shared cores, load about 1.5); most of it building the
-# 14 libraries (as in data-raw/ch3.R) and the continuous reference.
+# 9 minutes here (5 minutes of CPU; 2 cores shared with other jobs, load
+# about 4), 12 minutes at load 5-6; a third of it building the 14 libraries
+# (as in data-raw/ch3.R), 2.5 minutes the continuous reference, the rest the
+# 168 fits (refine() with the simulator takes 1-7 s a fit).
+# inst/extdata/ch3_refine_session.txt records the run.
 library(griddy)
 library(data.table)
 
