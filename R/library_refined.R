@@ -189,11 +189,11 @@ in_box <- function(theta, box) {
 # x outputs): the leading principal directions of their second moment (not
 # centred: a shared bias is error too), as many as hold 99% of it, at most
 # `max_rank`; `noise_var` is the round's plug-in noise variance.
-emulation_error_model <- function(E, noise_var, max_rank = 10L) {
+emulation_error_model <- function(E, noise_var, max_rank = 50L) {
   if (nrow(E) == 0L || all(E == 0)) return(NULL)
   s <- svd(E / sqrt(nrow(E)), nu = 0L)
   energy <- cumsum(s$d^2) / sum(s$d^2)
-  m <- min(which(energy >= 0.99)[1], max_rank, length(s$d))
+  m <- min(which(energy >= 0.9999)[1], max_rank, length(s$d))
   list(U = s$v[, seq_len(m), drop = FALSE], lambda = s$d[seq_len(m)]^2,
        noise_var = noise_var)
 }
