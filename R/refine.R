@@ -136,7 +136,8 @@ default_runs_per_round <- function(theta) {
 # The rounds, then one calibration of the refined library with the fit's
 # settings.
 refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call) {
-  rounds <- refine_rounds(fit, simulator, max_runs, runs_per_round, progress)
+  rounds <- refine_rounds(fit, simulator, max_runs, runs_per_round, progress,
+                          previous = unfinished_round(fit))
   if (rounds$runs_added == 0L) {
     cli::cli_inform(c(i = "The posterior is already resolved: nothing to refine."),
                     class = "griddy_message_resolved")
@@ -168,19 +169,30 @@ warn_unresolved <- function(state, rounds) {
               class = "resolution")
 }
 
+# A fit from a refine() that ran out of runs carries on where it stopped: its
+# last round is compared with the round before, as if the rounds had not
+# been interrupted.
+unfinished_round <- function(fit) {
+  r <- fit$refinement
+  if (is.null(r) || r$reason == "resolved") return(NULL)
+  r$history[[max(1L, length(r$history) - 1L)]]
+}
+
 # Add runs to a problem (a fit is one) round by round until its posterior is
 # resolved or `max_runs` are spent; with `simulator = NULL` the runs are
 # predicted from the library. Returns the refined problem, the runs added,
 # the number of rounds, why it stopped and the resolution table after each
 # round (the first is the problem's own).
-refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE) {
+refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
+                          previous = NULL) {
   state <- refine_state(problem)
   history <- list(state$table)
   source <- if (is.null(simulator)) "emulator" else "simulator"
   emulator <- NULL
   added <- 0L
   reason <- "resolved"
-  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]]) ||
+  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]] else
+                      previous) ||
          any(truncated_sides(state))) {
     if (added >= max_runs) {
       reason <- "max_runs"

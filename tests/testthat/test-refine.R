@@ -181,3 +181,14 @@ test_that("the folded misfit gives the exact Gamma-normal likelihood of the extr
   via_fold <- -(prior$shape + 5) * log(prior$rate + folded / 2)
   expect_equal(via_fold, direct)
 })
+
+test_that("refine() of a fit that ran out of runs carries on where it stopped", {
+  toy <- refine_toy()
+  expect_warning(
+    short <- refine(toy$fit, refine_sim, max_runs = 25, runs_per_round = 25, seed = 1),
+    class = "griddy_warning_resolution")
+  expect_identical(short$refinement$reason, "max_runs")
+  more <- refine(short, refine_sim, max_runs = 2000, seed = 2)
+  expect_gt(lib_n_runs(more$library), lib_n_runs(short$library))
+  expect_identical(more$refinement$reason, "resolved")
+})
