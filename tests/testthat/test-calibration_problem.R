@@ -1,8 +1,10 @@
 test_that("run weights are normalised and validated", {
-  expect_equal(exp(log_run_weights(NULL, 4)), rep(0.25, 4))
-  expect_equal(exp(log_run_weights(c(1, 3), 2)), c(0.25, 0.75))
-  expect_error(log_run_weights(1:3, 2), "one weight per library run \\(2\\); received 3")
-  expect_error(log_run_weights(c(-1, 2), 2), ">= 0 with a positive sum")
+  lib4 <- sim_library(data.frame(k = 1:4), matrix(1:8, 4))
+  lib2 <- sim_library(data.frame(k = 1:2), matrix(1:4, 2))
+  expect_equal(exp(log_run_weights(NULL, lib4)), rep(0.25, 4))
+  expect_equal(exp(log_run_weights(c(1, 3), lib2)), c(0.25, 0.75))
+  expect_error(log_run_weights(1:3, lib2), "one weight per library run \\(2\\); received 3")
+  expect_error(log_run_weights(c(-1, 2), lib2), ">= 0 with a positive sum")
 })
 
 test_that("an exact reproduction with a zero prior rate is refused", {
