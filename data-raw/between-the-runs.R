@@ -24,8 +24,13 @@
 # posterior; its spacing is 0.1 sd. The script records the posterior mass on
 # the grid's border, which must be negligible.
 #
+# For each refined fit, refine_warned records whether refine() warned (class
+# griddy_warning_resolution: it stopped at max_runs before the posterior was
+# resolved) and refine_warning the parameters the warning names, with why
+# (NA for the other modes).
+#
 # Run from the package root, with griddy installed:
-#   Rscript data-raw/between-the-runs.R   (single core, about 11 minutes on a shared
+#   Rscript data-raw/between-the-runs.R   (single core, about 8 minutes on a shared
 #   2-core machine; the run time is stored in the .rds)
 # BTR_TRIALS sets the number of trials (default 500). Writes
 # inst/extdata/between_the_runs.rds.
@@ -112,12 +117,18 @@ one_trial <- function(i) {
       fine_warned <<- TRUE
       invokeRestart("muffleWarning")
     })
+  # refine()'s own warning (class griddy_warning_resolution: it stopped at
+  # max_runs before the posterior was resolved) is recorded, with the
+  # parameters it names and why, then muffled
   timed <- function(expr) {
     t0 <- proc.time()[["elapsed"]]
+    why <- NA_character_
     value <- suppressMessages(withCallingHandlers(expr, griddy_warning_resolution = function(w) {
+      why <<- sub("\\. Call refine\\(\\).*$", "",
+                  sub("^.*may miss the truth: ", "", conditionMessage(w)))
       invokeRestart("muffleWarning")
     }))
-    list(value = value, seconds = proc.time()[["elapsed"]] - t0)
+    list(value = value, seconds = proc.time()[["elapsed"]] - t0, why = why)
   }
   sim <- timed(refine(fit, oscillator, seed = i))
   emu <- timed(refine(fit, seed = i))
@@ -127,20 +138,21 @@ one_trial <- function(i) {
     list(iv = exact_intervals(r$value$library, field),
          runs = 84L + r$value$refinement$runs_added,
          reason = r$value$refinement$reason, secs = r$seconds,
-         limited = any(summary(r$value)$resolution %in% "limited"))
+         limited = any(summary(r$value)$resolution %in% "limited"),
+         warned = !is.na(r$why), why = r$why)
   }
   cont <- continuous_intervals(truth, field)
   modes <- list(
     plain = list(iv = exact_intervals(coarse, field), runs = 84L, reason = NA, secs = NA,
-                 limited = warned),
+                 limited = warned, warned = NA, why = NA),
     "fine grid" = list(iv = exact_intervals(fine, field), runs = 1274L, reason = NA,
-                       secs = NA, limited = fine_warned),
+                       secs = NA, limited = fine_warned, warned = NA, why = NA),
     simulator = refined(sim),
     emulator = refined(emu),
     "simulator, 1000 a round" = refined(sim_big),
     "emulator, 1000 a round" = refined(emu_big),
     continuous = list(iv = cont$intervals, runs = 161L^2, reason = NA, secs = NA,
-                      limited = FALSE))
+                      limited = FALSE, warned = NA, why = NA))
   width_cont <- cont$intervals[, "upper"] - cont$intervals[, "lower"]
   do.call(rbind, lapply(names(modes), function(m) {
     iv <- modes[[m]]$iv
@@ -150,6 +162,7 @@ one_trial <- function(i) {
                width_ratio = (iv[, "upper"] - iv[, "lower"]) / width_cont,
                posterior_sd = cont$sd, limited = modes[[m]]$limited,
                runs = modes[[m]]$runs, reason = modes[[m]]$reason,
+               refine_warned = modes[[m]]$warned, refine_warning = modes[[m]]$why,
                seconds = modes[[m]]$secs, border_mass = cont$border_mass,
                row.names = NULL)
   }))
