@@ -13,11 +13,16 @@
 #' where it matters.
 #'
 #' **A round.** From the exact posterior over runs ([posterior_exact()]), the
-#' box that holds 99.9% of its mass, widened on each side by the library's
-#' local spacing (the spread of the nearest runs around the most probable
-#' one) and kept inside the library's range, receives a Latin hypercube of
+#' box of each parameter's central 99%, widened on each side by the
+#' library's local spacing (the spread of the runs nearest the most probable
+#' one, at least one step of a grid) or a quarter of its width, whichever is
+#' larger, and kept inside the library's range, receives a Latin hypercube of
 #' `runs_per_round` new runs. A collapsed posterior thus zooms in around its
-#' run; a spread one is filled in.
+#' run; a spread one is filled in. When the posterior's 95% interval reaches
+#' the outer tenth of the last round's box (and that box stops short of the
+#' library's range), the posterior is cut off by where the dense runs end,
+#' not by the data: the next box then reaches a whole box width further, so
+#' a box that missed the truth finds it in a few rounds.
 #'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
@@ -31,9 +36,12 @@
 #' over at least 10 effective distinct values (\eqn{1 / \sum_v m_v^2}, the
 #' criterion of [summary()][summary.griddy_fit]; for a Gaussian marginal of
 #' sd \eqn{s} on runs spaced \eqn{h} apart this is \eqn{3.5 s / h}, so runs
-#' at most about a third of a standard deviation apart) and that no
-#' interval bound moved by more than a fifth of the interval's width in the
-#' last round. `refine()` of a resolved fit returns it unchanged.
+#' at most about a third of a standard deviation apart), that no interval
+#' bound moved by more than a fifth of the interval's width in the last
+#' round, and that no interval is cut off by the last box (above).
+#' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
+#' are spent first, the result warns (class `griddy_warning_resolution`) and
+#' `refine()` of it carries on where it stopped.
 #'
 #' **With a simulator**, new runs are simulated: `simulator(theta, ...)`
 #' receives a data.frame of \eqn{\theta} rows (the library's columns) and
