@@ -118,11 +118,11 @@ fit_record <- function(fit, warnings, rho_t) {
       .SDcols = c("observed", "mean", "lower", "upper", "pred_lower", "pred_upper")]
   sigma <- 1 / sqrt(fit$draws$tau)
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
-                                               "upper", "ess", "rhat")],
+                                               "upper", "ess", "rhat", "resolution")],
        printed = printed, warnings = warnings,
-       adequacy = list(effective_runs = ad$effective_runs_sampled,
-                       effective_runs_exact = ad$effective_runs,
-                       top_share = max(sampled), top_share_exact = max(exact$run),
+       adequacy = list(effective_runs = ad$effective_runs,
+                       effective_runs_sampled = ad$effective_runs_sampled,
+                       top_share = max(exact$run), top_share_sampled = max(sampled),
                        parameters = ad$parameters, tv_distance = ad$tv_distance),
        sigma = stats::quantile(sigma, c(0.025, 0.5, 0.975), names = TRUE),
        run_prob = run_prob, trace = trace, rho_post = rho_post, ppc = ppc,
