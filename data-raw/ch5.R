@@ -262,20 +262,26 @@ for (key in names(plain)) {
 # How smooth is the simulator's misfit at the scale refine() reaches? The
 # mean squared misfit (N^2) along k at 0.05 N/mm steps, c fixed: point
 # contact to the Fiala data around the truth, disc contact to the PAC2002
-# data around the simulator-refined median.
-misfit_line <- function(contact, data_model, k0, c0) {
+# data around the simulator-refined median; each with the library's RK4 step
+# and with a step 4 times smaller (not used anywhere else).
+misfit_line <- function(contact, data_model, k0, c0, steps_per_sample) {
   ks <- k0 + seq(-1, 1, by = 0.05)
-  y <- tyre_simulator(data.frame(k = ks, c = c0), contact)
+  y <- tyre_cleat_model(cbind(k = ks, c = c0), height = lib$x$height, contact = contact,
+                        rig = tyre_rig(steps_per_sample = steps_per_sample))
   y_field <- as.vector(t(field[[data_model]]$y))
-  data.table::data.table(contact = contact, data = data_model, k = ks, c = c0,
+  data.table::data.table(contact = contact, data = data_model, steps_per_sample = steps_per_sample,
+                         k = ks, c = c0,
                          mean_sq_misfit = rowMeans((y - matrix(y_field, nrow(y), ncol(y),
                                                                byrow = TRUE))^2))
 }
 disc_med <- refined$pac2002_disc_independent$simulator$summary
-misfit_lines <- rbind(
-  misfit_line("point", "fiala", truth[["k"]], truth[["c"]]),
-  misfit_line("disc", "pac2002", round(disc_med$median[disc_med$parameter == "k"], 1),
-              round(disc_med$median[disc_med$parameter == "c"], 3)))
+rk4_steps <- tyre_rig()$steps_per_sample * c(1, 4)
+misfit_lines <- data.table::rbindlist(c(
+  lapply(rk4_steps, function(s) misfit_line("point", "fiala", truth[["k"]], truth[["c"]], s)),
+  lapply(rk4_steps, function(s) {
+    misfit_line("disc", "pac2002", round(disc_med$median[disc_med$parameter == "k"], 1),
+                round(disc_med$median[disc_med$parameter == "c"], 3), s)
+  })))
 rm(plain)
 
 t_total <- proc.time()[["elapsed"]] - t_script
