@@ -13,8 +13,8 @@
 #
 # Run from the package root, single-threaded, after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/ch5.R
-# Takes about 12 minutes on one core: 2 for the two libraries and the plain
-# fits, the rest for the twelve refine() calls.
+# Takes about 7 minutes on one core: 2 for the two libraries and the plain
+# fits, 5 for the twelve refine() calls.
 
 library(griddy)
 data.table::setDTthreads(1)
