@@ -5,17 +5,23 @@
 # runs the thesis's independent-error calibrations (and Fiala-to-PAC2002
 # again with a rigid-disc Fiala library) and the same with an AR(1)
 # correlation over time (rho_t sampled, Appendix B), and stores small
-# summaries in inst/extdata/ch5.rds for vignettes/chapter5.Rmd.
+# summaries in inst/extdata/ch5.rds for vignettes/chapter5.Rmd. Then
+# (issue 12) refines every fit whose intervals the library's resolution
+# limits, with refine(): once with the tyre stand-in as the simulator, once
+# without a simulator (new runs predicted by refine()'s emulator), and
+# stores what each achieved.
 #
 # Run from the package root, single-threaded, after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/ch5.R
-# Takes about 2 minutes on one core (most of it the two libraries).
+# Takes about 7 minutes on one core: 2 for the two libraries and the plain
+# fits, 5 for the twelve refine() calls.
 
 library(griddy)
 data.table::setDTthreads(1)
 t_script <- proc.time()[["elapsed"]]
 
-seeds <- c(library = 2023, noise_fiala = 501, noise_pac = 502, fit = 1, ppc = 1)
+seeds <- c(library = 2023, noise_fiala = 501, noise_pac = 502, fit = 1, ppc = 1,
+           refine = 12)
 truth <- c(k = 450, c = 1.5)
 noise_sd <- 60                 # N: 2% of the 3 kN static load (thesis gives none)
 n_iter <- 50000                # thesis: 50,000 iterations
@@ -112,11 +118,11 @@ fit_record <- function(fit, warnings, rho_t) {
       .SDcols = c("observed", "mean", "lower", "upper", "pred_lower", "pred_upper")]
   sigma <- 1 / sqrt(fit$draws$tau)
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
-                                               "upper", "ess", "rhat")],
+                                               "upper", "ess", "rhat", "resolution")],
        printed = printed, warnings = warnings,
-       adequacy = list(effective_runs = ad$effective_runs_sampled,
-                       effective_runs_exact = ad$effective_runs,
-                       top_share = max(sampled), top_share_exact = max(exact$run),
+       adequacy = list(effective_runs = ad$effective_runs,
+                       effective_runs_sampled = ad$effective_runs_sampled,
+                       top_share = max(exact$run), top_share_sampled = max(sampled),
                        parameters = ad$parameters, tv_distance = ad$tv_distance),
        sigma = stats::quantile(sigma, c(0.025, 0.5, 0.975), names = TRUE),
        run_prob = run_prob, trace = trace, rho_post = rho_post, ppc = ppc,
@@ -128,9 +134,10 @@ list_field <- function(fit) {
 }
 
 fits <- list()
-cases <- list(fiala = list(lib = lib, data = "fiala"),
-              pac2002 = list(lib = lib, data = "pac2002"),
-              pac2002_disc = list(lib = lib_disc, data = "pac2002"))
+plain <- list()   # the fit objects, for refine() below (not stored)
+cases <- list(fiala = list(lib = lib, data = "fiala", contact = "point"),
+              pac2002 = list(lib = lib, data = "pac2002", contact = "point"),
+              pac2002_disc = list(lib = lib_disc, data = "pac2002", contact = "disc"))
 for (case in names(cases)) {
   data_model <- cases[[case]]$data
   for (error in c("independent", "ar1")) {
@@ -143,19 +150,152 @@ for (case in names(cases)) {
     fits[[key]]$ppc[, clean := round(as.vector(t(attr(field[[data_model]], "clean"))), 1)]
     cat(key, ": precompute", format(res$value$runtime[["precompute"]], digits = 3),
         "s, sampling", format(res$value$runtime[["sampling"]], digits = 3), "s\n")
+    plain[[key]] <- res$value
     rm(res)
   }
 }
+
+# ---- Refinement (issue 12) --------------------------------------------------
+# refine() adds runs where the posterior has its mass until every interval is
+# resolved (>= 10 effective distinct values, bounds stable between rounds) or
+# max_runs runs are added. The simulator maps theta rows (k, c) to the
+# library's outputs: the 3 cleat heights x 500 samples, in blocks by height,
+# with the contact of the library refined.
+tyre_simulator <- function(theta, contact) {
+  y <- tyre_cleat_model(as.matrix(theta[, c("k", "c")]), height = lib$x$height,
+                        contact = contact)
+  attributes(y) <- list(dim = dim(y))
+  y
+}
+# it reproduces the libraries' rows exactly
+check_rows <- c(1, 2, 1000, 1999, 2000)
+stopifnot(identical(tyre_simulator(lib$theta[check_rows, ], "point"), lib$y[check_rows, ]),
+          identical(tyre_simulator(lib_disc$theta[check_rows, ], "disc"),
+                    lib_disc$y[check_rows, ]))
+# Cost of one (k, c) run (3 heights x 500 samples of RK4), from the libraries.
+sim_cost <- c(point = t_library, disc = t_library_disc) / nrow(lib$theta)
+# At most as many new runs as the library has: at most 2,000 x sim_cost of
+# simulation per call (about 25 s with point contact, 80 s with disc), and
+# 10 rounds of refine()'s default 200 runs.
+max_runs <- 2000
+
+# A refined fit, small: summary, resolution table, what refine() did.
+refined_record <- function(fit, warnings, elapsed) {
+  s <- summary(fit)
+  ad <- attr(s, "adequacy")
+  exact <- griddy:::exact_from_problem(fit)
+  n0 <- nrow(fit$library$base$theta)
+  n_runs <- nrow(fit$library$theta)
+  sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
+  runs <- which(exact$run > 1e-6 | sampled > 0)
+  run_prob <- data.table::data.table(
+    run = runs, added = runs > n0, k = fit$library$theta$k[runs],
+    c = fit$library$theta$c[runs], sampled = sampled[runs], exact = exact$run[runs])
+  ref <- fit$refinement
+  history <- data.table::rbindlist(lapply(seq_along(ref$history), function(r) {
+    data.table::data.table(round = r - 1L, ref$history[[r]])
+  }))
+  sigma <- 1 / sqrt(fit$draws$tau)
+  list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
+                                               "upper", "ess", "rhat", "resolution")],
+       printed = utils::capture.output(print(s)), warnings = unique(warnings),
+       resolution = ad$parameters,
+       adequacy = list(effective_runs = ad$effective_runs,
+                       effective_runs_sampled = ad$effective_runs_sampled,
+                       tv_distance = ad$tv_distance),
+       runs = n_runs, runs_added = ref$runs_added, rounds = ref$rounds,
+       reason = ref$reason, source = ref$source, history = history,
+       sigma = stats::quantile(sigma, c(0.025, 0.5, 0.975), names = TRUE),
+       rho_post = if (!is.null(fit$grid$rho_t)) {
+         data.table::data.table(rho_t = fit$grid$rho_t, phi = fit$grid$rho_t^(1 / 499),
+                                exact = exact$rho$prob)
+       },
+       run_prob = run_prob, elapsed = elapsed, runtime = fit$runtime)
+}
+
+# The emulator's error where it matters: the predicted runs holding 99.9% of
+# the refined posterior, simulated after all. rms over outputs (N) of
+# predicted - simulated, and each run's misfit to the data (rms, N) with the
+# predicted and the simulated outputs.
+emulator_check <- function(fit, contact) {
+  exact <- griddy:::exact_from_problem(fit)$run
+  n0 <- nrow(fit$library$base$theta)
+  ord <- order(exact, decreasing = TRUE)
+  top <- ord[seq_len(which(cumsum(exact[ord]) >= 0.999)[1])]
+  top <- top[top > n0]
+  if (length(top) == 0L) return(NULL)
+  predicted <- fit$library$added$y[top - n0, , drop = FALSE]
+  simulated <- tyre_simulator(fit$library$theta[top, ], contact)
+  y_field <- as.vector(t(fit$y_field))
+  rms_misfit <- function(y) sqrt(rowMeans((y - matrix(y_field, nrow(y), ncol(y), byrow = TRUE))^2))
+  data.table::data.table(run = top, k = fit$library$theta$k[top], c = fit$library$theta$c[top],
+                         exact = exact[top], rel_var = fit$library$added$rel_var[top - n0],
+                         rms_error = sqrt(rowMeans((predicted - simulated)^2)),
+                         misfit_predicted = rms_misfit(predicted),
+                         misfit_simulated = rms_misfit(simulated))
+}
+
+refined <- list()
+for (key in names(plain)) {
+  limited <- fits[[key]]$summary$resolution[fits[[key]]$summary$parameter %in% c("k", "c")]
+  if (!any(limited == "limited")) next
+  case <- sub("_(independent|ar1)$", "", key)
+  contact <- cases[[case]]$contact
+  for (source in c("simulator", "emulator")) {
+    t0 <- proc.time()[["elapsed"]]
+    res <- keep_warnings(if (source == "simulator") {
+      refine(plain[[key]], tyre_simulator, contact = contact, max_runs = max_runs,
+             seed = seeds[["refine"]], progress = FALSE)
+    } else {
+      refine(plain[[key]], max_runs = max_runs, seed = seeds[["refine"]], progress = FALSE)
+    })
+    elapsed <- proc.time()[["elapsed"]] - t0
+    rec <- refined_record(res$value, res$warnings, elapsed)
+    if (source == "emulator") rec$emulator_check <- emulator_check(res$value, contact)
+    refined[[key]][[source]] <- rec
+    cat(key, "refined with", source, ":", rec$runs_added, "runs,", rec$rounds, "rounds,",
+        rec$reason, ",", format(elapsed, digits = 3), "s\n")
+    rm(res)
+  }
+}
+
+# How smooth is the simulator's misfit at the scale refine() reaches? The
+# mean squared misfit (N^2) along k at 0.05 N/mm steps, c fixed: point
+# contact to the Fiala data around the truth, disc contact to the PAC2002
+# data around the simulator-refined median; each with the library's RK4 step
+# and with a step 4 times smaller (not used anywhere else).
+misfit_line <- function(contact, data_model, k0, c0, steps_per_sample) {
+  ks <- k0 + seq(-1, 1, by = 0.05)
+  y <- tyre_cleat_model(cbind(k = ks, c = c0), height = lib$x$height, contact = contact,
+                        rig = tyre_rig(steps_per_sample = steps_per_sample))
+  y_field <- as.vector(t(field[[data_model]]$y))
+  data.table::data.table(contact = contact, data = data_model, steps_per_sample = steps_per_sample,
+                         k = ks, c = c0,
+                         mean_sq_misfit = rowMeans((y - matrix(y_field, nrow(y), ncol(y),
+                                                               byrow = TRUE))^2))
+}
+disc_med <- refined$pac2002_disc_independent$simulator$summary
+rk4_steps <- tyre_rig()$steps_per_sample * c(1, 4)
+misfit_lines <- data.table::rbindlist(c(
+  lapply(rk4_steps, function(s) misfit_line("point", "fiala", truth[["k"]], truth[["c"]], s)),
+  lapply(rk4_steps, function(s) {
+    misfit_line("disc", "pac2002", round(disc_med$median[disc_med$parameter == "k"], 1),
+                round(disc_med$median[disc_med$parameter == "c"], 3), s)
+  })))
+rm(plain)
 
 t_total <- proc.time()[["elapsed"]] - t_script
 ch5 <- list(
   settings = list(seeds = seeds, truth = truth, noise_sd = noise_sd, n_iter = n_iter,
                   burn_in = burn_in, chains = chains, phi = phi, rho_t_grid = rho_t_grid,
                   sens_height = sens_height, heights = lib$x$height,
-                  step_k = step_k, step_c = step_c),
+                  step_k = step_k, step_c = step_c, max_runs = max_runs,
+                  sim_cost = sim_cost),
   sensitivity = sensitivity,
   design = data.table::data.table(k = round(lib$theta$k, 3), c = round(lib$theta$c, 5)),
   fits = fits,
+  refined = refined,
+  misfit_lines = misfit_lines,
   timings = c(library = t_library, library_disc = t_library_disc, total = t_total),
   session = list(r = R.version.string, griddy = as.character(utils::packageVersion("griddy")),
                  date = format(Sys.Date())))
