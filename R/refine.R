@@ -62,11 +62,16 @@
 #' scaled by the prediction's relative variance there (0 at a library run).
 #' The error is correlated over the outputs, so it is not averaged away by
 #' many data: intervals widen where the library is too coarse to tell the
-#' runs apart, and never fall below what the data allow. The noise variance
-#' that puts this covariance on the scale of \eqn{\tau^{-1}} is the
-#' posterior mean of \eqn{1/\tau} of the round; with it the model stays
-#' conjugate in \eqn{\tau}, exactly so for `update = "collapsed"` and
-#' [posterior_exact()] (the thesis's update draws \eqn{\theta} given
+#' runs apart. The error model is an estimate: when the library predicts
+#' its own runs near the posterior worse than the noise (leave-one-out
+#' error over the fitted noise sd above 1, `$refinement$emulation_error`),
+#' the intervals may be biased, and `refine()` says so (a warning of class
+#' `griddy_warning_emulation`): refine with the simulator there. The noise
+#' variance that puts this covariance on the scale of \eqn{\tau^{-1}} is
+#' the posterior mean of \eqn{1/\tau}, updated every round for all
+#' rounds; with it the model stays conjugate in \eqn{\tau}, exactly so
+#' for `update = "collapsed"` and [posterior_exact()] (the thesis's update
+#' draws \eqn{\theta} given
 #' \eqn{\tau} from the same folded misfit, an approximation).
 #'
 #' @param fit A `griddy_fit` from [calibrate()] or `refine()`, whose runs are
@@ -86,8 +91,8 @@
 #'   of `fit` (correlation grids, prior, update, iterations, chains), and an
 #'   element `refinement`: a list with `runs_added`, `rounds`, `reason` (why
 #'   it stopped: `"resolved"` or `"max_runs"`), `source` (`"simulator"` or
-#'   `"emulator"`) and `history`, the per-parameter resolution table after
-#'   each round. A fit that is already resolved is returned as it was.
+#'   `"emulator"`), `history`, the per-parameter resolution table after
+#'   each round, and `emulation_error` (without a simulator; see Details). A fit that is already resolved is returned as it was.
 #' @seealso [calibrate()], [summary.griddy_fit()], [posterior_exact()]
 #' @references Ritter, C. and Tanner, M. A. (1992). Facilitating the Gibbs
 #'   sampler: the Gibbs stopper and the griddy-Gibbs sampler. Journal of the
@@ -152,9 +157,24 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call)
     return(fit)
   }
   out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
-  out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history")]
+  out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history",
+                             "emulation_error")]
   if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+  warn_emulation(rounds$emulation_error)
   out
+}
+
+# Said plainly when the library cannot stand in for the simulator: see
+# emulation_error_ratio().
+emulation_error_threshold <- 1
+
+warn_emulation <- function(ratio) {
+  if (is.null(ratio) || !is.finite(ratio) || ratio <= emulation_error_threshold) return()
+  griddy_warn("refine() predicted its runs from the library, which predicts its own runs ",
+              "near the posterior with an error ", format(ratio, digits = 2), " times the ",
+              "noise (leave-one-out). The intervals then rest on an estimate of that error ",
+              "and may be biased; refine with the simulator (`simulator =`), or a finer ",
+              "library, where you can.", class = "emulation")
 }
 
 # refine() ran out of runs: say which parameters are not resolved and why.
@@ -226,7 +246,22 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     history[[length(history) + 1L]] <- state$table
   }
   list(problem = state$problem, runs_added = added, rounds = length(history) - 1L,
-       reason = reason, source = source, history = history)
+       reason = reason, source = source, history = history,
+       emulation_error = if (!is.null(emulator)) emulation_error_ratio(emulator, state))
+}
+
+# How well the library predicts its own runs where the posterior is: the
+# leave-one-out residuals' root mean square over the 2p + 1 library runs
+# nearest the most probable run, over the fitted noise sd. Above 1 the
+# predicted runs there are off by more than the noise, and the intervals rest
+# on the emulator's error model, an estimate.
+emulation_error_ratio <- function(emulator, state) {
+  theta <- as.matrix(lib_theta(state$problem$library))
+  mode <- theta[which.max(state$p), ]
+  width <- pmax(apply(emulator$loo_theta, 2, function(v) diff(range(v))), 1e-300)
+  d2 <- colSums(((t(emulator$loo_theta) - mode) / width)^2)
+  near <- order(d2)[seq_len(min(2L * ncol(theta) + 1L, length(d2)))]
+  sqrt(mean(emulator$loo[near, ]^2) / posterior_noise_var(state))
 }
 
 # The exact posterior over runs of a problem and its resolution table.
@@ -437,7 +472,9 @@ round_emulator <- function(state, box) {
   region <- rbind(pmax(box[1, ] - pad, range0[1, ]), pmin(box[2, ] + pad, range0[2, ]))
   emulator <- library_emulator(source, region = as.data.frame(region))
   emulator$refine_region <- region
-  emulator$loo <- emulator_loo(emulator)$residuals
+  loo <- emulator_loo(emulator)
+  emulator$loo <- loo$residuals
+  emulator$loo_theta <- as.matrix(lib_theta(source)[loo$rows, , drop = FALSE])
   emulator
 }
 

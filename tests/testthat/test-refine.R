@@ -192,3 +192,21 @@ test_that("refine() of a fit that ran out of runs carries on where it stopped", 
   expect_gt(lib_n_runs(more$library), lib_n_runs(short$library))
   expect_identical(more$refinement$reason, "resolved")
 })
+
+test_that("refine() without a simulator says so when the library cannot predict itself", {
+  sharp <- function(theta) {
+    t <- seq(0, 1, length.out = 40)
+    t(vapply(theta$k, function(k) sin(k^2 * t), numeric(40)))
+  }
+  theta <- data.frame(k = seq(1, 4, by = 0.5))
+  lib <- sim_library(theta, sharp(theta))
+  set.seed(3)
+  field <- field_data(sharp(data.frame(k = 2.71)) + rnorm(40, sd = 0.01), t = lib$t)
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
+  expect_warning(refined <- refine(fit, max_runs = 600, seed = 1),
+                 "times the noise", class = "griddy_warning_emulation")
+  expect_gt(refined$refinement$emulation_error, 1)
+  toy <- refine_toy()
+  fine <- refine(toy$fit, max_runs = 2000, seed = 1)
+  expect_lt(fine$refinement$emulation_error, 1)
+})
