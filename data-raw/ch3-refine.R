@@ -70,16 +70,23 @@ piston_simulator <- function(field) {
   }
 }
 
-# Evaluate an expression, muffling griddy's resolution warning and recording
-# whether it came; messages (refine()'s "already resolved") are dropped.
+# Evaluate an expression, muffling griddy's resolution warning and its
+# warning that a refinement without a simulator rests on a library that
+# predicts itself worse than the noise, recording whether each came;
+# messages (refine()'s "already resolved") are dropped.
 quietly <- function(expr) {
   warned <- FALSE
+  emulation_warned <- FALSE
   value <- withCallingHandlers(suppressMessages(expr),
                                griddy_warning_resolution = function(w) {
                                  warned <<- TRUE
                                  invokeRestart("muffleWarning")
+                               },
+                               griddy_warning_emulation = function(w) {
+                                 emulation_warned <<- TRUE
+                                 invokeRestart("muffleWarning")
                                })
-  list(value = value, warned = warned)
+  list(value = value, warned = warned, emulation_warned = emulation_warned)
 }
 
 # One row per coefficient: summary()'s interval and median (from the draws,
@@ -204,11 +211,15 @@ for (k in sizes) {
       r <- quietly(refine(plain$value, if (mode == "simulator") simulator, max_runs = max_runs,
                           seed = seed, progress = FALSE))
       fits[[mode]] <- list(fit = r$value, warned = r$warned,
+                           emulation_warned = r$emulation_warned,
                            seconds = proc.time()[["elapsed"]] - t1)
     }
     for (mode in names(fits)) {
       row <- fit_rows(fits[[mode]]$fit, keys)
+      em <- fits[[mode]]$fit$refinement$emulation_error
       row[, `:=`(mode = mode, plain_warned = plain$warned, warned = fits[[mode]]$warned,
+                 emulation_warned = isTRUE(fits[[mode]]$emulation_warned),
+                 emulation_error = if (is.null(em)) NA_real_ else em,
                  seconds = fits[[mode]]$seconds)]
       rows[[length(rows) + 1]] <- row
     }
