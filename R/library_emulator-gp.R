@@ -73,13 +73,21 @@ gp_mean_var <- function(emulator, u) {
 gp_max_variance <- function(emulator) {
   box <- emulator$region$u
   probes <- rbind(halton_in_box(512L, box), box_corners(box))
-  max(gp_mean_var(emulator, probes)$var)
+  v <- gp_mean_var(emulator, probes)$var
+  if (any(is.finite(v))) max(v[is.finite(v)]) else NA_real_
 }
 
 gp_predict <- function(emulator, pts) {
   pred <- gp_mean_var(emulator, pts$u)
-  rel_var <- if (emulator$var_max > 0) pmin(1, pred$var / emulator$var_max) else
-    rep(0, nrow(pts$u))
+  # a variance ppgasp cannot give (NaN, near-singular runs) counts as the
+  # largest: unknown error is not small error
+  v <- pred$var
+  v[!is.finite(v)] <- Inf
+  rel_var <- if (is.finite(emulator$var_max) && emulator$var_max > 0) {
+    pmin(1, v / emulator$var_max)
+  } else {
+    rep(1, nrow(pts$u))
+  }
   # at a run, the run itself (ppgasp reproduces it to rounding; with a nugget, not)
   near <- nearest_runs(pts$u, emulator$u, 1L)
   at_run <- near$dist[, 1] == 0

@@ -471,8 +471,14 @@ round_emulator <- function(state, box) {
   pad <- (box[2, ] - box[1, ]) / 2
   region <- rbind(pmax(box[1, ] - pad, range0[1, ]), pmin(box[2, ] + pad, range0[2, ]))
   emulator <- library_emulator(source, region = as.data.frame(region))
-  emulator$refine_region <- region
   loo <- emulator_loo(emulator)
+  if (!all(is.finite(loo$residuals))) {
+    # a Gaussian process too near singular to predict its own runs: the
+    # local fit does
+    emulator <- library_emulator(source, region = as.data.frame(region), method = "local")
+    loo <- emulator_loo(emulator)
+  }
+  emulator$refine_region <- region
   emulator$loo <- loo$residuals
   emulator$loo_theta <- as.matrix(lib_theta(source)[loo$rows, , drop = FALSE])
   emulator
