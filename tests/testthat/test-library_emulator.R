@@ -221,3 +221,16 @@ test_that("more runs inside the region than max_runs gives a spread-out subset",
   probe <- halton_in_box(200, box)
   expect_lt(max(nearest_runs(probe, u[rows, ], 1)$dist), 0.25)
 })
+
+test_that("a gp predictive variance that ppgasp cannot give counts as the largest", {
+  skip_if_not_installed("RobustGaSP")
+  set.seed(4)
+  theta <- data.frame(a = runif(30), b = runif(30))
+  y <- t(vapply(seq_len(30), function(i) sin(3 * theta$a[i]) + theta$b[i] * (1:5), numeric(5)))
+  lib <- sim_library(theta, y)
+  em <- suppressWarnings(library_emulator(lib, method = "gp"))
+  em$var_max <- NA_real_          # what a near-singular fit gave on the projectile
+  pred <- emulator_predict(em, data.frame(a = c(0.31, 0.52), b = c(0.44, 0.27)))
+  expect_equal(pred$rel_var, c(1, 1))
+  expect_true(all(is.finite(pred$outputs)))
+})
