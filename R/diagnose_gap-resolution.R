@@ -105,3 +105,10 @@ run_emulation <- function(emulation, j) {
   list(V = err$U %*% diag(sqrt(emulation$kappa[k] * err$lambda / err$noise_var),
                           length(err$lambda)))
 }
+
+# The fit's own context and base terms, for the confounding screen.
+screen_terms <- function(fit) {
+  ctx <- gap_context(fit)
+  list(ctx = ctx, terms = gap_terms(ctx, lib_outputs(fit$library), fit$log_prior_run,
+                                    Q = fit$C))
+}

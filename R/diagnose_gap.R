@@ -173,8 +173,14 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
               other = other)
   post <- log_ev + log_prior_model
   prob <- normalise_log(post)
+  # the confounding screen compares a candidate's effect with what a shift of
+  # theta imitates, against the base library's own resolution: on the library
+  # as it is (a refined base would count its dense predicted runs as
+  # imitations of any smooth effect)
+  plain <- if (identical(matched$base, fit)) list(ctx = ctx, terms = base_terms) else
+    screen_terms(fit)
   screen <- lapply(names(candidates), function(nm) {
-    sc <- confounding_screen(ctx, base_terms, candidates[[nm]], names(lib_theta(base)),
+    sc <- confounding_screen(plain$ctx, plain$terms, candidates[[nm]], names(lib_theta(base)),
                              confounding_threshold)
     # the data themselves separate it: the screen's local view was too pessimistic
     if (log_ev[[nm]] - log_ev[["none"]] > log(100)) sc$confounded <- FALSE
