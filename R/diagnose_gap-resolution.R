@@ -12,11 +12,7 @@
 # The refined base problem.
 matched_base <- function(fit, max_runs) {
   if (max_runs == 0L) return(fit)
-  refine_rounds(fit, NULL, max_runs, matched_runs_per_round(fit$library))$problem
-}
-
-matched_runs_per_round <- function(library) {
-  default_runs_per_round(lib_theta(library))
+  refine_rounds(fit, NULL, max_runs, default_runs_per_round(lib_theta(fit$library)))$problem
 }
 
 # A candidate at matched resolution: its runs' theta (base columns plus
@@ -35,8 +31,7 @@ matched_candidate <- function(cand, base_problem, max_runs) {
   if (max_runs == 0L) {
     Y <- lib_outputs(cand)
     return(list(theta = lib_theta(cand), Y = Y,
-                C = quad_forms_cpp(Y, base_problem$y_field, base_problem$setup$Rx_inv,
-                                   base_problem$setup$phi),
+                C = plain_quad_forms(Y, base_problem$y_field, base_problem$setup),
                 log_prior = candidate_log_prior(cand, base_cols)))
   }
   zero <- problem_part(base_problem)
@@ -62,21 +57,21 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
   theta <- lib_theta(cand)[rows, , drop = FALSE]
   Y <- lib_outputs(cand, rows)
   if (length(rows) < 2L * ncol(theta) + 2L) {
-    C <- quad_forms_cpp(Y, base_problem$y_field, base_problem$setup$Rx_inv,
-                        base_problem$setup$phi)
+    C <- plain_quad_forms(Y, base_problem$y_field, base_problem$setup)
     return(list(theta = theta, Y = Y, C = C, log_prior = rep(-log(length(rows)), length(rows))))
   }
   part <- suppressWarnings(sim_library(theta, Y, x = lib_x(cand), t = lib_t(cand)))
   problem <- problem_from_parts(part, base_problem$y_field, base_problem$prior,
                                 lib_log_prior(part), base_problem$setup)
-  problem_part(refine_rounds(problem, NULL, max_runs, matched_runs_per_round(part))$problem)
+  problem_part(refine_rounds(problem, NULL, max_runs,
+                             default_runs_per_round(lib_theta(part)))$problem)
 }
 
 # gap_terms() of a model at matched resolution: its table C is the plain
 # quadratic forms of Y unless some runs were predicted (their C holds the
 # prediction error), which the leave-out algebra then computes apart.
 matched_terms <- function(ctx, Y, log_prior, C, library = NULL) {
-  plain <- quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi)
+  plain <- plain_quad_forms(Y, ctx$y, ctx$setup)
   if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
     return(gap_terms(ctx, Y, log_prior, Q = C))
   }

@@ -345,7 +345,7 @@ gap_context <- function(fit) {
 # while the leave-out algebra (Q, D, lj_plain) works on the plain quadratic
 # forms, which leave-out identities hold for.
 gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = quad_forms_cpp(Y, ctx$y, ctx$setup$Rx_inv, ctx$setup$phi), C = NULL) {
+                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
   n_x <- ctx$n_x
   n_t <- ctx$n_t
   J <- nrow(Y)

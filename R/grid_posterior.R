@@ -113,6 +113,12 @@ misfit_table <- function(library, y_field, setup, prior) {
   fold_extra_logdet(C, prior, length(y_field))
 }
 
+# The quadratic forms of outputs Y (runs in rows) held in memory, each run's
+# covariance R_g: for runs that are not (or not yet) a library's.
+plain_quad_forms <- function(Y, y_field, setup) {
+  quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi)
+}
+
 fold_extra_logdet <- function(C, prior, n_obs) {
   extra <- attr(C, "extra_logdet")
   attr(C, "extra_logdet") <- NULL

@@ -67,10 +67,6 @@ add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {
     rel_var = c(library$added$rel_var, rel_var))
 }
 
-n_base_runs <- function(library) {
-  if (inherits(library, "refined_library")) lib_n_runs(library$base) else lib_n_runs(library)
-}
-
 # ---- the interface ----------------------------------------------------------
 
 #' @exportS3Method
@@ -102,7 +98,7 @@ lib_quad_forms.refined_library <- function(library, y_field, setup) {
 # with attribute "extra_logdet" (0 for simulated runs).
 added_quad_forms <- function(library, which, y_field, setup) {
   y <- library$added$y[which, , drop = FALSE]
-  C <- quad_forms_cpp(y, y_field, setup$Rx_inv, setup$phi)
+  C <- plain_quad_forms(y, y_field, setup)
   extra <- matrix(0, nrow(C), ncol(C))
   for (r in unique(library$added$round[which])) {
     err <- library$rounds[[r]]$error

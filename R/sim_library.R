@@ -87,7 +87,7 @@ lib_outputs.sim_library <- function(library, rows = NULL) {
 # an overflow, goes on to misfit_table()).
 #' @exportS3Method
 lib_quad_forms.sim_library <- function(library, y_field, setup) {
-  withCallingHandlers(quad_forms_cpp(library$y, y_field, setup$Rx_inv, setup$phi),
+  withCallingHandlers(plain_quad_forms(library$y, y_field, setup),
                       error = function(e) {
     tryCatch(assert_finite(library$y, "library$y"), griddy_error = function(e2) {
       griddy_abort("The sim_library has been edited: ", conditionMessage(e2),
