@@ -1,11 +1,13 @@
 # A small system with a known gap: outputs a * load * sin(3t) over three loads;
 # the effect "quadratic" adds s * load^2 * t^2 (changes shape across loads),
 # the effect "scale" multiplies a by (1 + s) (a shift of theta imitates it).
-toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t = 0) {
+# The library holds a = `a_grid`; the data are made at a = `a_true`.
+toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t = 0,
+                    a_true = 1, a_grid = seq(0.5, 1.5, length.out = 41)) {
   t <- seq(0, 1, length.out = n_t)
   x <- data.frame(load = c(1, 2, 3))
   sim <- function(a, s) unlist(lapply(x$load, function(l) a * l * sin(3 * t) + s * l^2 * t^2))
-  base <- data.frame(a = seq(0.5, 1.5, length.out = 41))
+  base <- data.frame(a = a_grid)
   lib <- sim_library(base, t(vapply(base$a, sim, numeric(3 * n_t), s = 0)), x = x, t = t)
   g1 <- expand.grid(a = base$a, s = c(0, 0.1, 0.2, 0.3))
   quad <- sim_library(g1, t(mapply(sim, g1$a, g1$s)), x = x, t = t)
@@ -13,7 +15,7 @@ toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t =
   scale <- sim_library(g2, t(mapply(function(a, s) sim(a * (1 + s), 0), g2$a, g2$s)),
                        x = x, t = t)
   set.seed(seed)
-  y <- sim(1, s_true) + stats::rnorm(3 * n_t, sd = sd)
+  y <- sim(a_true, s_true) + stats::rnorm(3 * n_t, sd = sd)
   # a localised discrepancy: a bump at the second load around t = 0.5
   y[n_t + seq_len(n_t)] <- y[n_t + seq_len(n_t)] + bump * exp(-((t - 0.5) / 0.05)^2)
   field <- field_data(matrix(y, 3, byrow = TRUE), x = x, t = t)

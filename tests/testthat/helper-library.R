@@ -88,3 +88,9 @@ lib_rows <- function(library, rows) {
   sim_library(library$theta[rows, , drop = FALSE], library$y[rows, , drop = FALSE],
               x = library$x, t = library$t)
 }
+
+# A toy fit whose coarse library the test is not about: its resolution
+# warning muffled, every other warning kept.
+without_resolution_warning <- function(expr) {
+  suppressWarnings(expr, classes = "griddy_warning_resolution")
+}

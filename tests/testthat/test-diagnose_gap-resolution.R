@@ -1,21 +1,9 @@
 # The toy of helper-gap.R on a coarse library (a by 0.1), with the truth
 # between its runs: a = 1.0437.
-offgrid_gap <- function(s_true, a_true = 1.0437, sd = 0.02, seed = 1, n_t = 30) {
-  t <- seq(0, 1, length.out = n_t)
-  x <- data.frame(load = c(1, 2, 3))
-  sim <- function(a, s) unlist(lapply(x$load, function(l) a * l * sin(3 * t) + s * l^2 * t^2))
-  base <- data.frame(a = seq(0.5, 1.5, by = 0.1))
-  lib <- sim_library(base, t(vapply(base$a, sim, numeric(3 * n_t), s = 0)), x = x, t = t)
-  g1 <- expand.grid(a = base$a, s = c(0, 0.1, 0.2, 0.3))
-  quad <- sim_library(g1, t(mapply(sim, g1$a, g1$s)), x = x, t = t)
-  g2 <- expand.grid(a = base$a, s = c(0, 0.1, 0.2))
-  scale <- sim_library(g2, t(mapply(function(a, s) sim(a * (1 + s), 0), g2$a, g2$s)),
-                       x = x, t = t)
-  set.seed(seed)
-  y <- sim(a_true, s_true) + stats::rnorm(3 * n_t, sd = sd)
-  field <- field_data(matrix(y, 3, byrow = TRUE), x = x, t = t)
-  fit <- suppressWarnings(calibrate(lib, field, n_iter = 300, burn_in = 100, seed = 1))
-  list(fit = fit, candidates = list(quadratic = quad, scale = scale))
+offgrid_gap <- function(s_true, seed = 1) {
+  toy <- toy_gap(s_true, sd = 0.02, seed = seed, a_true = 1.0437,
+                 a_grid = seq(0.5, 1.5, by = 0.1))
+  list(fit = toy$fit, candidates = list(quadratic = toy$quad, scale = toy$scale))
 }
 
 test_that("a truth between runs with no effect is not mistaken for an effect", {

@@ -154,12 +154,11 @@ test_that("chunks mapped on two future workers give the same C", {
   old <- future::plan(future::multisession, workers = 2)
   on.exit(future::plan(old), add = TRUE)
   expect_identical(posterior_exact(lib, toy$field, rho_t = c(0, 0.5))$joint, serial$joint)
-  quiet <- function(expr) suppressWarnings(expr, classes = "griddy_warning_resolution")
-  a <- quiet(calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100,
-                       seed = 2))
+  a <- without_resolution_warning(
+    calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2))
   future::plan(future::sequential)
-  b <- quiet(calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100,
-                       seed = 2))
+  b <- without_resolution_warning(
+    calibrate(lib, toy$field, rho_t = c(0, 0.5), n_iter = 400, burn_in = 100, seed = 2))
   expect_identical(a$draws, b$draws)
 })
 
