@@ -58,3 +58,13 @@ test_that("a predicted run's leave-block pieces are those of its dense covarianc
   expect_equal(bs$D, drop(t(h[W]) %*% solve(Si[W, W], h[W])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[W, W])$modulus), tolerance = 1e-10)
 })
+
+test_that("the confounding screen works on the fit's own library, not the refined one", {
+  toy <- toy_gap(0.2)
+  seen <- new.env()
+  trace("confounding_screen", where = asNamespace("griddy"), print = FALSE,
+        tracer = bquote(assign("runs", nrow(ctx$theta), envir = .(seen))))
+  on.exit(untrace("confounding_screen", where = asNamespace("griddy")), add = TRUE)
+  diagnose_gap(toy$fit, list(quadratic = toy$quad), seed = 1)
+  expect_identical(seen$runs, lib_n_runs(toy$fit$library))
+})
