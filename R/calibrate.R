@@ -124,17 +124,31 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                       burn_in = 15000, thin = 1, chains = 1,
                       prior = NULL,
                       update = c("collapsed", "thesis"), seed = NULL,
-                      progress = interactive(), x_power = 2, run_weights = NULL) {
+                      progress = interactive(), x_power = 2, run_weights = NULL,
+                      noise_groups = NULL) {
   call <- match.call()
   seed <- assert_seed(seed)
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
-  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
+  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
+                                 noise_groups)
+  check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
   warn_resolution(fit)
   fit
 }
+
+# The thesis's update draws theta given one tau: it has no form for several.
+check_update_groups <- function(problem, update) {
+  if (update == "thesis" && n_noise_groups(problem) > 1L) {
+    griddy_abort("`update = \"thesis\"` conditions on a single precision tau, but the fit has ",
+                 n_noise_groups(problem), " noise groups; use `update = \"collapsed\"`.",
+                 class = "input")
+  }
+}
+
+n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 
 # Draw the posterior of a calibration problem (validated inputs, C): the
 # sampler half of calibrate(), shared with refine(). `start` is the elapsed
@@ -146,7 +160,7 @@ sample_problem <- function(problem, update, control, seed, call,
   run_all <- function() {
     seeds <- sample.int(.Machine$integer.max, control$chains)
     chains <- run_chains(problem, tables, update, control, seeds)
-    list(seeds = seeds, chains = chains)
+    list(seeds = seeds, chains = chains, group_tau = group_tau_draws(problem, chains))
   }
   out <- with_seed(seed, run_all())
   new_griddy_fit(problem, out, update, control, call,
@@ -210,7 +224,7 @@ sampler_options <- function(problem, update, control, tol = draw_tolerance()) {
 run_chains <- function(problem, tables, update, control, seeds) {
   inputs <- list(C = problem$C, tables = tables,
                  options = sampler_options(problem, update, control),
-                 tau_start = 1 / stats::var(problem$y_field))
+                 tau_start = 1 / stats::var(problem$y_field, na.rm = TRUE))
   if (parallel_plan()) {
     # an interrupt here leaves the futures running: tell them to stop (see
     # ?calibrate, Interrupts)
@@ -275,6 +289,29 @@ run_chain <- function(seed, inputs, control, bar, stop_file = NULL) {
   })
 }
 
+# With noise groups, each kept draw's precisions tau_k | run, grid point ~
+# Gamma(a + n_k/2, b + C_k/2), drawn after the chains from R's stream (the
+# sampler's own tau is that of the folded C): a draws x groups matrix with
+# columns tau_<label>, NULL for one group.
+group_tau_draws <- function(problem, chains) {
+  if (n_noise_groups(problem) == 1L) return(NULL)
+  run <- unlist(lapply(chains, `[[`, "run"), use.names = FALSE)
+  grid <- unlist(lapply(chains, `[[`, "grid_point"), use.names = FALSE)
+  Ck <- matrix(0, length(run), n_noise_groups(problem))
+  for (g in unique(grid)) {
+    rows <- which(grid == g)
+    runs <- unique(run[rows])
+    Ck[rows, ] <- run_group_forms(problem, runs, g)[match(run[rows], runs), , drop = FALSE]
+  }
+  shape <- problem$prior$shape + problem$setup$group_sizes / 2
+  tau <- vapply(seq_len(ncol(Ck)), function(k) {
+    stats::rgamma(nrow(Ck), shape = shape[k], rate = problem$prior$rate + Ck[, k] / 2)
+  }, numeric(nrow(Ck)))
+  tau <- matrix(tau, nrow(Ck))
+  colnames(tau) <- paste0("tau_", problem$setup$pattern$labels)
+  tau
+}
+
 # The fit is the problem (library, field, grid, setup, C, priors: each held
 # once) plus the draws and the settings of the call.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
@@ -284,8 +321,10 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
     list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
          grid_point = d$grid_point, tau = d$tau)
   }))
+  draws <- as.data.frame(draws)
+  if (!is.null(out$group_tau)) draws <- cbind(draws[names(draws) != "tau"], out$group_tau)
   structure(
-    c(list(draws = as.data.frame(draws)), problem,
+    c(list(draws = draws), problem,
       list(update = update, control = control, seeds = out$seeds, call = call,
            runtime = runtime,
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
