@@ -87,6 +87,7 @@ field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
 # non-finite ones are not.
 allow_missing <- function(v, check, arg, ...) {
   if (!is.null(dim(v)) && !is.data.frame(v) && length(dim(v)) == 1L) v <- as.vector(v)
+  if (is.logical(v) && all(is.na(v))) storage.mode(v) <- "double"
   miss <- if (is.data.frame(v)) is.na(as.matrix(v)) & !vapply(v, is.nan, logical(nrow(v)))
           else is.na(v) & !is.nan(v)
   if (is.data.frame(v)) {

@@ -158,7 +158,10 @@ n_grid_points <- function(setup) length(setup$logdet)
 # whiten_groups()).
 whiten_rows <- function(M, point, n_x, n_t, over_x = TRUE) {
   if (!is.null(point$dense)) {
-    if (!over_x) stop("whiten_rows(): a dense grid point has no AR(1)-only step")
+    if (!over_x) {
+      griddy_abort("A grid point of missing, scaled or grouped data has no AR(1)-only ",
+                   "whitening.", class = "unsupported")
+    }
     return(do.call(cbind, unname(whiten_groups(M, point))))
   }
   M <- ar1_whiten_rows_cpp(M, point$phi, n_x)
@@ -220,8 +223,8 @@ plain_quad_forms <- function(Y, y_field, setup) {
     C[, g] <- fold_groups(group_quad_forms(Y, y_field, setup, g), setup)
   }
   if (!all(is.finite(C))) {
-    stop("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or ",
-         "overflow double precision")
+    griddy_abort("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or ",
+                 "overflow double precision.", class = "numeric")
   }
   C
 }
