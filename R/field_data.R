@@ -301,12 +301,13 @@ field_layout <- function(library, field) {
 
 same_values <- function(a, b) abs(a - b) <= 1e-8 * pmax(1, abs(a), abs(b))
 
-# The library column of each field coordinate (matched by value); an error
-# names those the library does not have.
+# The library column of each field coordinate (matched by value, the nearest
+# when several are within rounding); an error names those the library does
+# not have.
 match_coordinates <- function(t_field, t_lib) {
   hit <- vapply(t_field, function(v) {
     same <- which(same_values(t_lib, v))
-    if (length(same) == 0L) NA_integer_ else same[1]
+    if (length(same) == 0L) NA_integer_ else same[which.min(abs(t_lib[same] - v))]
   }, integer(1))
   if (anyNA(hit)) {
     bad <- which(is.na(hit))
