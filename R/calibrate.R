@@ -37,6 +37,27 @@
 #' marginal masses \eqn{m_v} of its distinct values); see
 #' [summary()][summary.griddy_fit] and `?refine`.
 #'
+#' **Field data.** Only the observed points enter: with missing field data
+#' (see [field_data()]) \eqn{n} is their number and \eqn{C_{ig}} and
+#' \eqn{|R_g|} are those of the observed block of \eqn{R_g} (dense algebra;
+#' complete data use the Kronecker shortcuts). With relative standard
+#' deviations `sd` the covariance is \eqn{\tau^{-1} S R_g S}. The prior over
+#' the correlation grid is uniform over distinct correlation structures (see
+#' [rho_grid()]).
+#'
+#' **Noise groups.** With `noise_groups`, each group \eqn{k} of outputs has
+#' its own precision \eqn{\tau_k \sim Gamma(a, b)}; the correlation
+#' \eqn{R_g} holds within a group, and groups are independent (so with
+#' `noise_groups = "x"` the correlation over x settings plays no part).
+#' Integrating every \eqn{\tau_k} out gives
+#' \eqn{\sum_k -(a + n_k/2) \log(b + C_{igk}/2)}, which is
+#' \eqn{-(a + n/2) \log(b + C^{eff}_{ig}/2)} for one effective misfit
+#' \eqn{C^{eff}}, so the \eqn{\theta} and \eqn{\rho} draws are exact as
+#' above; after sampling, each kept draw's \eqn{\tau_k \sim Gamma(a + n_k/2,
+#' b + C_{igk}/2)} is drawn (reproducible under `seed` and [set.seed()]).
+#' `update = "thesis"` conditions on a single \eqn{\tau}, so it takes one
+#' group only.
+#'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'
@@ -95,10 +116,16 @@
 #'   2 gives the thesis's eq. 3.14, 1 its Appendix A eq. 5.
 #' @param run_weights Optional prior weights \eqn{\pi_i} of the library runs
 #'   (non-negative, one per run); `NULL` is uniform.
+#' @param noise_groups `NULL` (one precision \eqn{\tau} for every output),
+#'   `"x"` (one group per x setting), or labels: one per output coordinate
+#'   t (shared across x settings) or one per library output (`n_x * n_t`,
+#'   library order). See Details, Noise groups. Every group needs at least
+#'   one field measurement.
 #' @return An object of class `griddy_fit`: a list holding the kept `draws`
 #'   (a data.frame with columns `chain`, `iteration`, `run` (the library row),
-#'   `grid_point` (the row of `grid`) and `tau`), the `library`, the field
-#'   measurements `y_field` (a vector in the library's order), the correlation
+#'   `grid_point` (the row of `grid`) and `tau`, or with noise groups one
+#'   column `tau_<label>` per group), the `library`, the field
+#'   measurements `y_field` (a vector in the library's order, `NA` where missing), the correlation
 #'   `grid`, and the precomputed problem: `n_obs`, the `prior`, the log prior
 #'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
 #'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
