@@ -37,6 +37,27 @@
 #' marginal masses \eqn{m_v} of its distinct values); see
 #' [summary()][summary.griddy_fit] and `?refine`.
 #'
+#' **Field data.** Only the observed points enter: with missing field data
+#' (see [field_data()]) \eqn{n} is their number and \eqn{C_{ig}} and
+#' \eqn{|R_g|} are those of the observed block of \eqn{R_g} (dense algebra;
+#' complete data use the Kronecker shortcuts). With relative standard
+#' deviations `sd` the covariance is \eqn{\tau^{-1} S R_g S}. The prior over
+#' the correlation grid is uniform over distinct correlation structures (see
+#' [rho_grid()]).
+#'
+#' **Noise groups.** With `noise_groups`, each group \eqn{k} of outputs has
+#' its own precision \eqn{\tau_k \sim Gamma(a, b)}; the correlation
+#' \eqn{R_g} holds within a group, and groups are independent (so with
+#' `noise_groups = "x"` the correlation over x settings plays no part).
+#' Integrating every \eqn{\tau_k} out gives
+#' \eqn{\sum_k -(a + n_k/2) \log(b + C_{igk}/2)}, which is
+#' \eqn{-(a + n/2) \log(b + C^{eff}_{ig}/2)} for one effective misfit
+#' \eqn{C^{eff}}, so the \eqn{\theta} and \eqn{\rho} draws are exact as
+#' above; after sampling, each kept draw's \eqn{\tau_k \sim Gamma(a + n_k/2,
+#' b + C_{igk}/2)} is drawn (reproducible under `seed` and [set.seed()]).
+#' `update = "thesis"` conditions on a single \eqn{\tau}, so it takes one
+#' group only.
+#'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'
@@ -95,10 +116,16 @@
 #'   2 gives the thesis's eq. 3.14, 1 its Appendix A eq. 5.
 #' @param run_weights Optional prior weights \eqn{\pi_i} of the library runs
 #'   (non-negative, one per run); `NULL` is uniform.
+#' @param noise_groups `NULL` (one precision \eqn{\tau} for every output),
+#'   `"x"` (one group per x setting), or labels: one per output coordinate
+#'   t (shared across x settings) or one per library output (`n_x * n_t`,
+#'   library order). See Details, Noise groups. Every group needs at least
+#'   one field measurement.
 #' @return An object of class `griddy_fit`: a list holding the kept `draws`
 #'   (a data.frame with columns `chain`, `iteration`, `run` (the library row),
-#'   `grid_point` (the row of `grid`) and `tau`), the `library`, the field
-#'   measurements `y_field` (a vector in the library's order), the correlation
+#'   `grid_point` (the row of `grid`) and `tau`, or with noise groups one
+#'   column `tau_<label>` per group), the `library`, the field
+#'   measurements `y_field` (a vector in the library's order, `NA` where missing), the correlation
 #'   `grid`, and the precomputed problem: `n_obs`, the `prior`, the log prior
 #'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
 #'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
@@ -124,17 +151,31 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                       burn_in = 15000, thin = 1, chains = 1,
                       prior = NULL,
                       update = c("collapsed", "thesis"), seed = NULL,
-                      progress = interactive(), x_power = 2, run_weights = NULL) {
+                      progress = interactive(), x_power = 2, run_weights = NULL,
+                      noise_groups = NULL) {
   call <- match.call()
   seed <- assert_seed(seed)
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
-  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
+  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
+                                 noise_groups)
+  check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
   warn_resolution(fit)
   fit
 }
+
+# The thesis's update draws theta given one tau: it has no form for several.
+check_update_groups <- function(problem, update) {
+  if (update == "thesis" && n_noise_groups(problem) > 1L) {
+    griddy_abort("`update = \"thesis\"` conditions on a single precision tau, but the fit has ",
+                 n_noise_groups(problem), " noise groups; use `update = \"collapsed\"`.",
+                 class = "input")
+  }
+}
+
+n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 
 # Draw the posterior of a calibration problem (validated inputs, C): the
 # sampler half of calibrate(), shared with refine(). `start` is the elapsed
@@ -146,7 +187,7 @@ sample_problem <- function(problem, update, control, seed, call,
   run_all <- function() {
     seeds <- sample.int(.Machine$integer.max, control$chains)
     chains <- run_chains(problem, tables, update, control, seeds)
-    list(seeds = seeds, chains = chains)
+    list(seeds = seeds, chains = chains, group_tau = group_tau_draws(problem, chains))
   }
   out <- with_seed(seed, run_all())
   new_griddy_fit(problem, out, update, control, call,
@@ -210,7 +251,7 @@ sampler_options <- function(problem, update, control, tol = draw_tolerance()) {
 run_chains <- function(problem, tables, update, control, seeds) {
   inputs <- list(C = problem$C, tables = tables,
                  options = sampler_options(problem, update, control),
-                 tau_start = 1 / stats::var(problem$y_field))
+                 tau_start = 1 / stats::var(problem$y_field, na.rm = TRUE))
   if (parallel_plan()) {
     # an interrupt here leaves the futures running: tell them to stop (see
     # ?calibrate, Interrupts)
@@ -275,6 +316,29 @@ run_chain <- function(seed, inputs, control, bar, stop_file = NULL) {
   })
 }
 
+# With noise groups, each kept draw's precisions tau_k | run, grid point ~
+# Gamma(a + n_k/2, b + C_k/2), drawn after the chains from R's stream (the
+# sampler's own tau is that of the folded C): a draws x groups matrix with
+# columns tau_<label>, NULL for one group.
+group_tau_draws <- function(problem, chains) {
+  if (n_noise_groups(problem) == 1L) return(NULL)
+  run <- unlist(lapply(chains, `[[`, "run"), use.names = FALSE)
+  grid <- unlist(lapply(chains, `[[`, "grid_point"), use.names = FALSE)
+  Ck <- matrix(0, length(run), n_noise_groups(problem))
+  for (g in unique(grid)) {
+    rows <- which(grid == g)
+    runs <- unique(run[rows])
+    Ck[rows, ] <- run_group_forms(problem, runs, g)[match(run[rows], runs), , drop = FALSE]
+  }
+  shape <- problem$prior$shape + problem$setup$group_sizes / 2
+  tau <- vapply(seq_len(ncol(Ck)), function(k) {
+    stats::rgamma(nrow(Ck), shape = shape[k], rate = problem$prior$rate + Ck[, k] / 2)
+  }, numeric(nrow(Ck)))
+  tau <- matrix(tau, nrow(Ck))
+  colnames(tau) <- paste0("tau_", problem$setup$pattern$labels)
+  tau
+}
+
 # The fit is the problem (library, field, grid, setup, C, priors: each held
 # once) plus the draws and the settings of the call.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
@@ -284,8 +348,10 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
     list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
          grid_point = d$grid_point, tau = d$tau)
   }))
+  draws <- as.data.frame(draws)
+  if (!is.null(out$group_tau)) draws <- cbind(draws[names(draws) != "tau"], out$group_tau)
   structure(
-    c(list(draws = as.data.frame(draws)), problem,
+    c(list(draws = draws), problem,
       list(update = update, control = control, seeds = out$seeds, call = call,
            runtime = runtime,
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),

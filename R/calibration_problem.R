@@ -4,14 +4,15 @@
 # problem also takes a fit.
 
 calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
-                                run_weights) {
+                                run_weights, noise_groups = NULL) {
   check_library(library)
-  y_field <- field_vector(library, field)
+  layout <- field_layout(library, field)
   default_prior <- is.null(prior)
   prior <- assert_prior(if (default_prior) thesis_prior() else prior)
   log_prior_run <- log_run_weights(run_weights, library)
-  setup <- correlation_setup(library, rho_x, rho_t, x_power)
-  problem <- problem_from_parts(library, y_field, prior, log_prior_run, setup)
+  pattern <- noise_pattern(library, layout, noise_groups, prior)
+  setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
+  problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)
   problem
 }
@@ -23,10 +24,64 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
-  list(library = library, y_field = y_field, n_obs = length(y_field),
+  list(library = library, y_field = y_field, n_obs = sum(!is.na(y_field)),
        prior = prior, log_prior_run = log_prior_run, setup = setup,
        grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
-       log_prior_grid = rep(-log(ncol(C)), ncol(C)))
+       log_prior_grid = grid_log_prior(setup))
+}
+
+# The prior over correlation grid points: uniform over the distinct
+# correlation structures R_g, each structure's mass shared by the grid points
+# that give it. (A rho_j = 0 makes R_x the identity whatever the other x
+# columns' rho when every setting differs in column j, so a prior uniform
+# over grid points would favour independence.)
+grid_log_prior <- function(setup) {
+  key <- paste(setup$x_class[setup$gx], setup$gt)
+  count <- table(key)[key]
+  as.vector(-log(length(unique(key))) - log(count))
+}
+
+# ---- the noise pattern ----------------------------------------------------------
+
+# What the likelihood needs to know about the field beyond its values (see
+# grid_posterior.R): which library outputs are observed, their relative sd
+# (NULL when not given), and the noise group of each library output
+# (`group`, indices into `labels`), with the prior that folds the groups.
+# NULL for complete data with one group and no sd: the Kronecker case.
+noise_pattern <- function(library, layout, noise_groups, prior) {
+  observed <- !is.na(layout$y)
+  groups <- noise_group_index(noise_groups, lib_n_x(library), lib_n_t(library))
+  if (all(observed) && is.null(layout$sd) && length(groups$labels) == 1L) return(NULL)
+  empty <- setdiff(seq_along(groups$labels), groups$group[observed])
+  if (length(empty) > 0L) {
+    griddy_abort("Noise group(s) ", show_some(groups$labels[empty]), " hold no field ",
+                 "measurement, so their precision is not identified; merge them with ",
+                 "others in `noise_groups`.", class = "input")
+  }
+  list(observed = observed, sd = layout$sd, group = groups$group, labels = groups$labels,
+       prior = prior)
+}
+
+# The noise group of every library output (library order) from
+# `noise_groups`: NULL (one group), "x" (one per x setting), or labels, one
+# per output coordinate t or one per library output.
+noise_group_index <- function(noise_groups, n_x, n_t) {
+  n <- n_x * n_t
+  if (is.null(noise_groups)) return(list(group = rep(1L, n), labels = ""))
+  if (identical(noise_groups, "x")) {
+    return(list(group = rep(seq_len(n_x), each = n_t), labels = paste0("x", seq_len(n_x))))
+  }
+  if (!is.atomic(noise_groups) || anyNA(noise_groups) ||
+      !length(noise_groups) %in% c(n_t, n)) {
+    griddy_abort("`noise_groups` must be NULL, \"x\", or labels without NA: one per output ",
+                 "coordinate (", n_t, ") or one per library output (", n, "); received ",
+                 class(noise_groups)[1], " of length ", length(noise_groups), ".",
+                 class = "input")
+  }
+  v <- as.character(noise_groups)
+  if (length(v) == n_t) v <- rep(v, times = n_x)
+  labels <- unique(v)
+  list(group = match(v, labels), labels = labels)
 }
 
 # The thesis's vague Gamma prior on tau (eq. 3.8).

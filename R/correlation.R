@@ -14,6 +14,16 @@
 #' combinations taken, as the thesis's Appendix A assembles them) and one for
 #' the output coordinate t.
 #'
+#' **Prior over the grid.** [calibrate()] and [posterior_exact()] put a
+#' uniform prior over the distinct correlation structures \eqn{R_g}, not over
+#' grid points: grid points whose \eqn{R_g} coincide share one structure's
+#' mass. This matters for more than one x column: \eqn{\rho_j = 0} makes
+#' \eqn{R_x} the identity whatever the other columns' \eqn{\rho} when every
+#' setting differs in column \eqn{j}, so a prior uniform over grid points
+#' would favour independence (with 6 values for each of 2 columns, 11 of the
+#' 36 grid points are independence; it gets 1/26 of the prior, as each of
+#' the other 25 structures does).
+#'
 #' @param library A [sim_library()].
 #' @param rho_x Correlation over the control settings, in \[0, 1): a vector
 #'   (the same grid for every x column) or a list with one grid per x column.

@@ -23,6 +23,10 @@
 #' already resolved are left as they are. Every part of the diagnosis below
 #' uses the refined libraries.
 #'
+#' **Not yet supported:** fits with missing field data, relative `sd` (see
+#' [field_data()]) or noise groups (see [calibrate()]): an error of class
+#' `griddy_error_unsupported`.
+#'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
 #' columns; the runs whose strength columns are all 0 must be the base
@@ -141,6 +145,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
+  check_gap_pattern(fit)
   base <- fit$library
   candidates <- check_candidates(candidates, base)
   fdr <- assert_level(fdr, "fdr")
@@ -211,6 +216,20 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
 }
 
 # ---- candidates --------------------------------------------------------------
+
+# The leave-out algebra here uses the Kronecker structure and one tau: a fit
+# with missing field data, relative sd or noise groups (a noise pattern, see
+# correlation_setup()) is not yet supported.
+check_gap_pattern <- function(fit) {
+  if (!is.null(fit$setup$dense)) {
+    griddy_abort("diagnose_gap() does not yet support fits with missing field data, ",
+                 "relative `sd` or noise groups; this fit has ",
+                 paste(c(if (fit$n_obs < length(fit$y_field)) "missing field data",
+                         if (!is.null(fit$setup$pattern$sd)) "relative sd",
+                         if (length(fit$setup$group_sizes) > 1L) "noise groups"),
+                       collapse = " and "), ".", class = "unsupported")
+  }
+}
 
 check_candidates <- function(candidates, base) {
   if (inherits(candidates, "sim_library") || !is.list(candidates) || length(candidates) == 0L) {

@@ -1,26 +1,60 @@
 #' Field measurements to calibrate against
 #'
 #' Holds the measurements at the library's control settings `x` and output
-#' coordinates `t`.
+#' coordinates `t`: a complete table, a table with missing cells, or ragged
+#' observations (different output coordinates at each x setting) in long
+#' format.
+#'
+#' Missing measurements are `NA`. The likelihood uses the observed points
+#' only (see [calibrate()]); [predict()][predict.griddy_fit] still predicts
+#' every cell. Library x settings the field does not have, and library
+#' output coordinates it does not have, are missing too.
 #'
 #' @param y The measurements: an `n_x x n_t` numeric matrix whose row `k` holds
 #'   the measurements at the `k`-th x setting, or a numeric vector in the
 #'   library's order (blocks of `n_t` values by x setting; `n_x * n_t`
-#'   values when both `x` and `t` are given).
+#'   values when both `x` and `t` are given); `NA` marks a missing
+#'   measurement. Or, in long format, a data.frame with one row per
+#'   measurement: a column `t` (the output coordinate), a column `y` (the
+#'   value), optionally a column `sd` (as the argument `sd`), and the x
+#'   columns; cells not listed are missing.
 #' @param x A data.frame of the `n_x` control settings, with the library's
 #'   (distinct) column names; `NULL` means "the library's settings, in its order". Rows
 #'   may come in another order than the library's: [calibrate()] matches them
-#'   by value.
-#' @param t The `n_t` output coordinates; `NULL` means "the library's".
+#'   by value. In long format, `NULL` means the distinct settings of `y`.
+#' @param t The `n_t` output coordinates; `NULL` means "the library's" (in
+#'   long format, the distinct `t` of `y`, sorted). They must be among the
+#'   library's coordinates (matched by value); the library's other
+#'   coordinates are missing.
+#' @param sd `NULL`, or known relative standard deviations of the
+#'   measurements (like SEPIA's `Sigy`): the noise covariance becomes
+#'   \eqn{\tau^{-1} S R S} with \eqn{S = diag(sd)}, so a measurement with
+#'   twice the `sd` has twice the noise standard deviation. Positive numbers
+#'   in the shape of `y` (`NA` allowed where `y` is missing), one per output
+#'   coordinate (`n_t` values) or one per x setting (`n_x` values); in long
+#'   format, one per row of `y`. Outputs in different units can be given
+#'   their scales here (or see `noise_groups` in [calibrate()]).
 #' @return An object of class `griddy_field`: a list with elements `y` (an
 #'   `n_x x n_t` matrix, or a one-row matrix when `y` was a vector and neither
-#'   `x` nor `t` fixes its shape), `x` and `t` as given.
+#'   `x` nor `t` fixes its shape; `NA` where missing), `x` and `t` as given
+#'   (or as read from long format) and `sd` (`NULL` or a matrix the shape of
+#'   `y`).
 #' @seealso [sim_library()], [calibrate()]
 #' @examples
 #' field_data(matrix(rnorm(6), nrow = 2), x = data.frame(height = c(10, 20)))
-#' field_data(c(1.2, 0.8, 0.5))
+#' field_data(c(1.2, NA, 0.5))
+#' # ragged: two outputs at height 10, one at height 20
+#' field_data(data.frame(height = c(10, 10, 20), t = c(0, 1, 1),
+#'                       y = c(1.1, 0.7, 0.4)))
 #' @export
-field_data <- function(y, x = NULL, t = NULL) {
+field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
+  if (is_long_field(y)) {
+    long <- long_field(y, x, t, sd)
+    y <- long$y
+    x <- long$x
+    t <- long$t
+    sd <- long$sd
+  }
   if (is.data.frame(x)) {
     assert_column_names(x, "x")
     x <- as_numeric_columns(x, "x")
@@ -28,13 +62,16 @@ field_data <- function(y, x = NULL, t = NULL) {
   x <- as_settings(x, "x")
   if (!is.null(t)) t <- assert_numeric_vector(t, "t")
   if (is.null(dim(y)) || length(dim(y)) == 1L) {
-    y <- assert_numeric_vector(y, "y")
+    y <- allow_missing(y, assert_numeric_vector, "y")
     y <- split_field_vector(y, if (!is.null(x)) nrow(x), if (!is.null(t)) length(t))
   } else {
-    y <- as_numeric_matrix(y, "y", min_rows = 1L)
+    y <- allow_missing(y, as_numeric_matrix, "y", min_rows = 1L)
     if (ncol(y) < 1L) {
       griddy_abort("`y` must have at least 1 column; received ", nrow(y), " x 0.")
     }
+  }
+  if (all(is.na(y))) {
+    griddy_abort("`y` holds no measurement: every value is NA.")
   }
   if (!is.null(x) && nrow(x) != nrow(y)) {
     griddy_abort("`y` must have one row per x setting: `x` has ", nrow(x),
@@ -42,7 +79,132 @@ field_data <- function(y, x = NULL, t = NULL) {
   }
   if (!is.null(t)) as_coordinates(t, ncol(y), "t", "columns of `y`")
   dimnames(y) <- NULL
-  structure(list(y = y, x = x, t = t), class = "griddy_field")
+  structure(list(y = y, x = x, t = t, sd = field_sd_matrix(sd, y)), class = "griddy_field")
+}
+
+# Validate `v` with `check` (a validator that refuses NA) with its NA cells
+# standing in as 0, then put the NAs back: missing values are allowed, other
+# non-finite ones are not.
+allow_missing <- function(v, check, arg, ...) {
+  if (!is.null(dim(v)) && !is.data.frame(v) && length(dim(v)) == 1L) v <- as.vector(v)
+  if (is.logical(v) && all(is.na(v))) storage.mode(v) <- "double"
+  miss <- if (is.data.frame(v)) is.na(as.matrix(v)) & !vapply(v, is.nan, logical(nrow(v)))
+          else is.na(v) & !is.nan(v)
+  if (is.data.frame(v)) {
+    for (j in seq_along(v)) if (is.numeric(v[[j]])) v[[j]][miss[, j]] <- 0
+  } else if (is.numeric(v)) {
+    v[miss] <- 0
+  }
+  out <- check(v, arg, ...)
+  out[if (is.matrix(out) && !is.matrix(miss)) matrix(miss, nrow(out)) else miss] <- NA
+  out
+}
+
+# The relative standard deviations as a matrix the shape of `y` (n_x x n_t):
+# given in that shape (or as a vector in y's order), one per t, or one per x
+# setting.
+field_sd_matrix <- function(sd, y) {
+  if (is.null(sd)) return(NULL)
+  n_x <- nrow(y)
+  n_t <- ncol(y)
+  if (is.matrix(sd) || is.data.frame(sd)) {
+    sd <- allow_missing(sd, as_numeric_matrix, "sd")
+    if (!identical(dim(sd), dim(y))) {
+      griddy_abort("`sd` must have the shape of `y` (", n_x, " x ", n_t, "); received ",
+                   nrow(sd), " x ", ncol(sd), ".", class = "shape")
+    }
+  } else {
+    sd <- allow_missing(sd, assert_numeric_vector, "sd")
+    n <- length(sd)
+    if (n == n_x * n_t && (n_x == 1L || n_t == 1L || (n != n_x && n != n_t))) {
+      sd <- matrix(sd, n_x, n_t, byrow = TRUE)
+    } else if (n == n_t && n == n_x && n_x > 1L) {
+      griddy_abort("`sd` has ", n, " values, one per x setting or one per output ",
+                   "coordinate: the two are the same number here, so give `sd` as a ",
+                   n_x, " x ", n_t, " matrix.", class = "shape")
+    } else if (n == n_t) {
+      sd <- matrix(sd, n_x, n_t, byrow = TRUE)
+    } else if (n == n_x) {
+      sd <- matrix(sd, n_x, n_t)
+    } else {
+      griddy_abort("`sd` must hold one value per measurement (", n_x * n_t, "), per output ",
+                   "coordinate (", n_t, ") or per x setting (", n_x, "); received ", n, ".",
+                   class = "shape")
+    }
+  }
+  dimnames(sd) <- NULL
+  bad <- which(!is.na(y) & (is.na(sd) | sd <= 0))
+  if (length(bad) > 0L) {
+    griddy_abort("`sd` must be a positive number wherever `y` is measured; it is ",
+                 show_some(sd[bad]), " at cell(s) ", show_some(bad), ".")
+  }
+  sd
+}
+
+# Long format: a data.frame with columns `t` and `y`, the others x columns
+# (and optionally `sd`).
+is_long_field <- function(y) {
+  is.data.frame(y) && all(c("t", "y") %in% names(y))
+}
+
+# A long-format table as the wide matrix (settings x coordinates, NA where
+# not measured), its settings, coordinates and sd.
+long_field <- function(y, x, t, sd) {
+  assert_column_names(y, "y")
+  y <- as_numeric_columns(y, "y")
+  if (!is.null(y$sd)) {
+    if (!is.null(sd)) griddy_abort("Give `sd` either as a column of `y` or as an argument, not both.")
+    sd <- y$sd
+  }
+  x_names <- setdiff(names(y), c("t", "y", "sd"))
+  value <- allow_missing(y$y, assert_numeric_vector, "y$y")
+  t_obs <- assert_numeric_vector(y$t, "y$t")
+  if (!is.null(sd)) {
+    sd <- allow_missing(sd, assert_numeric_vector, "sd")
+    if (length(sd) != nrow(y)) {
+      griddy_abort("In long format `sd` must have one value per row of `y` (", nrow(y),
+                   "); received ", length(sd), ".", class = "shape")
+    }
+  }
+  x_obs <- if (length(x_names) > 0L) {
+    as.data.frame(as_numeric_matrix(y[x_names], "x columns of `y`"))
+  }
+  if (is.null(x)) {
+    x <- if (!is.null(x_obs)) unique(x_obs)
+    if (!is.null(x)) rownames(x) <- NULL
+  } else if (is.data.frame(x)) {
+    x <- as_settings(as_numeric_columns(x, "x"), "x")
+  }
+  if (is.null(t)) t <- sort(unique(t_obs))
+  t <- assert_numeric_vector(t, "t")
+  row <- if (is.null(x)) rep(1L, nrow(y)) else {
+    if (is.null(x_obs) || !setequal(names(x), names(x_obs))) {
+      griddy_abort("The x columns of `y` (", show_some(x_names), ") must be those of `x` (",
+                   show_some(names(x)), ").")
+    }
+    match_setting_rows(x_obs[names(x)], x)
+  }
+  col <- vapply(t_obs, function(v) {
+    hit <- which(same_values(t, v))
+    if (length(hit) == 0L) NA_integer_ else hit[1]
+  }, integer(1))
+  if (anyNA(row) || anyNA(col)) {
+    griddy_abort("Row(s) ", show_some(which(is.na(row) | is.na(col))), " of `y` are at ",
+                 "settings or coordinates not in `x` or `t`.")
+  }
+  cell <- cbind(row, col)
+  if (anyDuplicated(cell)) {
+    griddy_abort("`y` measures some cells twice: row(s) ",
+                 show_some(which(duplicated(cell))), " repeat an earlier (x, t).")
+  }
+  wide <- matrix(NA_real_, max(1L, if (!is.null(x)) nrow(x) else 1L), length(t))
+  wide[cell] <- value
+  if (!is.null(sd)) {
+    sd_wide <- matrix(NA_real_, nrow(wide), ncol(wide))
+    sd_wide[cell] <- sd
+    sd <- sd_wide
+  }
+  list(y = wide, x = x, t = t, sd = sd)
 }
 
 # A vector of measurements as an n_x x n_t matrix (blocks of n_t by x
@@ -73,17 +235,27 @@ split_field_vector <- function(y, n_x, n_t) {
 
 #' @export
 print.griddy_field <- function(x, ...) {
-  cli::cat_line("<griddy_field> ", length(x$y), " measurement(s): ",
-                nrow(x$y), " x setting(s) x ", ncol(x$y), " output(s)")
-  cli::cat_line("  range ", format(min(x$y), digits = 4), " to ",
-                format(max(x$y), digits = 4))
+  n_miss <- sum(is.na(x$y))
+  cli::cat_line("<griddy_field> ", length(x$y) - n_miss, " measurement(s): ",
+                nrow(x$y), " x setting(s) x ", ncol(x$y), " output(s)",
+                if (n_miss > 0L) paste0(", ", n_miss, " missing"),
+                if (!is.null(x$sd)) ", with relative sd")
+  cli::cat_line("  range ", format(min(x$y, na.rm = TRUE), digits = 4), " to ",
+                format(max(x$y, na.rm = TRUE), digits = 4))
   invisible(x)
 }
 
 # The field measurements as one vector in the library's order (blocks by x
-# setting), after checking that their x and t are the library's.
-# The caller has checked `library` (check_library()).
+# setting), NA where not measured, after checking that their x and t are
+# among the library's. The caller has checked `library` (check_library()).
 field_vector <- function(library, field) {
+  field_layout(library, field)$y
+}
+
+# The field's measurements and relative sd (NULL when not given), each one
+# vector in the library's order: field settings and coordinates matched to
+# the library's by value, the library's others missing (NA).
+field_layout <- function(library, field) {
   if (!inherits(field, "griddy_field")) {
     griddy_abort("`field` must be a griddy_field (see ?field_data); received ",
                  class(field)[1], ".")
@@ -91,31 +263,60 @@ field_vector <- function(library, field) {
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
   y <- field$y
-  if (!is.null(field$t)) match_coordinates(field$t, library$t)
-  if (is.null(field$x)) {
+  if (is.null(field$x) && is.null(field$t)) {
     if (length(y) != n_x * n_t) {
       griddy_abort("`field` has ", length(y), " measurements but the library has ",
                    n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
     }
-    return(as.vector(t(y)))
+    return(list(y = as.vector(t(y)), sd = if (!is.null(field$sd)) as.vector(t(field$sd))))
   }
-  order <- match_settings(field$x, library$x)
-  if (ncol(y) != n_t) {
-    griddy_abort("`field` has ", ncol(y), " output(s) per x setting but the library has ",
-                 n_t, ".")
+  cols <- if (is.null(field$t)) {
+    if (ncol(y) != n_t) {
+      griddy_abort("`field` has ", ncol(y), " output(s) per x setting but the library has ",
+                   n_t, ".")
+    }
+    seq_len(n_t)
+  } else {
+    match_coordinates(field$t, library$t)
   }
-  as.vector(t(y[order, , drop = FALSE]))
+  rows <- if (is.null(field$x)) {
+    if (nrow(y) != n_x) {
+      griddy_abort("`field` has ", nrow(y), " x setting(s) but the library has ", n_x, ".")
+    }
+    seq_len(n_x)
+  } else {
+    match_settings(field$x, library$x)
+  }
+  place <- function(m) {
+    out <- matrix(NA_real_, n_x, n_t)
+    out[rows, cols] <- m
+    as.vector(t(out))
+  }
+  out <- list(y = place(y), sd = if (!is.null(field$sd)) place(field$sd))
+  if (all(is.na(out$y))) {
+    griddy_abort("`field` holds no measurement at the library's settings.")
+  }
+  out
 }
 
 same_values <- function(a, b) abs(a - b) <= 1e-8 * pmax(1, abs(a), abs(b))
 
+# The library column of each field coordinate (matched by value, the nearest
+# when several are within rounding); an error names those the library does
+# not have.
 match_coordinates <- function(t_field, t_lib) {
-  if (length(t_field) != length(t_lib) || !all(same_values(t_field, t_lib))) {
-    griddy_abort("`field$t` does not match the library's t: the field has ",
-                 length(t_field), " coordinate(s) from ", format(min(t_field)), " to ",
-                 format(max(t_field)), ", the library ", length(t_lib), " from ",
+  hit <- vapply(t_field, function(v) {
+    same <- which(same_values(t_lib, v))
+    if (length(same) == 0L) NA_integer_ else same[which.min(abs(t_lib[same] - v))]
+  }, integer(1))
+  if (anyNA(hit)) {
+    bad <- which(is.na(hit))
+    griddy_abort("`field$t` does not match the library's t: field coordinate(s) ",
+                 show_some(format(t_field[bad])), " (position(s) ", show_some(bad),
+                 ") are not among the library's ", length(t_lib), " coordinates from ",
                  format(min(t_lib)), " to ", format(max(t_lib)), ".")
   }
+  hit
 }
 
 # For each row of `rows`, the first row of `table` (same columns, in the same
@@ -127,7 +328,9 @@ match_setting_rows <- function(rows, table) {
   }, integer(1))
 }
 
-# For each library setting, the row of the field's x holding it.
+# For each row of the field's x, the library setting (row) it is at; an
+# error names field settings the library does not have. Library settings
+# the field lacks are missing data.
 match_settings <- function(x_field, x_lib) {
   if (is.null(x_lib)) {
     if (nrow(x_field) != 1L) {
@@ -139,14 +342,9 @@ match_settings <- function(x_field, x_lib) {
     griddy_abort("`field$x` has column(s) ", show_some(names(x_field)),
                  " but the library's x has ", show_some(names(x_lib)), ".")
   }
-  hit <- match_setting_rows(x_lib, x_field[names(x_lib)])
+  hit <- match_setting_rows(x_field[names(x_lib)], x_lib)
   if (anyNA(hit)) {
-    griddy_abort("`field` has no measurements at library x setting(s) ",
-                 show_some(which(is.na(hit))), ".")
-  }
-  extra <- setdiff(seq_len(nrow(x_field)), hit)
-  if (length(extra) > 0L) {
-    griddy_abort("`field` has x setting(s) at row(s) ", show_some(extra),
+    griddy_abort("`field` has x setting(s) at row(s) ", show_some(which(is.na(hit))),
                  " that the library does not have.")
   }
   hit

@@ -8,6 +8,19 @@
 # and n data points, tau integrates out (Gamma-normal):
 #   log p(i, g | y) = log pi_i + log pi_g - log|R_g| / 2
 #                     - (a + n/2) log(b + C_ig / 2) + const.
+#
+# The noise pattern generalises this (see noise_pattern()): only the n
+# observed points enter (R_g restricted to them), each may have a known
+# relative sd (covariance tau^-1 S R_g S), and the points may fall into noise
+# groups k with precisions tau_k ~ Gamma(a, b) of their own, independent
+# between groups. Then, summing over groups,
+#   log p(y | i, g) = sum_k [-(a + n_k/2) log(b + C_igk/2)] - log|S R S| / 2,
+# which is -(a + n/2) log(b + C_eff/2) for the effective quadratic form
+#   C_eff = 2 exp(sum_k w_k log(b + C_igk/2)) - 2b,  w_k = (a + n_k/2) / (a + n/2),
+# so the sampler (src/) sees one C as before and its draws stay exact.
+# Complete data without sd or groups keep the Kronecker/AR(1) shortcuts
+# (quad_forms_cpp); any other pattern uses dense factors of the observed
+# block of each group, computed once per grid point (dense_factors()).
 
 # ---- grid points --------------------------------------------------------------
 
@@ -16,7 +29,11 @@
 # of x correlations, the AR(1) lag coefficients phi for each rho_t, and
 # log|R_g| per grid point (eq. 10, 12-13). Grid point g combines x combination
 # gx = (g - 1) %% G_x + 1 with rho_t value gt = (g - 1) %/% G_x + 1.
-correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
+#
+# `pattern` (noise_pattern()) is NULL for complete data with one tau and no
+# sd; otherwise the setup also holds `dense`, the dense factors of every grid
+# point, and log|R_g| is that of the observed, scaled and grouped covariance.
+correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL) {
   if (!is.numeric(x_power) || length(x_power) != 1L || !is.finite(x_power) ||
       x_power <= 0 || x_power > 2) {
     griddy_abort("`x_power` must be a single number in (0, 2]; received ",
@@ -52,18 +69,83 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2) {
   logdet_t <- colSums(log1p(-phi^2))
   gx <- rep(seq_len(nrow(combos)), times = length(grids$t))
   gt <- rep(seq_along(grids$t), each = nrow(combos))
-  list(Rx_chol = Rx_chol, Rx_inv = Rx_inv, phi = phi,
-       logdet = n_t * logdet_x[gx] + n_x * logdet_t[gt], gx = gx, gt = gt,
-       x_power = x_power, rho_x = grids$x, rho_t = grids$t)
+  setup <- list(Rx_chol = Rx_chol, Rx_inv = Rx_inv, phi = phi,
+                logdet = n_t * logdet_x[gx] + n_x * logdet_t[gt], gx = gx, gt = gt,
+                x_power = x_power, rho_x = grids$x, rho_t = grids$t,
+                x_class = same_matrix_class(Rx_chol), group_sizes = n_x * n_t)
+  if (is.null(pattern)) return(setup)
+  setup$dense <- dense_factors(setup, lib_t(library), pattern)
+  setup$logdet <- setup$dense$logdet
+  setup$dense$logdet <- NULL
+  setup$group_sizes <- lengths(setup$dense$groups)
+  setup$fold_prior <- pattern$prior
+  setup$pattern <- pattern[c("observed", "sd", "group", "labels")]
+  setup
+}
+
+# For each slice of a stack of matrices, the first slice equal to it (to
+# 1e-10): grid points whose R_x coincide share a correlation structure.
+same_matrix_class <- function(stack) {
+  n <- dim(stack)[3]
+  cls <- seq_len(n)
+  for (j in seq_len(n)[-1]) {
+    for (i in seq_len(j - 1L)) {
+      if (cls[i] == i && max(abs(stack[, , i] - stack[, , j])) <= 1e-10) {
+        cls[j] <- i
+        break
+      }
+    }
+  }
+  cls
+}
+
+# The dense factors of a noise pattern at every grid point: for each noise
+# group k, the upper Cholesky factor U_k of the observed block R_kk of R_g,
+# kept as A_k = U_k^-1 (R_kk^-1 = A_k A_k'), and the log-determinant of the
+# covariance S R S restricted to the observed points and grouped. An
+# observed block that is numerically singular (settings too close for the
+# correlation) is an error.
+dense_factors <- function(setup, t, pattern) {
+  obs <- which(pattern$observed)
+  groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
+  names(groups) <- pattern$labels
+  log_sd <- if (is.null(pattern$sd)) 0 else 2 * sum(log(pattern$sd[obs]))
+  G <- length(setup$logdet)
+  A <- vector("list", G)
+  logdet <- numeric(G)
+  for (g in seq_len(G)) {
+    R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
+    R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs, drop = FALSE]
+    A[[g]] <- lapply(groups, function(idx) {
+      U <- tryCatch(chol(R[idx, idx, drop = FALSE]), error = function(e) NULL)
+      if (is.null(U) || any(diag(U) < 1e-7)) {
+        griddy_abort("The correlation of the observed points is numerically singular at ",
+                     "correlation grid point ", g, ": the observed x settings or output ",
+                     "coordinates are too close for this correlation. Use smaller values ",
+                     "in `rho_x` or `rho_t`.", class = "numeric")
+      }
+      logdet[g] <<- logdet[g] + 2 * sum(log(diag(U)))
+      backsolve(U, diag(length(idx)))
+    })
+    logdet[g] <- logdet[g] + log_sd
+  }
+  list(obs = obs, scale = if (!is.null(pattern$sd)) 1 / pattern$sd[obs],
+       groups = groups, A = A, logdet = logdet)
 }
 
 # One grid point g: its R_x factor (upper Cholesky U, R_x = U'U) and inverse,
-# its AR(1) lag coefficients and log|R_g|.
+# its AR(1) lag coefficients and log|R_g|; for a noise pattern that breaks
+# the Kronecker structure, also `dense`: the observed points, their 1/sd, the
+# noise groups and each group's factor A_k (see dense_factors()).
 grid_point <- function(setup, g) {
   n_x <- dim(setup$Rx_chol)[1]
-  list(Rx_chol = matrix(setup$Rx_chol[, , setup$gx[g]], n_x, n_x),
-       Rx_inv = matrix(setup$Rx_inv[, , setup$gx[g]], n_x, n_x),
-       phi = setup$phi[, setup$gt[g]], logdet = setup$logdet[g])
+  point <- list(Rx_chol = matrix(setup$Rx_chol[, , setup$gx[g]], n_x, n_x),
+                Rx_inv = matrix(setup$Rx_inv[, , setup$gx[g]], n_x, n_x),
+                phi = setup$phi[, setup$gt[g]], logdet = setup$logdet[g])
+  if (!is.null(setup$dense)) {
+    point$dense <- c(setup$dense[c("obs", "scale", "groups")], list(A = setup$dense$A[[g]]))
+  }
+  point
 }
 
 n_grid_points <- function(setup) length(setup$logdet)
@@ -71,14 +153,32 @@ n_grid_points <- function(setup) length(setup$logdet)
 # Whiten residual rows (vectors in library order, blocks of n_t by x setting)
 # under grid point `point`, so that squared norms are the quadratic forms in
 # R_g^-1: AR(1) innovations over t (src/grid_posterior.h), then U'^-1 over x.
-# `over_x = FALSE` stops after the AR(1) step.
+# `over_x = FALSE` stops after the AR(1) step. Under a dense grid point the
+# rows come back with one column per observed point (grouped, see
+# whiten_groups()).
 whiten_rows <- function(M, point, n_x, n_t, over_x = TRUE) {
+  if (!is.null(point$dense)) {
+    if (!over_x) {
+      griddy_abort("A grid point of missing, scaled or grouped data has no AR(1)-only ",
+                   "whitening.", class = "unsupported")
+    }
+    return(do.call(cbind, unname(whiten_groups(M, point))))
+  }
   M <- ar1_whiten_rows_cpp(M, point$phi, n_x)
   if (n_x > 1L && over_x) {
     A_x <- backsolve(point$Rx_chol, diag(n_x))          # U^-1, so R_x^-1 = A_x A_x'
     M <- matrix(matrix(M, nrow(M) * n_t, n_x) %*% A_x, nrow(M), n_x * n_t)
   }
   M
+}
+
+# Rows of M (full library-order vectors) whitened group by group under a
+# dense grid point: the observed columns, divided by their sd, times A_k.
+whiten_groups <- function(M, point) {
+  d <- point$dense
+  M <- M[, d$obs, drop = FALSE]
+  if (!is.null(d$scale)) M <- sweep(M, 2, d$scale, "*")
+  Map(function(idx, A) M[, idx, drop = FALSE] %*% A, d$groups, d$A)
 }
 
 # Draw rows of N(0, R_g) noise under grid point `point`: the inverse of
@@ -114,9 +214,44 @@ misfit_table <- function(library, y_field, setup, prior) {
 }
 
 # The quadratic forms of outputs Y (runs in rows) held in memory, each run's
-# covariance R_g: for runs that are not (or not yet) a library's.
+# covariance R_g: for runs that are not (or not yet) a library's. With noise
+# groups, the effective C (fold_groups()).
 plain_quad_forms <- function(Y, y_field, setup) {
-  quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi)
+  if (is.null(setup$dense)) return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi))
+  C <- matrix(0, nrow(Y), n_grid_points(setup))
+  for (g in seq_len(ncol(C))) {
+    C[, g] <- fold_groups(group_quad_forms(Y, y_field, setup, g), setup)
+  }
+  if (!all(is.finite(C))) {
+    griddy_abort("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or ",
+                 "overflow double precision.", class = "numeric")
+  }
+  C
+}
+
+# The quadratic forms of each noise group (runs x groups) at grid point g,
+# over the observed points.
+group_quad_forms <- function(Y, y_field, setup, g) {
+  resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
+  point <- grid_point(setup, g)
+  if (is.null(point$dense)) {
+    n_x <- dim(setup$Rx_chol)[1]
+    return(matrix(rowSums(whiten_rows(resid, point, n_x, length(y_field) %/% n_x)^2)))
+  }
+  matrix(vapply(whiten_groups(resid, point), function(W) rowSums(W^2), numeric(nrow(Y))),
+         nrow(Y))
+}
+
+# The effective quadratic form of the noise groups' forms Ck (runs x
+# groups): -(a + n/2) log(b + C_eff/2) = sum_k -(a + n_k/2) log(b + C_k/2).
+# One group: C itself.
+fold_groups <- function(Ck, setup) {
+  Ck <- matrix(Ck, ncol = length(setup$group_sizes))
+  if (ncol(Ck) == 1L) return(Ck[, 1])
+  a <- setup$fold_prior$shape
+  b <- setup$fold_prior$rate
+  w <- (a + setup$group_sizes / 2) / (a + sum(setup$group_sizes) / 2)
+  2 * exp(log(b + Ck / 2) %*% w)[, 1] - 2 * b
 }
 
 fold_extra_logdet <- function(C, prior, n_obs) {
@@ -129,7 +264,7 @@ fold_extra_logdet <- function(C, prior, n_obs) {
 abort_overflow <- function(y_field) {
   griddy_abort("A misfit is not a finite number: the squared differences between the ",
                "field data and the outputs overflow double precision (largest |field ",
-               "value| ", format(max(abs(y_field)), digits = 3), "). Rescale the outputs and ",
+               "value| ", format(max(abs(y_field), na.rm = TRUE), digits = 3), "). Rescale the outputs and ",
                "the field data (e.g. to other units) before calibrating.", class = "numeric")
 }
 
@@ -137,10 +272,11 @@ abort_overflow <- function(y_field) {
 
 # log p(y | run i, grid point g) with tau integrated out: C a matrix (runs x
 # grid points) with `logdet` one per column, or a vector with one `logdet`.
-# The leave-out variants of diagnose_gap() pass the quadratic forms, data
-# size and log-determinant of the data left in.
+# `n_obs` is the data size, or the sizes of the noise groups (C then their
+# effective form, fold_groups()). The leave-out variants of diagnose_gap()
+# pass the quadratic forms, data size and log-determinant of the data left in.
 collapsed_log_lik <- function(C, n_obs, logdet, prior) {
-  ll <- -(prior$shape + n_obs / 2) * log(prior$rate + C / 2) +
+  ll <- -(prior$shape + sum(n_obs) / 2) * log(prior$rate + C / 2) +
     log_evidence_constant(prior, n_obs)
   if (is.matrix(ll)) sweep(ll, 2, logdet / 2, "-") else ll - logdet / 2
 }
@@ -154,15 +290,16 @@ collapsed_log_joint <- function(C, n_obs, logdet, prior, log_prior_run, log_prio
 }
 
 # The constant of the Gamma-normal marginal likelihood:
-# b^a Gamma(a + n/2) / (Gamma(a) (2 pi)^(n/2)). For an improper prior (b = 0)
+# b^a Gamma(a + n/2) / (Gamma(a) (2 pi)^(n/2)), its log summed over noise
+# groups when `n_obs` holds their sizes. For an improper prior (b = 0)
 # the b^a factor is left out: the result then holds up to a constant shared
 # by every model with the same prior, which is enough to compare them
 # (diagnose_gap()) but is no evidence (posterior_exact() reports NA).
 log_evidence_constant <- function(prior, n_obs) {
   a <- prior$shape
   b <- prior$rate
-  (if (b > 0) a * log(b) else 0) - lgamma(a) + lgamma(a + n_obs / 2) -
-    n_obs / 2 * log(2 * pi)
+  sum((if (b > 0) a * log(b) else 0) - lgamma(a) + lgamma(a + n_obs / 2) -
+    n_obs / 2 * log(2 * pi))
 }
 
 log_sum_exp <- function(v) {
@@ -179,7 +316,8 @@ normalise_log <- function(lj) {
 # The posterior of a calibration problem (see calibration_problem()): the
 # joint probabilities over (run, grid point) and the log evidence.
 grid_posterior <- function(problem) {
-  lj <- collapsed_log_joint(problem$C, problem$n_obs, problem$setup$logdet, problem$prior,
+  lj <- collapsed_log_joint(problem$C, problem$setup$group_sizes, problem$setup$logdet,
+                            problem$prior,
                             problem$log_prior_run, problem$log_prior_grid)
   log_norm <- log_sum_exp(lj)
   list(joint = exp(lj - log_norm),

@@ -4,10 +4,11 @@
 #' @param row.names,optional Ignored; for compatibility with the generic.
 #' @param ... Ignored.
 #' @return `as.data.frame()`: one row per kept draw, with columns `chain`,
-#'   `iteration`, `run` (the library row), the \eqn{\theta} columns, `tau` and
-#'   one column per correlation parameter (see [rho_grid()]).
+#'   `iteration`, `run` (the library row), the \eqn{\theta} columns, `tau`
+#'   (or, with noise groups, `tau_<label>` for each group; see [calibrate()])
+#'   and one column per correlation parameter (see [rho_grid()]).
 #'   `as.mcmc.list()`: a [coda::mcmc.list()] with one [coda::mcmc()] per chain,
-#'   holding the \eqn{\theta} columns, `tau` and the correlation parameters
+#'   holding the \eqn{\theta} columns, the precision(s) and the correlation parameters
 #'   that were sampled (those whose grid has more than one value).
 #' @examples
 #' ex <- griddy_example()
@@ -24,7 +25,7 @@ as.data.frame.griddy_fit <- function(x, row.names = NULL, optional = FALSE, ...)
   d <- x$draws
   out <- cbind(d[c("chain", "iteration", "run")],
                lib_theta(x$library)[d$run, , drop = FALSE],
-               tau = d$tau,
+               d[tau_columns(x)],
                x$grid[d$grid_point, , drop = FALSE])
   rownames(out) <- NULL
   out
@@ -41,6 +42,9 @@ as.mcmc.list.griddy_fit <- function(x, ...) {
     coda::mcmc(as.matrix(d), start = ctrl$burn_in + ctrl$thin, thin = ctrl$thin)
   }))
 }
+
+# The names of the precision draws: `tau`, or `tau_<label>` per noise group.
+tau_columns <- function(fit) grep("^tau(_|$)", names(fit$draws), value = TRUE)
 
 # The sampled parameters: theta columns, tau, and the correlation parameters
 # whose grid has more than one value.

@@ -18,10 +18,13 @@
 #'   every kept draw.
 #' @param seed `NULL`, or a seed for the noise draws of this call only.
 #' @param ... Ignored.
-#' @return A data.frame with one row per field measurement at the settings
-#'   predicted (the library's order, or `newdata`'s): `x` (the row of the library's x settings), the x columns, `t`,
-#'   `observed` (the field data), `mean`, `lower` and `upper` (the simulator
-#'   outputs at the drawn runs) and `pred_lower`, `pred_upper` (with noise).
+#' @return A data.frame with one row per library output at the settings
+#'   predicted (the library's order, or `newdata`'s), measured or not: `x`
+#'   (the row of the library's x settings), the x columns, `t`,
+#'   `observed` (the field data, `NA` where missing), `mean`, `lower` and
+#'   `upper` (the simulator outputs at the drawn runs) and `pred_lower`,
+#'   `pred_upper` (with noise: each noise group's at its own precision, times
+#'   the field's relative `sd` where given, `NA` where the field has no sd).
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
@@ -44,7 +47,7 @@ predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 10
   bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
   noisy <- with_seed(seed, noisy_outputs(object, pick))[, cols, drop = FALSE]
-  pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE)
+  pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE, na.rm = TRUE)
   out <- data.frame(x = rep(settings, each = lib_n_t(lib)))
   if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[out$x, , drop = FALSE])
   out <- cbind(out, t = rep(lib_t(lib), length(settings)), observed = object$y_field[cols],
@@ -91,19 +94,29 @@ weighted_quantile <- function(v, w, probs) {
   v[o][vapply(probs, function(p) which(cw >= p - 1e-12)[1], integer(1))]
 }
 
-# Library outputs at the chosen draws plus N(0, R_g / tau) noise: one row
-# per draw, the noise coloured by each draw's grid point (grid_posterior.R).
+# Library outputs at the chosen draws plus N(0, S R_g S / tau) noise at every
+# output, observed or not: one row per draw, the noise coloured by each
+# draw's grid point (grid_posterior.R); with noise groups, independent noise
+# for each group at its own tau_k, correlated within it; S the field's
+# relative sd (NA, so no predictive bound, where the field gives none).
 noisy_outputs <- function(fit, pick) {
   lib <- fit$library
   n_x <- lib_n_x(lib)
   n_t <- lib_n_t(lib)
   d <- fit$draws[pick, ]
+  tau <- as.matrix(d[tau_columns(fit)])
+  pattern <- fit$setup$pattern
   out <- lib_outputs(lib, d$run)
   for (g in unique(d$grid_point)) {
     rows <- which(d$grid_point == g)
-    Z <- matrix(stats::rnorm(length(rows) * n_x * n_t), length(rows), byrow = TRUE)
-    out[rows, ] <- out[rows, ] + colour_rows(Z, grid_point(fit$setup, g), n_x, n_t) /
-      sqrt(d$tau[rows])
+    point <- grid_point(fit$setup, g)
+    for (k in seq_len(ncol(tau))) {
+      Z <- matrix(stats::rnorm(length(rows) * n_x * n_t), length(rows), byrow = TRUE)
+      noise <- colour_rows(Z, point, n_x, n_t) / sqrt(tau[rows, k])
+      cols <- if (ncol(tau) == 1L) seq_len(n_x * n_t) else which(pattern$group == k)
+      if (!is.null(pattern$sd)) noise <- sweep(noise, 2, pattern$sd, "*")
+      out[rows, cols] <- out[rows, cols] + noise[, cols]
+    }
   }
   out
 }

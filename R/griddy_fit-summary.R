@@ -1,6 +1,7 @@
 #' Summarise a griddy fit
 #'
-#' One row per sampled parameter (each \eqn{\theta} column, `tau`, each
+#' One row per sampled parameter (each \eqn{\theta} column, `tau` or each
+#' noise group's `tau_<label>`, each
 #' correlation parameter), with checks of whether the library is fine and wide
 #' enough for the posterior. They use the exact posterior over runs (see
 #' [posterior_exact()]):
@@ -92,10 +93,17 @@ potential_scale_reduction <- function(chains) {
 fit_description <- function(fit) {
   ctrl <- fit$control
   paste0("Griddy Gibbs (", fit$update, " update) over ", lib_n_runs(fit$library),
-         " runs x ", nrow(fit$grid), " correlation grid point(s); ", length(fit$y_field),
-         " data points; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
+         " runs x ", nrow(fit$grid), " correlation grid point(s); ", fit$n_obs,
+         " data points", missing_description(fit), "; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",
          format(sum(fit$runtime), digits = 3), " s", refinement_description(fit$refinement))
+}
+
+missing_description <- function(fit) {
+  n_miss <- length(fit$y_field) - fit$n_obs
+  groups <- length(fit$setup$group_sizes)
+  paste0(if (n_miss > 0L) paste0(" (", n_miss, " missing)"),
+         if (groups > 1L) paste0(" in ", groups, " noise groups"))
 }
 
 refinement_description <- function(refinement) {

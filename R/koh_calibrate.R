@@ -87,6 +87,10 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   assert_flag(quiet, "quiet")
   check_library(library)
   y <- field_vector(library, field)
+  if (anyNA(y) || !is.null(field$sd)) {
+    griddy_abort("koh_calibrate() does not yet support field data with missing values or ",
+                 "relative `sd`; calibrate() does.", class = "unsupported")
+  }
   theta <- as.matrix(lib_theta(library))
   p <- ncol(theta)
   if (!is.null(proposal_sd)) {

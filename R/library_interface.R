@@ -60,14 +60,14 @@ lib_check_rows <- function(library, rows) {
 
 # ---- chunked backends ------------------------------------------------------
 
-# C of a library read in pieces: one quad_forms_cpp() call per piece, mapped
+# C of a library read in pieces: one plain_quad_forms() call per piece, mapped
 # over the future plan's workers in waves of one piece per worker, each wave's
 # results copied into C at once, so memory holds C and one wave of pieces.
 # `pieces` is a list of read specifications (see read_piece()), `rows` the
 # number of runs in each, in library order. Workers need griddy installed.
 chunked_quad_forms <- function(pieces, rows, y_field, setup) {
-  piece_C <- function(piece, y_field, Rx_inv, phi) {
-    quad_forms_cpp(read_piece(piece), y_field, Rx_inv, phi)
+  piece_C <- function(piece, y_field, setup) {
+    plain_quad_forms(read_piece(piece), y_field, setup)
   }
   environment(piece_C) <- asNamespace("griddy")
   parallel <- requireNamespace("future.apply", quietly = TRUE)
@@ -79,10 +79,9 @@ chunked_quad_forms <- function(pieces, rows, y_field, setup) {
   }
   per_wave <- if (parallel) max(1L, as.integer(future::nbrOfWorkers())) else 1L
   ends <- cumsum(rows)
-  C <- matrix(0, sum(rows), dim(setup$Rx_inv)[3] * ncol(setup$phi))
+  C <- matrix(0, sum(rows), n_grid_points(setup))
   for (wave in split(seq_along(pieces), (seq_along(pieces) - 1L) %/% per_wave)) {
-    out <- map(pieces[wave], piece_C, y_field = y_field, Rx_inv = setup$Rx_inv,
-               phi = setup$phi)
+    out <- map(pieces[wave], piece_C, y_field = y_field, setup = setup)
     for (j in seq_along(wave)) {
       k <- wave[j]
       C[ends[k] - rows[k] + seq_len(rows[k]), ] <- out[[j]]

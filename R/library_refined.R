@@ -184,7 +184,8 @@ in_box <- function(theta, box) {
 # The error model of an emulator from its leave-one-out residuals `E` (runs
 # x outputs): the leading principal directions of their second moment (not
 # centred: a shared bias is error too), as many as hold 99% of it, at most
-# `max_rank`; `noise_var` is the round's plug-in noise variance.
+# `max_rank`; `noise_var` is the round's plug-in noise variance (one per
+# noise group).
 emulation_error_model <- function(E, noise_var, max_rank = 50L) {
   if (nrow(E) == 0L || all(E == 0)) return(NULL)
   s <- svd(E / sqrt(nrow(E)), nu = 0L)
@@ -201,24 +202,66 @@ emulation_error_model <- function(E, noise_var, max_rank = 50L) {
 #   C'_ig = C_ig - sum_m kappa_i e_im^2 / (1 + kappa_i gamma_m),
 #   e_i = (W r_i)' W U D^1/2 Q,
 #   log|R_g + kappa_i V / s2| - log|R_g| = sum_m log(1 + kappa_i gamma_m).
+# Under a noise pattern (correlation_setup()) W whitens the observed points
+# (divided by their sd), and with noise groups the error model applies
+# within each group: V restricted to the group's points, s2 the group's
+# noise variance (err$noise_var, one per group); the groups' forms are then
+# folded (fold_groups()).
 # Returns list(C = C', logdet = the extra log-determinants), runs x grid
 # points.
 emulated_quad_forms <- function(y, y_field, setup, err, kappa, n_x, n_t) {
-  n <- length(y_field)
-  resid <- matrix(y_field, nrow(y), n, byrow = TRUE) - y
-  scale <- sqrt(err$lambda / err$noise_var)
   C <- matrix(0, nrow(y), n_grid_points(setup))
   extra <- C
   for (g in seq_len(n_grid_points(setup))) {
-    point <- grid_point(setup, g)
-    Wr <- whiten_rows(resid, point, n_x, n_t)
-    WU <- whiten_rows(t(err$U), point, n_x, n_t) * scale
-    eg <- eigen(tcrossprod(WU), symmetric = TRUE)
-    gamma <- pmax(eg$values, 0)
-    e <- Wr %*% t(WU) %*% eg$vectors
-    shrink <- outer(kappa, gamma, function(k, g) k / (1 + k * g))
-    C[, g] <- rowSums(Wr^2) - rowSums(e^2 * shrink)
-    extra[, g] <- rowSums(log1p(outer(kappa, gamma)))
+    f <- emulated_group_forms(y, y_field, setup, err, kappa, n_x, n_t, g)
+    C[, g] <- fold_groups(f$C, setup)
+    extra[, g] <- f$logdet
   }
   list(C = C, logdet = extra)
+}
+
+# emulated_quad_forms() at grid point g, before folding: list(C = runs x
+# noise groups, logdet = the extra log-determinant of each run).
+emulated_group_forms <- function(y, y_field, setup, err, kappa, n_x, n_t, g) {
+  resid <- matrix(y_field, nrow(y), length(y_field), byrow = TRUE) - y
+  point <- grid_point(setup, g)
+  whiten <- function(M) {
+    if (is.null(point$dense)) list(whiten_rows(M, point, n_x, n_t)) else whiten_groups(M, point)
+  }
+  Wr <- whiten(resid)
+  WU <- whiten(t(err$U))
+  s2 <- rep_len(err$noise_var, length(Wr))
+  C <- matrix(0, nrow(y), length(Wr))
+  extra <- numeric(nrow(y))
+  for (k in seq_along(Wr)) {
+    WUk <- WU[[k]] * sqrt(err$lambda / s2[k])
+    eg <- eigen(tcrossprod(WUk), symmetric = TRUE)
+    gamma <- pmax(eg$values, 0)
+    e <- Wr[[k]] %*% t(WUk) %*% eg$vectors
+    shrink <- outer(kappa, gamma, function(k, g) k / (1 + k * g))
+    C[, k] <- rowSums(Wr[[k]]^2) - rowSums(e^2 * shrink)
+    extra <- extra + rowSums(log1p(outer(kappa, gamma)))
+  }
+  list(C = C, logdet = extra)
+}
+
+# The quadratic forms of each noise group (runs x groups) of library rows
+# `runs` at grid point g, with the emulation error of predicted runs: what
+# the draws of each group's precision and its posterior mean need.
+run_group_forms <- function(problem, runs, g) {
+  library <- problem$library
+  Ck <- group_quad_forms(lib_outputs(library, runs), problem$y_field, problem$setup, g)
+  if (!inherits(library, "refined_library")) return(Ck)
+  n0 <- lib_n_runs(library$base)
+  added <- runs > n0
+  for (r in unique(library$added$round[runs[added] - n0])) {
+    err <- library$rounds[[r]]$error
+    if (is.null(err)) next
+    rows <- which(added)[library$added$round[runs[added] - n0] == r]
+    which <- runs[rows] - n0
+    Ck[rows, ] <- emulated_group_forms(library$added$y[which, , drop = FALSE], problem$y_field,
+                                       problem$setup, err, library$added$rel_var[which],
+                                       lib_n_x(library), lib_n_t(library), g)$C
+  }
+  Ck
 }

@@ -15,6 +15,11 @@
 #' \deqn{p(y) = \sum_{i,g} \pi_i \pi_g (2\pi)^{-n/2} |R_g|^{-1/2}
 #'   \frac{b^a \, \Gamma(a + n/2)}{\Gamma(a) (b + C_{ig}/2)^{a + n/2}}.}
 #'
+#' With missing field data, \eqn{n} counts the observed points and \eqn{R_g}
+#' is restricted to them; with noise groups, the likelihood and the constant
+#' are products over the groups (see [calibrate()]), and with relative `sd`
+#' (see [field_data()]) \eqn{|R_g|} is that of \eqn{S R_g S}.
+#'
 #' @inheritParams calibrate
 #' @return A list of class `griddy_exact` with elements
 #'   * `run`: the posterior probability of each library row (summed over the
@@ -35,8 +40,9 @@
 #' @export
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
                             prior = NULL,
-                            x_power = 2, run_weights = NULL) {
-  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights)
+                            x_power = 2, run_weights = NULL, noise_groups = NULL) {
+  problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
+                                 noise_groups)
   exact_from_problem(problem)
 }
 

@@ -261,7 +261,13 @@ emulation_error_ratio <- function(emulator, state) {
   width <- pmax(apply(emulator$loo_theta, 2, function(v) diff(range(v))), 1e-300)
   d2 <- colSums(((t(emulator$loo_theta) - mode) / width)^2)
   near <- order(d2)[seq_len(min(2L * ncol(theta) + 1L, length(d2)))]
-  sqrt(mean(emulator$loo[near, ]^2) / posterior_noise_var(state))
+  sqrt(mean(emulator$loo[near, ]^2) / noise_var_pooled(state$problem, posterior_noise_var(state)))
+}
+
+# One noise variance for all observed points: the groups' own (see
+# posterior_noise_var()) averaged over the points.
+noise_var_pooled <- function(problem, s2) {
+  sum(s2 * problem$setup$group_sizes) / sum(problem$setup$group_sizes)
 }
 
 # The exact posterior over runs of a problem and its resolution table.
@@ -518,7 +524,7 @@ restate_noise_var <- function(state, times = 3L) {
     s2 <- posterior_noise_var(state)
     emulated <- which(vapply(library$rounds, function(r) !is.null(r$error), logical(1)))
     if (length(emulated) == 0L) return(state)
-    old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, numeric(1))
+    old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, s2)
     if (all(abs(old - s2) <= 0.01 * s2)) return(state)
     for (r in emulated) library$rounds[[r]]$error$noise_var <- s2
     which <- which(library$added$round %in% emulated)
@@ -533,8 +539,19 @@ restate_noise_var <- function(state, times = 3L) {
 }
 
 # The posterior mean of 1/tau: (b + C/2) / (a + n/2 - 1) averaged over the
-# exact posterior over (run, grid point).
+# exact posterior over (run, grid point); with noise groups, that of each
+# 1/tau_k (over the runs that carry the posterior: all but 1e-12 of it).
 posterior_noise_var <- function(state) {
   pr <- state$problem
-  sum(state$joint * (pr$prior$rate + pr$C / 2)) / max(pr$prior$shape + pr$n_obs / 2 - 1, 0.5)
+  sizes <- pr$setup$group_sizes
+  denom <- pmax(pr$prior$shape + sizes / 2 - 1, 0.5)
+  if (length(sizes) == 1L) return(sum(state$joint * (pr$prior$rate + pr$C / 2)) / denom)
+  total <- numeric(length(sizes))
+  for (g in seq_len(ncol(state$joint))) {
+    runs <- which(state$joint[, g] > 1e-12 * max(state$joint))
+    if (length(runs) == 0L) next
+    Ck <- run_group_forms(pr, runs, g)
+    total <- total + colSums(state$joint[runs, g] * (pr$prior$rate + Ck / 2))
+  }
+  total / sum(state$joint) / denom
 }

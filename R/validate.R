@@ -10,7 +10,8 @@
 #   numeric  a computation that would overflow or is singular;
 #   library  a library on disk that is incomplete or corrupt;
 #   lock     a library directory held by another writer;
-#   package  a suggested package that the call needs is not installed.
+#   package  a suggested package that the call needs is not installed;
+#   unsupported  a combination of inputs a function does not yet handle.
 # rlang::abort() (what cli::cli_abort() wraps) is called with the message as
 # built, so it is never re-wrapped or re-interpolated: a message may hold
 # braces and file paths, and reads in full in a log.

@@ -54,3 +54,41 @@ installed_griddy_is_current <- function(fun = "run_chain") {
   identical(out, "TRUE")
 }
 
+
+# A small library (8 runs of one parameter, 3 x settings x 5 outputs) and
+# field data with some cells missing, for checking the likelihood over the
+# observed points against dense algebra.
+toy_missing <- function(missing = c(2, 7, 8, 13), seed = 3) {
+  x <- data.frame(h = c(1, 2, 4))
+  t <- seq(0, 1, length.out = 5)
+  theta <- data.frame(k = 1:8)
+  Y <- t(vapply(theta$k, function(k) rep(sin(t * k / 3), 3) * rep(x$h, each = 5), numeric(15)))
+  set.seed(seed)
+  y <- Y[4, ] + stats::rnorm(15, sd = 0.3)
+  y[missing] <- NA
+  list(library = sim_library(theta, Y, x = x, t = t), y = y, Y = Y, x = x, t = t,
+       field = field_data(y, x = x, t = t))
+}
+
+# The log joint over (run, grid point) by dense algebra: for each noise group
+# (labels `groups`, one per library output) the observed block of
+# S (R_x (x) R_t) S, its inverse and determinant, and the Gamma-normal
+# marginal likelihood; uniform priors.
+brute_log_joint <- function(toy, grid, prior, groups = rep(1, 15), sd = rep(1, 15)) {
+  obs <- which(!is.na(toy$y))
+  lj <- matrix(0, nrow(toy$Y), nrow(grid))
+  for (g in seq_len(nrow(grid))) {
+    R <- kronecker(corr_x(toy$x, grid$rho_x_h[g]), corr_t(toy$t, grid$rho_t[g]))
+    R <- diag(sd) %*% R %*% diag(sd)
+    for (i in seq_len(nrow(toy$Y))) for (k in unique(groups)) {
+      o <- intersect(obs, which(groups == k))
+      n <- length(o)
+      r <- (toy$y - toy$Y[i, ])[o]
+      C <- drop(t(r) %*% solve(R[o, o], r))
+      lj[i, g] <- lj[i, g] - 0.5 * as.numeric(determinant(R[o, o])$modulus) -
+        (prior$shape + n / 2) * log(prior$rate + C / 2) + prior$shape * log(prior$rate) -
+        lgamma(prior$shape) + lgamma(prior$shape + n / 2) - n / 2 * log(2 * pi)
+    }
+  }
+  lj - log(nrow(toy$Y)) - log(nrow(grid))
+}

@@ -230,3 +230,71 @@ test_that("a stop file ends a chain on a worker (what an interrupt writes)", {
   expect_error(run_chain(1L, inputs, control, NULL, stop_file),
                class = "griddy_error_interrupted")
 })
+
+test_that("noise groups: tau_k draws follow Gamma(a + n_k/2, b + C_k/2), reproducibly", {
+  toy <- toy_missing()
+  prior <- list(shape = 2, rate = 0.5)
+  by_t <- c("a", "a", "b", "b", "b")
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0.2, 0.7), prior = prior,
+                                    noise_groups = by_t, n_iter = 4000, burn_in = 500, seed = 4))
+  expect_identical(names(fit$draws), c("chain", "iteration", "run", "grid_point", "tau_a", "tau_b"))
+  d <- as.data.frame(fit)
+  expect_true(all(c("tau_a", "tau_b") %in% names(d)))
+  expect_false("tau" %in% names(d))
+  expect_identical(summary(fit)$parameter, c("k", "tau_a", "tau_b", "rho_t"))
+  # conditional means: E[tau_k | run, g] = (a + n_k/2) / (b + C_k/2)
+  sizes <- fit$setup$group_sizes
+  expect_identical(unname(sizes), c(4L, 7L))
+  expected <- matrix(0, nrow(fit$draws), 2)
+  for (g in unique(fit$draws$grid_point)) {
+    rows <- which(fit$draws$grid_point == g)
+    expected[rows, ] <- t((prior$shape + sizes / 2) /
+                            (prior$rate + t(run_group_forms(fit, fit$draws$run[rows], g)) / 2))
+  }
+  z <- (colMeans(fit$draws[c("tau_a", "tau_b")]) - colMeans(expected)) /
+    (sqrt(colMeans(expected^2 / (prior$shape + sizes / 2))) / sqrt(nrow(d)))
+  expect_true(all(abs(z) < 4))
+  # the groups' C_k by dense algebra at one draw
+  obs <- which(!is.na(toy$y))
+  j <- 1
+  g <- fit$draws$grid_point[j]
+  R <- kronecker(diag(3), corr_t(toy$t, fit$grid$rho_t[g]))
+  o <- intersect(obs, which(rep(by_t, 3) == "a"))
+  r <- (toy$y - toy$Y[fit$draws$run[j], ])[o]
+  expect_equal(run_group_forms(fit, fit$draws$run[j], g)[1, 1], drop(t(r) %*% solve(R[o, o], r)))
+  # reproducible with seed and with set.seed
+  again <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0.2, 0.7), prior = prior,
+                                      noise_groups = by_t, n_iter = 4000, burn_in = 500, seed = 4))
+  expect_identical(again$draws, fit$draws)
+  set.seed(9)
+  f1 <- suppressWarnings(calibrate(toy$library, toy$field, noise_groups = "x", n_iter = 300,
+                                   burn_in = 100, prior = prior))
+  set.seed(9)
+  f2 <- suppressWarnings(calibrate(toy$library, toy$field, noise_groups = "x", n_iter = 300,
+                                   burn_in = 100, prior = prior))
+  expect_identical(f1$draws, f2$draws)
+  expect_identical(grep("^tau", names(f1$draws), value = TRUE), c("tau_x1", "tau_x2", "tau_x3"))
+})
+
+test_that("the thesis update is refused with more than one noise group", {
+  toy <- toy_missing()
+  expect_error(calibrate(toy$library, toy$field, noise_groups = "x", update = "thesis",
+                         n_iter = 100, burn_in = 10),
+               "conditions on a single precision tau", class = "griddy_error_input")
+  # one group, missing data: the thesis update runs
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, update = "thesis", n_iter = 200,
+                                    burn_in = 10, seed = 1, prior = list(shape = 2, rate = 0.5)))
+  expect_identical(fit$n_obs, 11L)
+})
+
+test_that("calibrate() with missing data samples the exact posterior over the observed points", {
+  toy <- toy_missing()
+  prior <- list(shape = 2, rate = 0.5)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_x = c(0, 0.5), rho_t = c(0.2, 0.7),
+                                    prior = prior, n_iter = 6000, burn_in = 1000, seed = 3))
+  ex <- posterior_exact(toy$library, toy$field, rho_x = c(0, 0.5), rho_t = c(0.2, 0.7),
+                        prior = prior)
+  freq <- tabulate(fit$draws$run, nbins = 8) / nrow(fit$draws)
+  expect_lt(tv_distance(freq, ex$run), 0.05)
+  expect_output(print(summary(fit)), "11 data points \\(4 missing\\)")
+})

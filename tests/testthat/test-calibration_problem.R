@@ -36,3 +36,23 @@ test_that("the default prior warns when the outputs' units make it matter", {
   # a prior the user chose is not second-guessed
   expect_silent(posterior_exact(small, small_field, prior = list(shape = 1, rate = 1)))
 })
+
+test_that("the grid prior is uniform over distinct correlation structures, not grid points", {
+  # two x columns in which every setting differs: rho_j = 0 in either makes
+  # R_x the identity, so 11 of the 36 grid points are independence
+  x <- data.frame(a = c(1, 2, 3), b = c(5, 7, 6))
+  lib <- sim_library(data.frame(k = 1:2), matrix(rnorm(6), 2), x = x)
+  rho <- c(0, 0.2, 0.4, 0.6, 0.8, 0.9)
+  pr <- calibration_problem(lib, field_data(rnorm(3), x = x), rho, 0, NULL, 2, NULL)
+  indep <- pr$grid$rho_x_a == 0 | pr$grid$rho_x_b == 0
+  expect_identical(sum(indep), 11L)
+  # a uniform prior over grid points gave independence 11/36; now 1 of the
+  # 26 distinct structures
+  expect_equal(sum(exp(pr$log_prior_grid)), 1)
+  expect_equal(sum(exp(pr$log_prior_grid[indep])), 1 / 26)
+  expect_equal(exp(pr$log_prior_grid[!indep]), rep(1 / 26, 25))
+  # one x column: every grid point its own structure, as before
+  lib1 <- sim_library(data.frame(k = 1:2), matrix(rnorm(6), 2), x = x["a"])
+  pr1 <- calibration_problem(lib1, field_data(rnorm(3), x = x["a"]), rho, 0, NULL, 2, NULL)
+  expect_equal(pr1$log_prior_grid, rep(-log(6), 6))
+})

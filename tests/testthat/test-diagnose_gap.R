@@ -166,3 +166,12 @@ test_that("diagnose_gap() on a fit from a library on disk equals the in-memory d
   expect_equal(gap_disk$where, gap_mem$where)
   expect_equal(gap_disk$shrinkage, gap_mem$shrinkage)
 })
+
+test_that("diagnose_gap() refuses fits with missing data, sd or noise groups", {
+  toy <- toy_missing()
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 200, burn_in = 50, seed = 1,
+                                    prior = list(shape = 2, rate = 0.5), noise_groups = "x"))
+  expect_error(diagnose_gap(fit, list(a = toy$library)),
+               "does not yet support.*missing field data and noise groups",
+               class = "griddy_error_unsupported")
+})

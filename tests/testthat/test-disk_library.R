@@ -175,3 +175,18 @@ test_that("a corrupt chunk leaves no connection open", {
                class = "griddy_error_library")
   expect_identical(nrow(showConnections(all = TRUE)), before)
 })
+
+test_that("a chunked library gives the in-memory C with missing data, sd and noise groups", {
+  toy <- toy_xt(n_per_dim = 5)
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(toy$library, dir, chunk_size = 7)
+  lib <- disk_library(dir)
+  y <- toy$field$y
+  y[2, 3:7] <- NA
+  field <- field_data(y, x = toy$field$x, t = toy$field$t, sd = seq(1, 2, length.out = 12))
+  prior <- list(shape = 1, rate = 0.1)
+  mem <- calibration_problem(toy$library, field, c(0, 0.3), c(0, 0.5), prior, 2, NULL, "x")
+  disk <- calibration_problem(lib, field, c(0, 0.3), c(0, 0.5), prior, 2, NULL, "x")
+  expect_false(is.null(mem$setup$dense))
+  expect_equal(disk$C, mem$C)
+})

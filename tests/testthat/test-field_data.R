@@ -10,7 +10,8 @@ test_that("field_data rejects inconsistent input", {
   expect_error(field_data(1:5, x = data.frame(h = 1:2)), "do not split into 2 x settings")
   expect_error(field_data(matrix(1:6, 3), x = data.frame(h = 1:2)), "`x` has 2 rows but `y` has 3")
   expect_error(field_data(matrix(1:6, 2), t = 1:4), "`t` has 4")
-  expect_error(field_data(c(1, NA)), "found NA")
+  expect_error(field_data(c(1, Inf)), "found Inf")
+  expect_error(field_data(c(NA, NA)), "every value is NA")
 })
 
 test_that("field_vector puts field data in the library's order", {
@@ -25,10 +26,11 @@ test_that("field_vector rejects fields that do not match the library", {
   lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
                      x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
   expect_error(field_vector(lib, field_data(1:4)), "4 measurements but the library has 3 x setting\\(s\\) x 2 output\\(s\\) = 6")
-  expect_error(field_vector(lib, field_data(matrix(1:6, 3), t = c(0, 2))), "does not match the library's t")
+  expect_error(field_vector(lib, field_data(matrix(1:6, 3), t = c(0, 2))),
+               "field coordinate\\(s\\) 2 \\(position\\(s\\) 2\\) are not among the library's")
   expect_error(field_vector(lib, field_data(matrix(1:6, 3), x = data.frame(v = 1:3))), "column\\(s\\) v but the library's x has h")
   expect_error(field_vector(lib, field_data(matrix(1:6, 3), x = data.frame(h = c(10, 20, 40)))),
-               "no measurements at library x setting\\(s\\) 3")
+               "x setting\\(s\\) at row\\(s\\) 3 that the library does not have")
   expect_error(field_vector(lib, field_data(matrix(1:8, 4), x = data.frame(h = c(10, 20, 30, 40)))),
                "x setting\\(s\\) at row\\(s\\) 4 that the library does not have")
   expect_error(calibrate(list(), field_data(1)), "`library` must be a sim_library")
@@ -69,4 +71,47 @@ test_that("integer64 measurements and settings are read as numbers", {
   expect_identical(f$x$h, c(5, 2^33))
   f2 <- field_data(data.frame(a = bit64::as.integer64(c(1, 2^31))))
   expect_identical(f2$y, matrix(c(1, 2^31), 2))
+})
+
+test_that("field_data keeps missing cells and field_vector places them in the library's order", {
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  f <- field_data(rbind(c(5, NA), c(1, 2)), x = data.frame(h = c(30, 10)), t = c(0, 1))
+  expect_output(print(f), "3 measurement\\(s\\).*1 missing")
+  # the library's setting 20 has no measurement: an all-NA block
+  expect_identical(field_vector(lib, f), c(1, 2, NA, NA, 5, NA))
+  # a field with only some of the library's t
+  f2 <- field_data(matrix(c(7, 8, 9), 3), x = data.frame(h = c(10, 20, 30)), t = 1)
+  expect_identical(field_vector(lib, f2), c(NA, 7, NA, 8, NA, 9))
+})
+
+test_that("long format gives the wide matrix with NA where not measured", {
+  long <- data.frame(h = c(20, 10, 10), t = c(1, 0, 1), y = c(3, 1, 2))
+  f <- field_data(long)
+  expect_identical(f$x, data.frame(h = c(20, 10)))
+  expect_identical(f$t, c(0, 1))
+  expect_identical(f$y, rbind(c(NA, 3), c(1, 2)))
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  expect_identical(field_vector(lib, f), c(1, 2, NA, 3, NA, NA))
+  # the x settings and coordinates may be given, sd as a column
+  f2 <- field_data(cbind(long, sd = c(1, 2, 3)), x = data.frame(h = c(10, 20)), t = c(0, 1))
+  expect_identical(f2$sd, rbind(c(2, 3), c(NA, 1)))
+  # t not in the library: a clear error
+  f3 <- field_data(data.frame(h = 10, t = 0.5, y = 1))
+  expect_error(field_vector(lib, f3), "0.5 \\(position\\(s\\) 1\\) are not among the library's",
+               class = "griddy_error_input")
+  expect_error(field_data(rbind(long, long[1, ])), "measures some cells twice: row\\(s\\) 4")
+  expect_error(field_data(long, t = 0), "Row\\(s\\) 1, 3 of `y`")
+})
+
+test_that("sd takes the shape of y, one value per t or one per x setting", {
+  y <- matrix(c(1, NA, 3, 4, 5, 6), 2)
+  expect_identical(field_data(y, sd = c(1, 2, 3))$sd, rbind(c(1, 2, 3), c(1, 2, 3)))
+  expect_identical(field_data(y, sd = c(1, 2))$sd, cbind(c(1, 2), c(1, 2), c(1, 2)))
+  expect_identical(field_data(y, sd = 2 * y)$sd, 2 * y)
+  expect_error(field_data(matrix(1:4, 2), sd = 1:2), "same number here", class = "griddy_error_shape")
+  expect_error(field_data(y, sd = 1:4), "per measurement \\(6\\)", class = "griddy_error_shape")
+  expect_error(field_data(y, sd = c(1, -1, 1)), "positive number wherever `y` is measured")
+  expect_error(field_data(y, sd = matrix(1, 3, 2)), "shape of `y`", class = "griddy_error_shape")
 })

@@ -76,3 +76,100 @@ test_that("the C++ entry points refuse shapes that do not fit", {
   expect_error(gibbs_chain_cpp(matrix(1, 2, 1), list(order = matrix(0L, 2, 1)), options, 3L, 1),
                "starting grid point")
 })
+
+test_that("with missing field data the posterior is that of the observed points (dense algebra)", {
+  prior <- list(shape = 2, rate = 0.5)
+  for (missing in list(c(2, 7, 8, 13), 6:10, sample(15, 5))) {
+    toy <- toy_missing(missing)
+    ex <- posterior_exact(toy$library, toy$field, rho_x = c(0, 0.4), rho_t = c(0.2, 0.7),
+                          prior = prior)
+    lj <- brute_log_joint(toy, rho_grid(toy$library, c(0, 0.4), c(0.2, 0.7)), prior)
+    expect_equal(ex$joint, exp(lj - log_sum_exp(lj)), tolerance = 1e-10)
+    expect_equal(ex$log_evidence, log_sum_exp(lj), tolerance = 1e-10)
+  }
+  # the C of plain_quad_forms() are the dense quadratic forms
+  toy <- toy_missing()
+  pr <- calibration_problem(toy$library, toy$field, 0.4, 0.7, prior, 2, NULL)
+  obs <- which(!is.na(toy$y))
+  R <- kronecker(corr_x(toy$x, 0.4), corr_t(toy$t, 0.7))[obs, obs]
+  r <- toy$y[obs] - toy$Y[3, obs]
+  expect_equal(pr$C[3, 1], drop(t(r) %*% solve(R, r)))
+  expect_identical(pr$n_obs, 11L)
+})
+
+test_that("complete data keep the Kronecker path and its results", {
+  toy <- toy_missing(missing = integer(0))
+  pr <- calibration_problem(toy$library, toy$field, c(0, 0.4), c(0.2, 0.7), NULL, 2, NULL)
+  expect_null(pr$setup$dense)
+  expect_identical(pr$C, quad_forms_cpp(toy$Y, toy$y, pr$setup$Rx_inv, pr$setup$phi))
+})
+
+test_that("noise groups: the folded C gives the sum over groups of the Gamma-normal likelihoods", {
+  prior <- list(shape = 2, rate = 0.5)
+  toy <- toy_missing()
+  grid <- rho_grid(toy$library, c(0, 0.4), c(0.2, 0.7))
+  by_t <- c("a", "a", "b", "b", "b")
+  ex <- posterior_exact(toy$library, toy$field, rho_x = c(0, 0.4), rho_t = c(0.2, 0.7),
+                        prior = prior, noise_groups = by_t)
+  lj <- brute_log_joint(toy, grid, prior, groups = rep(by_t, 3))
+  expect_equal(ex$joint, exp(lj - log_sum_exp(lj)), tolerance = 1e-10)
+  expect_equal(ex$log_evidence, log_sum_exp(lj), tolerance = 1e-10)
+  # one group per x setting, and labels per library output
+  ex_x <- posterior_exact(toy$library, toy$field, rho_t = c(0.2, 0.7), prior = prior,
+                          noise_groups = "x")
+  lj_x <- brute_log_joint(toy, rho_grid(toy$library, 0, c(0.2, 0.7)), prior,
+                          groups = rep(1:3, each = 5))
+  expect_equal(ex_x$log_evidence, log_sum_exp(lj_x), tolerance = 1e-10)
+  ex_l <- posterior_exact(toy$library, toy$field, rho_t = c(0.2, 0.7), prior = prior,
+                          noise_groups = rep(c("p", "q", "r"), each = 5))
+  expect_equal(ex_l$joint, ex_x$joint)
+  expect_error(posterior_exact(toy$library, toy$field, noise_groups = 1:4),
+               "one per output coordinate \\(5\\) or one per library output \\(15\\)",
+               class = "griddy_error_input")
+  lonely <- rep("a", 15)
+  lonely[c(2, 7)] <- "b"
+  expect_error(posterior_exact(toy$library, toy$field, noise_groups = lonely),
+               "Noise group\\(s\\) b hold no field measurement", class = "griddy_error_input")
+})
+
+test_that("relative sd equals dividing the field data and the outputs by it", {
+  prior <- list(shape = 2, rate = 0.5)
+  toy <- toy_missing()
+  set.seed(1)
+  sd <- stats::runif(15, 0.5, 2)
+  f <- field_data(toy$y, x = toy$x, t = toy$t, sd = matrix(sd, 3, byrow = TRUE))
+  ex <- posterior_exact(toy$library, f, rho_x = c(0, 0.4), rho_t = 0.5, prior = prior)
+  scaled <- sim_library(lib_theta(toy$library), sweep(toy$Y, 2, sd, "/"), x = toy$x, t = toy$t)
+  ex_s <- posterior_exact(scaled, field_data(toy$y / sd, x = toy$x, t = toy$t),
+                          rho_x = c(0, 0.4), rho_t = 0.5, prior = prior)
+  expect_equal(ex$joint, ex_s$joint, tolerance = 1e-12)
+  # the evidence of y itself: the Jacobian of the scaling
+  expect_equal(ex$log_evidence, ex_s$log_evidence - sum(log(sd[!is.na(toy$y)])))
+  lj <- brute_log_joint(toy, rho_grid(toy$library, c(0, 0.4), 0.5), prior, sd = sd)
+  expect_equal(ex$log_evidence, log_sum_exp(lj), tolerance = 1e-10)
+  # with complete data too (sd alone breaks the Kronecker shortcut)
+  full <- toy_missing(integer(0))
+  ex_f <- posterior_exact(full$library, field_data(full$y, x = full$x, t = full$t, sd = sd[1:5]),
+                          rho_t = 0.5, prior = prior)
+  ex_fs <- posterior_exact(sim_library(lib_theta(full$library), sweep(full$Y, 2, rep(sd[1:5], 3), "/"),
+                                       x = full$x, t = full$t),
+                           field_data(full$y / rep(sd[1:5], 3), x = full$x, t = full$t),
+                           rho_t = 0.5, prior = prior)
+  expect_equal(ex_f$joint, ex_fs$joint, tolerance = 1e-12)
+})
+
+test_that("a correlation that makes the observed block singular is a classed error", {
+  toy <- toy_missing()
+  x <- data.frame(h = c(1, 1 + 1e-9, 4))
+  lib <- sim_library(lib_theta(toy$library), toy$Y, x = x, t = toy$t)
+  y <- toy$y
+  y[1:5] <- toy$Y[1, 1:5]
+  expect_error(
+    calibration_problem(lib, field_data(y, x = x, t = toy$t), 0.99, 0, NULL, 2, NULL),
+    "singular", class = "griddy_error_numeric")
+  # R_x is fine but two observed outputs at t 1e-12 apart are not
+  lib2 <- sim_library(lib_theta(toy$library), toy$Y, x = toy$x, t = c(0, 1e-13, 0.5, 0.75, 1))
+  expect_error(posterior_exact(lib2, field_data(toy$y, x = toy$x, t = lib2$t), rho_t = 0.99),
+               "correlation of the observed points is numerically singular at correlation grid point 1",
+               class = "griddy_error_numeric")
+})

@@ -58,3 +58,31 @@ test_that("predict(newdata =) predicts at the given library settings or stops", 
     classes = "griddy_warning_resolution")
   expect_error(predict(fit1, newdata = data.frame(x = 1)), "single x setting")
 })
+
+test_that("predict() with missing data predicts every cell, and each noise group at its tau", {
+  toy <- toy_missing()
+  prior <- list(shape = 2, rate = 0.5)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, noise_groups = "x", prior = prior,
+                                    n_iter = 1500, burn_in = 500, seed = 1))
+  p <- predict(fit, ndraws = 500, seed = 2)
+  expect_identical(nrow(p), 15L)
+  expect_identical(is.na(p$observed), is.na(toy$y))
+  expect_true(all(is.finite(p$pred_lower) & p$pred_lower < p$lower))
+  # a group's noise is that of its own tau: set them apart and look
+  fit$draws$tau_x1 <- 1e4
+  fit$draws$tau_x3 <- 1e-2
+  set.seed(1)
+  noisy <- noisy_outputs(fit, rep(1, 4000))
+  base <- lib_outputs(fit$library, fit$draws$run[1])[1, ]
+  sds <- apply(noisy, 2, stats::sd)
+  expect_equal(sds[1:5], rep(0.01, 5), tolerance = 0.05)
+  expect_equal(sds[11:15], rep(10, 5), tolerance = 0.05)
+  # relative sd scales the noise
+  f_sd <- field_data(toy$y, x = toy$x, t = toy$t, sd = c(1, 2, 3))
+  fit2 <- suppressWarnings(calibrate(toy$library, f_sd, prior = prior, n_iter = 300,
+                                     burn_in = 100, seed = 1))
+  fit2$draws$tau <- 1
+  set.seed(2)
+  sds2 <- apply(noisy_outputs(fit2, rep(1, 4000)), 2, stats::sd)
+  expect_equal(sds2, rep(1:3, each = 5), tolerance = 0.05)
+})

@@ -235,3 +235,62 @@ test_that("a posterior cut off by the last round's box is not resolved and reach
   tab <- resolution_limited(refined)
   expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
 })
+
+test_that("refine() works on fits with missing field data, with and without a simulator", {
+  toy <- refine_toy()
+  y <- toy$field$y
+  set.seed(5)
+  y[sample(40, 10)] <- NA
+  field <- field_data(y, t = toy$lib$t)
+  fit <- suppressWarnings(calibrate(toy$lib, field, n_iter = 1500, burn_in = 500, seed = 1))
+  sim <- refine(fit, simulator = refine_sim, max_runs = 400, seed = 1)
+  expect_identical(sim$n_obs, 30L)
+  tab <- resolution_limited(sim)
+  expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
+  emu <- refine(fit, max_runs = 300, runs_per_round = 100, seed = 2)
+  tab <- resolution_limited(emu)
+  expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
+  # the prediction error over the observed points: the Woodbury form of the
+  # observed block of the full covariance
+  lib <- emu$library
+  err <- lib$rounds[[1]]$error
+  i <- which(lib$added$round == 1)[1:2]
+  got <- emulated_quad_forms(lib$added$y[i, , drop = FALSE], emu$y_field, emu$setup, err,
+                             lib$added$rel_var[i], 1L, 40L)
+  o <- which(!is.na(y))
+  for (j in seq_along(i)) {
+    V <- lib$added$rel_var[i[j]] * err$U %*% diag(err$lambda, length(err$lambda)) %*% t(err$U)
+    S <- (diag(40) + V / err$noise_var)[o, o]
+    r <- (emu$y_field - lib$added$y[i[j], ])[o]
+    expect_equal(got$C[j, 1], drop(t(r) %*% solve(S, r)), tolerance = 1e-8)
+    expect_equal(got$logdet[j, 1], as.numeric(determinant(S)$modulus), tolerance = 1e-8)
+  }
+})
+
+test_that("refine() without a simulator applies the error model within each noise group", {
+  toy <- refine_toy()
+  groups <- rep(c("early", "late"), each = 20)
+  fit <- suppressWarnings(calibrate(toy$lib, toy$field, n_iter = 1500, burn_in = 500, seed = 1,
+                                    noise_groups = groups))
+  emu <- refine(fit, max_runs = 300, runs_per_round = 100, seed = 2)
+  expect_identical(grep("^tau", names(emu$draws), value = TRUE), c("tau_early", "tau_late"))
+  lib <- emu$library
+  err <- lib$rounds[[1]]$error
+  expect_length(err$noise_var, 2)
+  tab <- resolution_limited(emu)
+  expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
+  # each group's form: the Woodbury form of its block, on its own noise variance
+  i <- which(lib$added$round == 1)[1]
+  f <- emulated_group_forms(lib$added$y[i, , drop = FALSE], emu$y_field, emu$setup, err,
+                            lib$added$rel_var[i], 1L, 40L, 1L)
+  V <- lib$added$rel_var[i] * err$U %*% diag(err$lambda, length(err$lambda)) %*% t(err$U)
+  ld <- 0
+  for (k in 1:2) {
+    o <- which(groups == c("early", "late")[k])
+    S <- diag(20) + V[o, o] / err$noise_var[k]
+    r <- (emu$y_field - lib$added$y[i, ])[o]
+    expect_equal(f$C[1, k], drop(t(r) %*% solve(S, r)), tolerance = 1e-8)
+    ld <- ld + as.numeric(determinant(S)$modulus)
+  }
+  expect_equal(f$logdet, ld, tolerance = 1e-8)
+})
