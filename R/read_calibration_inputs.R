@@ -70,7 +70,7 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
                                  vector_default = TRUE)
   design <- read_table_input(design, "design")
   simobs <- read_table_input(simobs, "simobs")
-  expobs <- read_table_input(expobs, "expobs")
+  expobs <- read_table_input(expobs, "expobs", na_ok = TRUE)
   assert_column_names(design, "design")
   if (ncol(design) <= n_x) {
     griddy_abort("`design` must have the ", n_x, " x column(s) and at least one theta ",
@@ -84,6 +84,7 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
                  " column(s).")
   }
   x_cols <- seq_len(n_x)
+  if (n_x > 0L) assert_finite(as.matrix(expobs[, x_cols, drop = FALSE]), "expobs's x columns")
   x_names <- names(design)[x_cols]
   exp_x <- stats::setNames(as.data.frame(expobs[, x_cols, drop = FALSE]), x_names)
   if (n_x > 0L && anyDuplicated(exp_x)) {
@@ -134,8 +135,9 @@ emulate_design <- function(design, sim, n_x, settings, t, n_runs, seed) {
   library
 }
 
-# A file path, data.frame or matrix as a data.frame of doubles.
-read_table_input <- function(v, arg) {
+# A file path, data.frame or matrix as a data.frame of doubles; with
+# `na_ok`, missing cells stay NA (the field's missing measurements).
+read_table_input <- function(v, arg, na_ok = FALSE) {
   headerless <- FALSE
   if (is.character(v) && length(v) == 1L && !is.na(v)) {
     v <- read_input_file(v, arg)
@@ -149,7 +151,10 @@ read_table_input <- function(v, arg) {
   if (nrow(v) < 1L || ncol(v) < 1L) {
     griddy_abort("`", arg, "` is empty.")
   }
+  na <- if (na_ok) is.na(v) else FALSE
+  if (any(na)) v[na] <- 0
   m <- as_numeric_matrix(v, arg)
+  m[na] <- NA_real_
   v[] <- lapply(seq_len(ncol(m)), function(j) m[, j])
   attr(v, "headerless") <- headerless
   v
@@ -234,9 +239,9 @@ assert_distinct_pairs <- function(run, setting, rows) {
   }
 }
 
-# The runs at the field's settings form a library: at least two thetas, each
-# run once at every setting.
+# The runs at the field's settings form a library: each theta run once at
+# every setting.
 forms_library <- function(run, setting, n_settings) {
-  if (length(run) == 0L || max(run) < 2L) return(FALSE)
+  if (length(run) == 0L) return(FALSE)
   all(tabulate(run, nbins = max(run)) == n_settings)
 }
