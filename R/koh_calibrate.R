@@ -27,7 +27,9 @@
 #' under 5% of the moves). The main run starts from the last pilot draw.
 #'
 #' @param library A [sim_library()]: the emulator's training runs (the thesis
-#'   used 7 values per parameter, 343 runs).
+#'   used 7 values per parameter, 343 runs); or an [emulated_library()], whose
+#'   own emulator of its design runs is then the math model (its predicted
+#'   runs are not used), the prior on \eqn{\theta} uniform on its range.
 #' @param field A [field_data()] object at the library's x and t.
 #' @param discrepancy `"GaSP"`, `"S-GaSP"` or `"none"`.
 #' @param n_iter Total MCMC iterations, burn-in included.
@@ -110,7 +112,12 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   n_x <- ncol(design)
   run <- function() {
     t0 <- proc.time()[["elapsed"]]
-    emulator <- koh_emulator(theta, lib_outputs(library), quiet)
+    emulator <- if (inherits(library, "emulated_library")) {
+      # its own emulator of the design runs, not one of its predicted runs
+      list(design_gp = library$emulator)
+    } else {
+      koh_emulator(theta, lib_outputs(library), quiet)
+    }
     t1 <- proc.time()[["elapsed"]]
     math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))
     sampler <- function(sd_frac, S, S_0, start) {
@@ -157,7 +164,11 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
                                 kernel = if (type == "no-discrepancy") NA else
                                   res$fit@accept_S[2]) / n_iter,
                  y_field = y, design = design, theta_range = theta_range,
-                 n_runs = nrow(theta), control = list(n_iter = n_iter, burn_in = burn_in),
+                 n_runs = if (inherits(library, "emulated_library")) {
+                   nrow(library$design$theta)
+                 } else {
+                   nrow(theta)
+                 }, control = list(n_iter = n_iter, burn_in = burn_in),
                  runtime = res$runtime),
             class = "griddy_koh")
 }
@@ -189,6 +200,7 @@ koh_emulator <- function(theta, y, quiet) {
 
 # Emulator mean at the rows of th: one row per parameter set.
 koh_emulate <- function(emulator, th) {
+  if (!is.null(emulator$design_gp)) return(emulated_library_mean(emulator$design_gp, th))
   out <- matrix(emulator$constant, nrow(th), length(emulator$constant), byrow = TRUE)
   if (any(emulator$vary)) {
     pred <- RobustGaSP::predict.ppgasp(emulator$gp, th)$mean

@@ -6,7 +6,8 @@
 # (N x n_x n_t, large) are read on demand.
 
 is_library <- function(library) {
-  inherits(library, c("sim_library", "disk_library", "hdf5_library", "refined_library"))
+  inherits(library, c("sim_library", "disk_library", "hdf5_library", "refined_library",
+                      "emulated_library"))
 }
 
 check_library <- function(library, disk = TRUE) {

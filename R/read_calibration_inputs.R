@@ -17,9 +17,18 @@
 #' A header line is optional: a file whose first line is all numbers has
 #' none, and its columns are named `V1`, `V2`, ... (so a header line must
 #' hold at least one name that is not a number). Whole numbers too large for
-#' an integer are read as doubles. Runs at x settings that `expobs` lacks are
-#' dropped, with a message; every \eqn{\theta} must have been run at every
-#' setting of `expobs`.
+#' an integer are read as doubles.
+#'
+#' **Any design.** When every \eqn{\theta} of `design` was run at every x
+#' setting of `expobs`, the runs are the library, a [sim_library()] (runs at
+#' settings that `expobs` lacks are dropped, with a message). Otherwise (a
+#' Latin hypercube over \eqn{(x, \theta)} jointly, an incomplete design,
+#' field settings no run has) a library of `n_runs` runs at `expobs`'s
+#' settings is emulated from all the runs, an [emulated_library()], and a
+#' message (class `griddy_message_emulated`) says so and gives the
+#' emulator's leave-one-out error; the emulator's error enters the
+#' likelihood. Missing values (NA) in `expobs`'s measurements are passed on
+#' to [field_data()].
 #'
 #' @param design,simobs,expobs File paths, data.frames or matrices, as above.
 #'   All their columns must be numeric (integer, double or `bit64`'s
@@ -34,7 +43,10 @@
 #'   row) or `"auto"` (the default: the one that fits `design`). When
 #'   `simobs` is square, with as many outputs per run as `design` has rows,
 #'   both fit and `"auto"` is refused: say which it is.
-#' @return A list with elements `library` (a [sim_library()]) and `field` (a
+#' @param n_runs,seed For an emulated library: its number of runs, and
+#'   `NULL` or a seed for this call only (see [emulated_library()]).
+#' @return A list with elements `library` (a [sim_library()], or an
+#'   [emulated_library()] when the runs do not form one) and `field` (a
 #'   [field_data()] object).
 #' @examples
 #' dir <- system.file("extdata", package = "griddy")
@@ -48,14 +60,17 @@
 #' @export
 read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
                                     simobs_layout = c("auto", "runs_in_rows",
-                                                      "runs_in_columns")) {
+                                                      "runs_in_columns"),
+                                    n_runs = 10000, seed = NULL) {
   n_x <- assert_count(n_x, "n_x", min = 0L)
+  n_runs <- assert_count(n_runs, "n_runs", min = 2L)
+  seed <- assert_seed(seed)
   simobs_layout <- assert_choice(simobs_layout, "simobs_layout",
                                  c("auto", "runs_in_rows", "runs_in_columns"),
                                  vector_default = TRUE)
   design <- read_table_input(design, "design")
   simobs <- read_table_input(simobs, "simobs")
-  expobs <- read_table_input(expobs, "expobs")
+  expobs <- read_table_input(expobs, "expobs", na_ok = TRUE)
   assert_column_names(design, "design")
   if (ncol(design) <= n_x) {
     griddy_abort("`design` must have the ", n_x, " x column(s) and at least one theta ",
@@ -69,6 +84,7 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
                  " column(s).")
   }
   x_cols <- seq_len(n_x)
+  if (n_x > 0L) assert_finite(as.matrix(expobs[, x_cols, drop = FALSE]), "expobs's x columns")
   x_names <- names(design)[x_cols]
   exp_x <- stats::setNames(as.data.frame(expobs[, x_cols, drop = FALSE]), x_names)
   if (n_x > 0L && anyDuplicated(exp_x)) {
@@ -80,18 +96,48 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
   theta <- as.data.frame(design[used, setdiff(seq_len(ncol(design)), x_cols), drop = FALSE])
   run <- data.table::frankv(data.table::as.data.table(theta), ties.method = "dense")
   run <- match(run, unique(run))
-  assert_complete_runs(run, setting[used], which(used), nrow(expobs))
+  assert_distinct_pairs(run, setting[used], which(used))
+  lib_x <- if (n_x > 0L) exp_x else NULL
+  y_field <- as.matrix(expobs[, n_x + seq_len(n_t), drop = FALSE])
+  if (!forms_library(run, setting[used], nrow(expobs))) {
+    library <- emulate_design(design, sim, n_x, lib_x, t, n_runs, seed)
+    return(list(library = library, field = field_data(y_field, x = lib_x, t = t)))
+  }
+  if (any(!used)) {
+    message(sum(!used), " `design` run(s) at x settings that `expobs` lacks ",
+            "were dropped (row(s) ", show_some(which(!used)), ").")
+  }
   y <- matrix(NA_real_, max(run), nrow(expobs) * n_t)
   cols <- outer((setting[used] - 1L) * n_t, seq_len(n_t), "+")
   y[cbind(rep(run, n_t), as.vector(cols))] <- as.vector(sim[used, , drop = FALSE])
-  lib_x <- if (n_x > 0L) exp_x else NULL
   library <- sim_library(theta[!duplicated(run), , drop = FALSE], y, x = lib_x, t = t)
-  field <- field_data(as.matrix(expobs[, n_x + seq_len(n_t), drop = FALSE]), x = lib_x, t = t)
-  list(library = library, field = field)
+  list(library = library, field = field_data(y_field, x = lib_x, t = t))
 }
 
-# A file path, data.frame or matrix as a data.frame of doubles.
-read_table_input <- function(v, arg) {
+# The emulated library of a design that does not form one at the field's
+# settings, said in a message with its leave-one-out error.
+emulate_design <- function(design, sim, n_x, settings, t, n_runs, seed) {
+  x_cols <- seq_len(n_x)
+  theta <- as.matrix(design[, setdiff(seq_len(ncol(design)), x_cols), drop = FALSE])
+  x <- if (n_x > 0L) design[, x_cols, drop = FALSE]
+  library <- emulated_library(theta, sim, x = x, t = t, settings = settings,
+                              n_runs = n_runs, seed = seed)
+  form <- if (library$emulator$mode == "joint") "(x, theta) -> outputs" else "theta -> outputs"
+  loo <- format(library$loo_rms, digits = 3)
+  n_design <- nrow(design)
+  cli::cli_inform(c(
+    i = paste0("The {n_design} design runs do not form a library at the x settings of ",
+               "`expobs` (every theta at every setting), so a library of {n_runs} runs was ",
+               "emulated from them (RobustGaSP ppgasp, {form})."),
+    i = paste0("Its leave-one-out error (RMS) is {loo}; it enters the likelihood, and ",
+               "calibrate() warns when it exceeds the noise (see ?emulated_library).")),
+    class = "griddy_message_emulated")
+  library
+}
+
+# A file path, data.frame or matrix as a data.frame of doubles; with
+# `na_ok`, missing cells stay NA (the field's missing measurements).
+read_table_input <- function(v, arg, na_ok = FALSE) {
   headerless <- FALSE
   if (is.character(v) && length(v) == 1L && !is.na(v)) {
     v <- read_input_file(v, arg)
@@ -105,7 +151,10 @@ read_table_input <- function(v, arg) {
   if (nrow(v) < 1L || ncol(v) < 1L) {
     griddy_abort("`", arg, "` is empty.")
   }
+  na <- if (na_ok) is.na(v) else FALSE
+  if (any(na)) v[na] <- 0
   m <- as_numeric_matrix(v, arg)
+  m[na] <- NA_real_
   v[] <- lapply(seq_len(ncol(m)), function(j) m[, j])
   attr(v, "headerless") <- headerless
   v
@@ -178,34 +227,21 @@ design_settings <- function(design_x, exp_x) {
   }
   key <- function(d) do.call(paste, c(lapply(d, function(v) sprintf("%.10g", v)), sep = "|"))
   setting <- match(key(design_x), key(exp_x))
-  missing_settings <- setdiff(seq_len(nrow(exp_x)), setting)
-  if (length(missing_settings) > 0L) {
-    griddy_abort("No `design` run has the x setting(s) of `expobs` row(s) ",
-                 show_some(missing_settings), ".")
-  }
-  if (anyNA(setting)) {
-    message(sum(is.na(setting)), " `design` run(s) at x settings that `expobs` lacks ",
-            "were dropped (row(s) ", show_some(which(is.na(setting))), ").")
-  }
-  setting
+  match(key(design_x), key(exp_x))
 }
 
-# Every theta once at every x setting.
-assert_complete_runs <- function(run, setting, rows, n_settings) {
+assert_distinct_pairs <- function(run, setting, rows) {
   pair <- paste(run, setting)
   dup <- which(duplicated(pair))
   if (length(dup) > 0L) {
     griddy_abort("`design` has duplicated (x, theta) rows: row(s) ", show_some(rows[dup]),
                  " repeat row(s) ", show_some(rows[match(pair[dup], pair)]), ".")
   }
-  count <- tabulate(run, nbins = max(run))
-  short <- which(count < n_settings)
-  if (length(short) > 0L) {
-    first <- rows[match(short[1], run)]
-    have <- setting[run == short[1]]
-    griddy_abort("Every theta must be run at all ", n_settings, " x settings of `expobs`: ",
-                 length(short), " theta(s) are not, e.g. the theta of `design` row ", first,
-                 " lacks setting(s) ", show_some(setdiff(seq_len(n_settings), have)),
-                 " (rows of `expobs`).")
-  }
+}
+
+# The runs at the field's settings form a library: each theta run once at
+# every setting.
+forms_library <- function(run, setting, n_settings) {
+  if (length(run) == 0L) return(FALSE)
+  all(tabulate(run, nbins = max(run)) == n_settings)
 }

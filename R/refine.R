@@ -472,6 +472,10 @@ check_simulated <- function(y, rows, theta, n_out) {
 # width on each side, inside the library's range).
 round_emulator <- function(state, box) {
   library <- state$problem$library
+  # an emulated library predicts with its own emulator of the design runs,
+  # not one of its predicted runs
+  base <- if (inherits(library, "refined_library")) library$base else library
+  if (inherits(base, "emulated_library")) return(emulated_round_emulator(base))
   source <- simulated_runs(library)
   range0 <- library_box(source)
   pad <- (box[2, ] - box[1, ]) / 2
@@ -506,6 +510,9 @@ simulated_runs <- function(library) {
 # Predicted outputs, their relative variances and the round's error model
 # (on the scale of the round's posterior mean noise variance).
 emulated_batch <- function(emulator, theta_new, state) {
+  if (identical(emulator$method, "emulated_library")) {
+    return(emulated_library_batch(emulator$library, theta_new, posterior_noise_var(state)))
+  }
   pred <- emulator_predict(emulator, theta_new)
   list(y = pred$outputs, rel_var = pred$rel_var,
        error = emulation_error_model(emulator$loo, posterior_noise_var(state)))
@@ -516,22 +523,36 @@ emulated_batch <- function(emulator, theta_new, state) {
 # rounds' posteriors, still on a coarse library, overstate the noise by the
 # library's misfit, which would understate the prediction error relative to
 # it; so each round puts all rounds on the newest estimate, a few times, to
-# a fixed point.
+# a fixed point. An emulated base library's runs are restated with them.
 restate_noise_var <- function(state, times = 3L) {
   for (i in seq_len(times)) {
     problem <- state$problem
     library <- problem$library
     s2 <- posterior_noise_var(state)
     emulated <- which(vapply(library$rounds, function(r) !is.null(r$error), logical(1)))
-    if (length(emulated) == 0L) return(state)
+    base_emulated <- inherits(library$base, "emulated_library")
+    if (length(emulated) == 0L && !base_emulated) return(state)
     old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, s2)
-    if (all(abs(old - s2) <= 0.01 * s2)) return(state)
+    if (base_emulated) {
+      # one value per noise group, as posterior_noise_var() gives
+      base_s2 <- library$base$noise$noise_var
+      old <- c(old, if (length(base_s2) == length(s2)) base_s2 else rep(NA_real_, length(s2)))
+    }
+    if (all(!is.na(old) & abs(old - s2) <= 0.01 * s2)) return(state)
+    if (base_emulated) {
+      library$base$noise <- list(y_field = problem$y_field, noise_var = s2)
+      problem$C[seq_len(lib_n_runs(library$base)), ] <- fold_extra_logdet(
+        emulated_library_forms(library$base, problem$y_field, problem$setup, s2),
+        problem$prior, problem$n_obs)
+    }
     for (r in emulated) library$rounds[[r]]$error$noise_var <- s2
     which <- which(library$added$round %in% emulated)
     rows <- lib_n_runs(library$base) + which
-    problem$C[rows, ] <- fold_extra_logdet(
-      added_quad_forms(library, which, problem$y_field, problem$setup),
-      problem$prior, problem$n_obs)
+    if (length(which) > 0L) {
+      problem$C[rows, ] <- fold_extra_logdet(
+        added_quad_forms(library, which, problem$y_field, problem$setup),
+        problem$prior, problem$n_obs)
+    }
     problem$library <- library
     state <- refine_state(problem)
   }
