@@ -14,6 +14,9 @@
 # Systems (two, so that nothing is tuned to one):
 #   ball drop   time to fall heights 5..60 m (7 outputs) for balls of radius
 #               x in [0.04, 0.2] m with quadratic drag; theta = (drag, gravity)
+#   ball3       the same with the ball's density a third parameter in
+#               [60, 100] kg/m^3 (only density / drag matters at a given
+#               radius, so the posterior is a ridge)
 #   projectile  height at 8 times of a projectile launched at angle x in
 #               [20, 70] degrees with linear drag; theta = (speed, drag)
 # Each trial draws a truth uniformly over the middle 80% of the theta box, a
@@ -34,7 +37,8 @@ layouts <- strsplit(Sys.getenv("ANY_LAYOUTS", "joint,complete"), ",")[[1]]
 # ---- systems ------------------------------------------------------------------
 ball_drop <- function(theta, x, heights = c(5, 10, 20, 30, 40, 50, 60)) {
   radius <- x$radius
-  mass <- 80 * 4 / 3 * pi * radius^3
+  density <- if (is.null(theta$density)) 80 else theta$density
+  mass <- density * 4 / 3 * pi * radius^3
   k <- 1.2 * theta$drag * pi * radius^2 / 2
   v_t <- sqrt(mass * theta$gravity / k)
   z <- outer(theta$gravity / v_t^2, heights)
@@ -53,6 +57,10 @@ systems <- list(
               theta = list(drag = c(0.2, 1), gravity = c(9.5, 10.1)),
               x = list(radius = c(0.04, 0.2)), field_x = data.frame(radius = c(0.05, 0.08, 0.12, 0.17)),
               noise = 0.02),
+  ball3 = list(sim = ball_drop, t = c(5, 10, 20, 30, 40, 50, 60),
+               theta = list(drag = c(0.2, 1), gravity = c(9.5, 10.1), density = c(60, 100)),
+               x = list(radius = c(0.04, 0.2)), field_x = data.frame(radius = c(0.05, 0.08, 0.12, 0.17)),
+               noise = 0.02),
   projectile = list(sim = projectile, t = seq(0.2, 1.6, length.out = 8),
                     theta = list(speed = c(15, 25), drag = c(0.05, 0.5)),
                     x = list(angle = c(20, 70)), field_x = data.frame(angle = c(25, 40, 55, 65)),
@@ -89,10 +97,11 @@ make_inputs <- function(sys, layout, truth) {
 # noise, tau integrated out, uniform prior on the box): a 200 x 200 grid over
 # the box, then over the region holding its mass.
 continuous_intervals <- function(sys, y) {
+  n_axis <- if (length(sys$theta) <= 2L) 200L else 70L
   obs <- !is.na(as.vector(t(y)))
   yv <- as.vector(t(y))[obs]
   post <- function(box) {
-    g <- expand.grid(lapply(seq_len(ncol(box)), function(j) seq(box[1, j], box[2, j], length.out = 200)))
+    g <- expand.grid(lapply(seq_len(ncol(box)), function(j) seq(box[1, j], box[2, j], length.out = n_axis)))
     names(g) <- names(sys$theta)
     out <- do.call(cbind, lapply(seq_len(nrow(sys$field_x)), function(k) {
       sys$sim(g, sys$field_x[rep(k, nrow(g)), , drop = FALSE])
@@ -104,7 +113,7 @@ continuous_intervals <- function(sys, y) {
   box <- sapply(sys$theta, identity)
   p <- post(box)
   keep <- p$w > 1e-10 * max(p$w)
-  step <- (box[2, ] - box[1, ]) / 199
+  step <- (box[2, ] - box[1, ]) / (n_axis - 1)
   box2 <- rbind(pmax(apply(p$g[keep, , drop = FALSE], 2, min) - 2 * step, box[1, ]),
                 pmin(apply(p$g[keep, , drop = FALSE], 2, max) + 2 * step, box[2, ]))
   p <- post(box2)
@@ -152,8 +161,9 @@ run_trial <- function(sys_name, layout, trial) {
   do.call(rbind, rows)
 }
 
+system_names <- strsplit(Sys.getenv("ANY_SYSTEMS", paste(names(systems), collapse = ",")), ",")[[1]]
 results <- list()
-for (sys_name in names(systems)) for (layout in layouts) {
+for (sys_name in system_names) for (layout in layouts) {
   for (trial in seq_len(n_trials)) {
     r <- tryCatch(run_trial(sys_name, layout, trial), error = function(e) {
       message(sys_name, " ", layout, " ", trial, ": ", conditionMessage(e))
