@@ -24,10 +24,12 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
+  emulation_error <- attr(C, "emulation_error")
+  attr(C, "emulation_error") <- NULL
   list(library = library, y_field = y_field, n_obs = sum(!is.na(y_field)),
        prior = prior, log_prior_run = log_prior_run, setup = setup,
        grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
-       log_prior_grid = grid_log_prior(setup))
+       log_prior_grid = grid_log_prior(setup), emulation_error = emulation_error)
 }
 
 # The prior over correlation grid points: uniform over the distinct

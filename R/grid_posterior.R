@@ -210,7 +210,12 @@ misfit_table <- function(library, y_field, setup, prior) {
       abort_overflow(y_field)
     }
   })
-  fold_extra_logdet(C, prior, length(y_field))
+  # an emulated library's leave-one-out error against the noise, reported by
+  # summary() (see library_emulated.R)
+  error <- attr(C, "emulation_error")
+  C <- fold_extra_logdet(C, prior, sum(!is.na(y_field)))
+  attr(C, "emulation_error") <- error
+  C
 }
 
 # The quadratic forms of outputs Y (runs in rows) held in memory, each run's

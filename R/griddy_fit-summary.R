@@ -39,7 +39,11 @@
 #'   `distinct_in_interval` (distinct values with positive mass in the
 #'   interval), `limited`, `mass_at_min`, `mass_at_max` and `library_values`
 #'   (distinct values in the library); `effective_runs` (exact) and
-#'   `effective_runs_sampled`; and `tv_distance`. `print()` prints the
+#'   `effective_runs_sampled`; `tv_distance`; and `emulation_error`, for a
+#'   library whose runs were predicted by an emulator ([emulated_library()],
+#'   or [refine()] without a simulator), the emulator's leave-one-out error
+#'   near the posterior over the noise sd (`NULL` when every run was
+#'   simulated). `print()` prints the
 #'   table, then one line per limited parameter and per parameter with mass at
 #'   the edge of its range, and returns its argument invisibly.
 #' @examples

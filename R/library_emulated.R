@@ -211,7 +211,7 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
-  fixed$C
+  structure(fixed$C, emulation_error = fixed$ratio)
 }
 
 # C of the library's runs at plug-in noise variance s2.
@@ -232,7 +232,7 @@ emulated_library_forms <- function(library, y_field, setup, s2) {
 # for these field data is used as it is. Returns list(C, noise_var, ratio =
 # the leave-one-out error near the mode over the noise sd).
 emulated_noise_var <- function(library, y_field, setup, times = 4L) {
-  n <- length(y_field)
+  n <- sum(!is.na(y_field))  # the observed points
   stored <- library$noise
   if (!is.null(stored) && identical(stored$y_field, y_field)) {
     C <- emulated_library_forms(library, y_field, setup, stored$noise_var)

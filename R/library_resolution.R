@@ -89,7 +89,16 @@ library_adequacy <- function(fit, level = 0.95) {
   list(parameters = resolution_table(p$exact, lib_theta(fit$library), level),
        effective_runs = 1 / sum(p$exact^2),
        effective_runs_sampled = 1 / sum(p$sampled^2),
-       tv_distance = sum(abs(p$sampled - p$exact)) / 2)
+       tv_distance = sum(abs(p$sampled - p$exact)) / 2,
+       emulation_error = emulation_error(fit))
+}
+
+# The leave-one-out error of the emulator that predicted the library's runs,
+# near the posterior, over the noise sd: refine()'s when it predicted runs,
+# else an emulated library's (NULL when every run was simulated).
+emulation_error <- function(fit) {
+  if (!is.null(fit$refinement$emulation_error)) return(fit$refinement$emulation_error)
+  fit$emulation_error
 }
 
 # calibrate()'s warning. A constant column is left out: sim_library() has
@@ -120,7 +129,13 @@ format_adequacy <- function(adequacy) {
     paste0("Library: effective number of runs ", format(adequacy$effective_runs, digits = 3),
            " (sampled ", format(adequacy$effective_runs_sampled, digits = 3), ")."),
     paste0("Draws vs exact posterior over runs: total-variation distance ",
-           format(adequacy$tv_distance, digits = 2), "."))
+           format(adequacy$tv_distance, digits = 2), "."),
+    if (!is.null(adequacy$emulation_error)) {
+      paste0("Emulated runs: leave-one-out error near the posterior ",
+             format(adequacy$emulation_error, digits = 2), " x the noise sd",
+             if (adequacy$emulation_error > emulation_error_threshold) " (above 1: see ?refine)",
+             "; it is in the likelihood.")
+    })
   constant <- tab$library_values == 1L
   lim <- tab$limited & !constant
   c(lines,

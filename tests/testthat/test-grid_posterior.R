@@ -173,3 +173,18 @@ test_that("a correlation that makes the observed block singular is a classed err
                "correlation of the observed points is numerically singular at correlation grid point 1",
                class = "griddy_error_numeric")
 })
+
+test_that("misfit_table() folds an extra log-determinant over the observed points only", {
+  # it used length(y_field), counting the missing cells too
+  C <- matrix(c(1, 2), 2, 1)
+  extra <- matrix(c(0.5, 1), 2, 1)
+  registerS3method("lib_quad_forms", "fake_library",
+                   function(library, y_field, setup) structure(C, extra_logdet = extra),
+                   envir = asNamespace("griddy"))
+  prior <- list(shape = 1, rate = 0.5)
+  got <- misfit_table(structure(list(), class = "fake_library"), c(1, NA, 2), NULL, prior)
+  expect_equal(got, fold_extra_logdet(structure(C, extra_logdet = extra), prior, 2),
+               ignore_attr = TRUE)
+  expect_false(isTRUE(all.equal(
+    c(got), c(fold_extra_logdet(structure(C, extra_logdet = extra), prior, 3)))))
+})

@@ -111,6 +111,11 @@ test_that("the library finds its noise variance near the truth's and calibrate()
   expect_gt(sum(post$run[lib$theta$c > 0.3]), 0.01)
   s <- summary(fit)
   expect_true(s$lower[s$parameter == "k"] < 2.1 && s$upper[s$parameter == "k"] > 2.1)
+  # the emulator's error against the noise is reported, as the library found it
+  expect_equal(attr(s, "adequacy")$emulation_error,
+               emulated_noise_var(lib, y, fit$setup)$ratio)
+  expect_match(format_adequacy(attr(s, "adequacy")), "leave-one-out error near the posterior",
+               all = FALSE)
 })
 
 test_that("an emulator worse than the noise is said in a classed warning", {
