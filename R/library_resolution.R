@@ -4,7 +4,7 @@
 # and its intervals show the spacing, not the data's uncertainty (and miss a
 # truth that lies between runs). The checks here work per parameter, on the
 # marginal of the posterior over runs: how many distinct values carry it, and
-# how much of it sits on the library's minimum or maximum.
+# how much of it sits at the library's minimum or maximum.
 
 # The fewest effective values (1 / sum m_v^2 over the marginal masses m_v of a
 # parameter's distinct values) at which a marginal resolves its interval. For
@@ -21,13 +21,22 @@ resolution_min_values <- 10
 # truth may lie outside the library's range.
 edge_mass_threshold <- 0.05
 
+# "At the minimum" means within this share of the interval's width of it.
+# On a grid whose posterior collapses onto the minimum that is the minimum
+# alone; a scattered design (a Latin hypercube, an emulated library) has a
+# single run at its minimum, which carries no mass however hard the
+# posterior presses against the edge: there the band catches it. A
+# posterior cut off at its mode by the range holds about 8% in the band,
+# one whose 2.5% tail just reaches the edge about 1%, a flat one 5%.
+edge_band_share <- 0.05
+
 # Values closer than this fraction of a column's range count as the same
 # value (and as the minimum or maximum): designs written to text files
 # round-trip with such differences.
 value_tolerance <- 1e-9
 
 # Per parameter: the interval of the marginal posterior over the library's
-# values, how many distinct values carry it, and the mass on the column's
+# values, how many distinct values carry it, and the mass at the column's
 # minimum and maximum. `p`: posterior probability of each run (sums to 1);
 # `theta`: the runs' parameters (data.frame, one row per run).
 resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values) {
@@ -51,11 +60,12 @@ marginal_resolution <- function(p, v, level, min_values) {
   lower <- bounds[1]
   upper <- bounds[2]
   effective <- 1 / sum(mass^2)
+  band <- max(tol, edge_band_share * (upper - lower))
   data.frame(lower = lower, upper = upper, effective_values = effective,
              distinct_in_interval = sum(mass > 0 & values >= lower & values <= upper),
              limited = effective < min_values,
-             mass_at_min = sum(p[v <= min(v) + tol]),
-             mass_at_max = sum(p[v >= max(v) - tol]),
+             mass_at_min = sum(p[v <= min(v) + band]),
+             mass_at_max = sum(p[v >= max(v) - band]),
              library_values = length(values))
 }
 

@@ -99,3 +99,17 @@ test_that("format_adequacy has one line per limited parameter and per edge", {
                                 effective_runs_sampled = 20, tv_distance = 0))
   expect_length(lines, 2L)
 })
+
+test_that("a posterior pressed against the edge of a scattered design is at its minimum", {
+  # a Latin hypercube has one run at each column's minimum, which carried no
+  # mass, so a posterior cut off by the range at its mode went unflagged
+  set.seed(4)
+  n <- 10000
+  theta <- data.frame(a = (sample(n) - stats::runif(n)) / n, b = (sample(n) - stats::runif(n)) / n)
+  p <- stats::dnorm(theta$a, sd = 0.05) * stats::dnorm(theta$b, mean = 0.5, sd = 0.1)
+  tab <- resolution_table(p / sum(p), theta)
+  expect_gt(tab$mass_at_min[1], 0.05)
+  expect_lt(tab$mass_at_min[2], 0.05)
+  expect_lt(tab$mass_at_max[2], 0.05)
+  expect_match(format_edges(tab), "^a: .*library's minimum")
+})
