@@ -124,7 +124,7 @@ plot.gap_diagnosis <- function(x, ...) {
   map$setting <- factor(lab[map$x], levels = lab)
   wh <- x$where
   wh$setting <- factor(lab[wh$x], levels = lab)
-  lim <- max(3, max(abs(map$z)))
+  lim <- max(3, max(abs(map$z), na.rm = TRUE))
   title <- paste0("Gap map: ", sum(wh$flagged), " of ", nrow(wh), " block(s) flagged; ",
                   "answer: ", x$verdict$answer, " (P = ", format(x$verdict$prob, digits = 2), ")")
   if (length(x$t) == 1L) {

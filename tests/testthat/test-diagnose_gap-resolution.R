@@ -45,15 +45,15 @@ test_that("a predicted run's leave-block pieces are those of its dense covarianc
   node <- ctx$nodes[[1]]
   em <- run_errors(lib)
   j <- lib_n_runs(lib$base) + 5L
-  err <- run_emulation(em, j)
+  err <- run_emulation(em, j, ctx$obs)
   r <- refined$y_field - lib_outputs(lib, j)[1, ]
-  wood <- emulated_inverse(node, matrix(r, ctx$n_t, ctx$n_x), err, ctx$n_t, ctx$n_x)
+  wood <- emulated_inverse(ctx, node, r, err)
   S <- diag(length(r)) + tcrossprod(err$V)
   Si <- solve(S)
   expect_equal(wood$Q, drop(t(r) %*% Si %*% r), tolerance = 1e-10)
   expect_equal(wood$logdet, as.numeric(determinant(S)$modulus), tolerance = 1e-10)
   W <- 11:20
-  bs <- emulated_block(wood, node, W, 1L, ctx$n_t)
+  bs <- emulated_block(wood, block_precision(ctx, node, W, W, 1L), W)
   h <- Si %*% r
   expect_equal(bs$D, drop(t(h[W]) %*% solve(Si[W, W], h[W])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[W, W])$modulus), tolerance = 1e-10)
