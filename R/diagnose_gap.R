@@ -23,8 +23,16 @@
 #' already resolved are left as they are. Every part of the diagnosis below
 #' uses the refined libraries.
 #'
-#' **Not yet supported:** fits with missing field data, relative `sd` (see
-#' [field_data()]) or noise groups (see [calibrate()]): an error of class
+#' **Missing data and relative sd.** Field data with missing cells or a
+#' relative `sd` (see [field_data()]) are diagnosed on the observed points
+#' only, under the fit's noise covariance \eqn{\tau^{-1} S R_g S} restricted
+#' to them (dense algebra where the Kronecker shortcuts no longer hold). A
+#' block (of "where") or x setting (of "how much") is its observed cells; a
+#' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
+#' never flagged) and a setting with none has no fold. Candidates' quadratic
+#' forms use the same observed points and sd. **Not yet supported:** noise
+#' groups (see [calibrate()]): with a precision per group the block
+#' statistic has no single F distribution; such a fit is an error of class
 #' `griddy_error_unsupported`.
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
@@ -48,7 +56,10 @@
 #' uniform priors (length-scales too short to correlate neighbouring points
 #' are dropped: such a "discrepancy" is white noise, which the base model
 #' already has); its evidence is exact too (one dense Cholesky factor per
-#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). Model probabilities use `prior_models`
+#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). With
+#' relative `sd`, \eqn{s} is relative to the mean noise variance over the
+#' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
+#' discrepancy stays smooth in output units. Model probabilities use `prior_models`
 #' (default: equal). **Decision rule:** the answer is the most probable model
 #' that is not confounded with theta; "none" means no detectable gap,
 #' "other" a gap that no candidate explains. When that model is "none" but
@@ -74,7 +85,9 @@
 #' `NA` when no strength is large enough to judge.
 #'
 #' **Where.** For block \eqn{B}, with \eqn{h = R_g^{-1} r} and
-#' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B}, the statistic
+#' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B} (\eqn{R_g} here the noise
+#' correlation of the observed points, \eqn{n} their number and \eqn{|B|}
+#' the block's observed cells), the statistic
 #' \eqn{F = (D/|B|) / ((2b + r'R_g^{-1}r - D)/\nu)}, \eqn{\nu = 2a + n - |B|},
 #' is \eqn{F(|B|, \nu)} under the fitted model at fixed (run, correlation);
 #' `score` is its mean and `p_value` its tail probability, both averaged over
@@ -110,7 +123,8 @@
 #'   places are random).
 #' @return An object of class `gap_diagnosis`, a list with
 #'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
-#'     (t range), `n` (points), `score`, `p_value`, `flagged`;
+#'     (t range), `n` (observed points; 0: not checked), `score`, `p_value`,
+#'     `flagged`;
 #'   * `which`: one row per model, sorted by `prob` decreasing: `effect`,
 #'     `prob`, `log_evidence`, `confounded`, `separable`, `detectable` (the
 #'     irreducible part of the largest-strength effect in noise standard
@@ -120,7 +134,8 @@
 #'     `cover90_after`;
 #'   * `folds`: the same per left-out x setting;
 #'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
-#'     residual / fitted noise sd) under the base posterior;
+#'     residual / fitted noise sd, times the point's relative sd where given)
+#'     under the base posterior, `NA` at missing cells;
 #'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
 #'     `advice`, `n_flagged` and `prob_none`.
 #' @seealso [posterior_exact()], [calibrate()]
