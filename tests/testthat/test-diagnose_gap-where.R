@@ -51,7 +51,7 @@ test_that("windows are given by count, by breaks, or by default", {
   expect_error(diagnose_gap(toy$fit, list(q = toy$quad), windows = c(5, 6)), "cover none")
 })
 
-test_that("with missing cells and relative sd the block statistic is the dense leave-block-out one", {
+test_that("with missing cells and relative sd the block statistic is the dense one", {
   miss <- c(5, 33, 34, 45:48, 61)
   rs <- 1 + 0.4 * cos(1:90)
   toy <- toy_gap(0, bump = 0.2, rho_t = 0.3, missing = miss, rel_sd = rs)

@@ -181,7 +181,7 @@ test_that("diagnose_gap() refuses fits with noise groups, saying missing data an
 gap_missing <- c(3, 4, 5, 40:47, 70)
 gap_rel_sd <- rep(c(1, 2, 0.5), each = 30) * (1 + 0.3 * sin(1:90))
 
-test_that("over the observed points, Q, the evidence and the leave-setting-out pieces are the dense algebra's", {
+test_that("over the observed points, Q, evidence and leave-out pieces are the dense algebra's", {
   toy <- toy_gap(0.2, rho_t = c(0, 0.3), missing = gap_missing, rel_sd = gap_rel_sd)
   ctx <- gap_context(toy$fit)
   tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
@@ -204,7 +204,7 @@ test_that("over the observed points, Q, the evidence and the leave-setting-out p
   }
 })
 
-test_that("'other' over the observed points is the exact evidence with the discrepancy in output units", {
+test_that("'other' over the observed points is the exact evidence (discrepancy in output units)", {
   miss <- c(2, 3, 12, 20)
   rs <- 1 + 0.5 * sin(1:24)
   toy <- toy_gap(0.1, n_t = 8, rho_t = c(0, 0.4), missing = miss, rel_sd = rs)
