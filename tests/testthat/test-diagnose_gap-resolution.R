@@ -92,7 +92,7 @@ test_that("with missing cells and sd, a predicted run's pieces are those of its 
                tolerance = 1e-10)
   # the same likelihood as the refined fit's own table
   C <- structure(matrix(wood$Q), extra_logdet = matrix(wood$logdet))
-  expect_equal(fold_extra_logdet(C, refined$prior, ctx$n), refined$C[j, 1], tolerance = 1e-8)
+  expect_equal(drop(fold_extra_logdet(C, refined$prior, ctx$n)), refined$C[j, 1], tolerance = 1e-8)
   B <- 11:20
   bs <- emulated_block(wood, block_precision(ctx, node, B, B, 1L), B)
   h <- Si %*% r
