@@ -10,6 +10,18 @@
 #' every cell. Library x settings the field does not have, and library
 #' output coordinates it does not have, are missing too.
 #'
+#' **Replicates.** Several experiments at one x setting are rows of `y` with
+#' the same row of `x` (or, in long format, several rows of `y` at one
+#' (x, t)). They are independent measurements of the same simulator output:
+#' the likelihood sees each cell's (sd-weighted) mean, with relative sd
+#' \eqn{1/\sqrt{\sum_r sd_r^{-2}}} (\eqn{1/\sqrt{n_{rep}}} without `sd`), the
+#' correlation \eqn{R_g} holding between the means, and the replicates'
+#' pure-error sum of squares \eqn{\sum_r (y_r - \bar y)^2 / sd_r^2}, with its
+#' \eqn{n_{rep} - 1} degrees of freedom, added to every run's misfit: for
+#' independent noise this is exactly the likelihood of every measurement,
+#' and \eqn{n} counts every measurement. See [calibrate()]. The field keeps
+#' the measurements as given.
+#'
 #' @param y The measurements: an `n_x x n_t` numeric matrix whose row `k` holds
 #'   the measurements at the `k`-th x setting, or a numeric vector in the
 #'   library's order (blocks of `n_t` values by x setting; `n_x * n_t`
@@ -17,11 +29,15 @@
 #'   measurement. Or, in long format, a data.frame with one row per
 #'   measurement: a column `t` (the output coordinate), a column `y` (the
 #'   value), optionally a column `sd` (as the argument `sd`), and the x
-#'   columns; cells not listed are missing.
-#' @param x A data.frame of the `n_x` control settings, with the library's
-#'   (distinct) column names; `NULL` means "the library's settings, in its order". Rows
-#'   may come in another order than the library's: [calibrate()] matches them
-#'   by value. In long format, `NULL` means the distinct settings of `y`.
+#'   columns; cells not listed are missing, cells listed more than once are
+#'   replicated (the j-th value of each cell goes to the j-th row of its
+#'   setting).
+#' @param x A data.frame of the `n_x` control settings, one per row of `y`,
+#'   with the library's (distinct) column names; `NULL` means "the library's
+#'   settings, in its order". Rows may come in another order than the
+#'   library's: [calibrate()] matches them by value. A setting repeated is a
+#'   replicated experiment (see Replicates). In long format, `NULL` means the
+#'   distinct settings of `y`, and a given `x` must have distinct rows.
 #' @param t The `n_t` output coordinates; `NULL` means "the library's" (in
 #'   long format, the distinct `t` of `y`, sorted). They must be among the
 #'   library's coordinates (matched by value); the library's other
@@ -31,14 +47,15 @@
 #'   \eqn{\tau^{-1} S R S} with \eqn{S = diag(sd)}, so a measurement with
 #'   twice the `sd` has twice the noise standard deviation. Positive numbers
 #'   in the shape of `y` (`NA` allowed where `y` is missing), one per output
-#'   coordinate (`n_t` values) or one per x setting (`n_x` values); in long
+#'   coordinate (`n_t` values) or one per row of `y` (`n_x` values); in long
 #'   format, one per row of `y`. Outputs in different units can be given
 #'   their scales here (or see `noise_groups` in [calibrate()]).
 #' @return An object of class `griddy_field`: a list with elements `y` (an
 #'   `n_x x n_t` matrix, or a one-row matrix when `y` was a vector and neither
 #'   `x` nor `t` fixes its shape; `NA` where missing), `x` and `t` as given
 #'   (or as read from long format) and `sd` (`NULL` or a matrix the shape of
-#'   `y`).
+#'   `y`); and `one_setting = TRUE` for replicates in long format without x
+#'   columns (every row at the library's single setting).
 #' @seealso [sim_library()], [calibrate()]
 #' @examples
 #' field_data(matrix(rnorm(6), nrow = 2), x = data.frame(height = c(10, 20)))
@@ -46,6 +63,12 @@
 #' # ragged: two outputs at height 10, one at height 20
 #' field_data(data.frame(height = c(10, 10, 20), t = c(0, 1, 1),
 #'                       y = c(1.1, 0.7, 0.4)))
+#' # replicates: three experiments at height 10, one at height 20
+#' field_data(matrix(c(1.1, 1.0, 1.2, 0.4), ncol = 1),
+#'            x = data.frame(height = c(10, 10, 10, 20)))
+#' # in long format, two values of the cell (height 10, t 1)
+#' field_data(data.frame(height = c(10, 10, 10, 20), t = c(0, 1, 1, 1),
+#'                       y = c(1.1, 0.7, 0.8, 0.4)))
 #' @export
 field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
   one_setting <- FALSE
