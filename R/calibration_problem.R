@@ -70,7 +70,7 @@ noise_pattern <- function(library, layout, noise_groups, prior) {
   }
   list(observed = observed, sd = layout$sd, sd_mean = layout$sd_mean, group = groups$group,
        labels = groups$labels, prior = prior, pure_ss = by_group(layout$pure_ss),
-       pure_df = by_group(layout$n_rep - 1L), log_sd_excess = layout$log_sd_excess)
+       pure_df = as.integer(by_group(layout$n_rep - 1L)), log_sd_excess = layout$log_sd_excess)
 }
 
 # The noise group of every library output (library order) from
