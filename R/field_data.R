@@ -393,35 +393,49 @@ field_layout <- function(library, field) {
 # and sd exactly.
 cell_summary <- function(cell, value, sd, n_cells) {
   keep <- !is.na(value)
+  n_rep <- tabulate(cell[keep], n_cells)
+  sd_one <- if (!is.null(sd)) one_measurement_sd(cell, sd, keep | n_rep[cell] == 0L, n_cells)
   cell <- cell[keep]
   value <- value[keep]
   s <- if (is.null(sd)) rep(1, length(value)) else sd[keep]
-  n_rep <- tabulate(cell, n_cells)
   y <- rep(NA_real_, n_cells)
   if (all(n_rep <= 1L)) {
     y[cell] <- value
-    sd_out <- if (!is.null(sd)) replace(y, cell, s)
-    return(list(y = y, sd = sd_out, sd_mean = sd_out, n_rep = n_rep,
+    return(list(y = y, sd = sd_one, sd_mean = sd_one, n_rep = n_rep,
                 pure_ss = numeric(n_cells), log_sd_excess = 0))
   }
   w <- 1 / s^2
+  measured <- sort(unique(cell))
   W <- numeric(n_cells)
-  W[sort(unique(cell))] <- rowsum(w, cell)[, 1]
-  y[sort(unique(cell))] <- rowsum(w * value, cell)[, 1]
+  W[measured] <- rowsum(w, cell)[, 1]
+  y[measured] <- rowsum(w * value, cell)[, 1]
   y <- y / W
-  single <- n_rep == 1L
-  y[cell[single[cell]]] <- value[single[cell]]
+  single <- n_rep[cell] == 1L
+  y[cell[single]] <- value[single]
   pure_ss <- numeric(n_cells)
-  pure_ss[sort(unique(cell))] <- rowsum(w * (value - y[cell])^2, cell)[, 1]
-  pure_ss[single] <- 0
+  pure_ss[measured] <- rowsum(w * (value - y[cell])^2, cell)[, 1]
+  pure_ss[cell[single]] <- 0
   sd_mean <- rep(NA_real_, n_cells)
-  sd_mean[n_rep > 0L] <- 1 / sqrt(W[n_rep > 0L])
-  sd_mean[cell[single[cell]]] <- s[single[cell]]
-  sd_one <- if (!is.null(sd)) sd_mean * sqrt(n_rep)
-  if (!is.null(sd)) sd_one[cell[single[cell]]] <- s[single[cell]]
-  measured <- n_rep > 0L
+  sd_mean[measured] <- 1 / sqrt(W[measured])
+  sd_mean[cell[single]] <- s[single]
   list(y = y, sd = sd_one, sd_mean = sd_mean, n_rep = n_rep, pure_ss = pure_ss,
        log_sd_excess = sum(log(s^2)) - sum(log(sd_mean[measured]^2)))
+}
+
+# The relative sd of one measurement in each cell from the sd of the entries
+# `use` (a measured cell's measurements; any entry of an unmeasured cell, so
+# predict() has its sd): sqrt(m / sum 1/sd^2) over its m entries, the sd
+# itself for one entry, NA for none.
+one_measurement_sd <- function(cell, sd, use, n_cells) {
+  use <- use & !is.na(sd)
+  out <- rep(NA_real_, n_cells)
+  if (!any(use)) return(out)
+  m <- tabulate(cell[use], n_cells)
+  has <- sort(unique(cell[use]))
+  out[has] <- sqrt(m[has] / rowsum(1 / sd[use]^2, cell[use])[, 1])
+  one <- use & m[cell] == 1L
+  out[cell[one]] <- sd[one]
+  out
 }
 
 same_values <- function(a, b) abs(a - b) <= 1e-8 * pmax(1, abs(a), abs(b))
