@@ -327,7 +327,8 @@ field_vector <- function(library, field) {
 #           replicates (NA where not measured);
 #   sd      NULL, or the relative sd of one measurement (a replicated cell's
 #           sqrt(n_rep / sum 1/sd_r^2), its replicates' sd when they share
-#           it): what predict() adds noise with;
+#           it; an unmeasured cell keeps the sd the field gives it): what
+#           predict() adds noise with;
 #   sd_mean NULL (no sd, no replicates), or the relative sd of y:
 #           1 / sqrt(sum 1/sd_r^2), 1 / sqrt(n_rep) without sd;
 #   n_rep   the number of measurements in each cell (0 where missing);
