@@ -43,7 +43,12 @@
 #' complete data use the Kronecker shortcuts). With relative standard
 #' deviations `sd` the covariance is \eqn{\tau^{-1} S R_g S}. The prior over
 #' the correlation grid is uniform over distinct correlation structures (see
-#' [rho_grid()]).
+#' [rho_grid()]). Replicated measurements (see [field_data()]) enter as
+#' their cell means, with relative sd \eqn{1/\sqrt{\sum_r sd_r^{-2}}} and
+#' \eqn{R_g} between the means, plus the replicates' pure-error sum of
+#' squares in every \eqn{C_{ig}} (in its noise group's), and \eqn{n} counts
+#' every measurement: exactly the likelihood of the individual measurements
+#' for independent noise (\eqn{\rho = 0}).
 #'
 #' **Noise groups.** With `noise_groups`, each group \eqn{k} of outputs has
 #' its own precision \eqn{\tau_k \sim Gamma(a, b)}; the correlation

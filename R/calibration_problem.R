@@ -26,7 +26,9 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
   }
   emulation_error <- attr(C, "emulation_error")
   attr(C, "emulation_error") <- NULL
-  list(library = library, y_field = y_field, n_obs = sum(!is.na(y_field)),
+  # every measurement: the observed cells and the replicates' pure-error
+  # degrees of freedom (see noise_pattern())
+  list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),
        prior = prior, log_prior_run = log_prior_run, setup = setup,
        grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
        log_prior_grid = grid_log_prior(setup), emulation_error = emulation_error)
@@ -46,22 +48,31 @@ grid_log_prior <- function(setup) {
 # ---- the noise pattern ----------------------------------------------------------
 
 # What the likelihood needs to know about the field beyond its values (see
-# grid_posterior.R): which library outputs are observed, their relative sd
-# (NULL when not given), and the noise group of each library output
-# (`group`, indices into `labels`), with the prior that folds the groups.
-# NULL for complete data with one group and no sd: the Kronecker case.
+# grid_posterior.R): which library outputs are observed, the relative sd of
+# their values (`sd_mean`, NULL when neither sd nor replicates are given) and
+# of one measurement (`sd`, for predict()), the noise group of each library
+# output (`group`, indices into `labels`), with the prior that folds the
+# groups; and the replicates' pure error (see field_layout()): each group's
+# sum of squares `pure_ss` and degrees of freedom `pure_df`, and the
+# constant `log_sd_excess` of the log-determinant.
+# NULL for complete data with one group, no sd and no replicates: the
+# Kronecker case.
 noise_pattern <- function(library, layout, noise_groups, prior) {
   observed <- !is.na(layout$y)
   groups <- noise_group_index(noise_groups, lib_n_x(library), lib_n_t(library))
-  if (all(observed) && is.null(layout$sd) && length(groups$labels) == 1L) return(NULL)
+  if (all(observed) && is.null(layout$sd_mean) && length(groups$labels) == 1L) return(NULL)
   empty <- setdiff(seq_along(groups$labels), groups$group[observed])
   if (length(empty) > 0L) {
     griddy_abort("Noise group(s) ", show_some(groups$labels[empty]), " hold no field ",
                  "measurement, so their precision is not identified; merge them with ",
                  "others in `noise_groups`.", class = "input")
   }
-  list(observed = observed, sd = layout$sd, group = groups$group, labels = groups$labels,
-       prior = prior)
+  by_group <- function(v) {
+    vapply(seq_along(groups$labels), function(k) sum(v[observed & groups$group == k]), 0)
+  }
+  list(observed = observed, sd = layout$sd, sd_mean = layout$sd_mean, group = groups$group,
+       labels = groups$labels, prior = prior, pure_ss = by_group(layout$pure_ss),
+       pure_df = as.integer(by_group(layout$n_rep - 1L)), log_sd_excess = layout$log_sd_excess)
 }
 
 # The noise group of every library output (library order) from

@@ -90,15 +90,15 @@ run_errors <- function(library) {
        errors = lapply(library$rounds, `[[`, "error"))
 }
 
-# The prediction error of run j as V (outputs x rank, S = R_g + V V'), or
-# NULL when the run was simulated.
-run_emulation <- function(emulation, j) {
+# The prediction error of run j as V (data points x rank, S = R_g + V V'
+# over the observed points `obs`), or NULL when the run was simulated.
+run_emulation <- function(emulation, j, obs) {
   if (is.null(emulation) || j <= emulation$n_base) return(NULL)
   k <- j - emulation$n_base
   err <- emulation$errors[[emulation$round[k]]]
   if (is.null(err) || emulation$kappa[k] <= 0) return(NULL)
-  list(V = err$U %*% diag(sqrt(emulation$kappa[k] * err$lambda / err$noise_var),
-                          length(err$lambda)))
+  list(V = err$U[obs, , drop = FALSE] %*%
+         diag(sqrt(emulation$kappa[k] * err$lambda / err$noise_var), length(err$lambda)))
 }
 
 # The fit's own context and base terms, for the confounding screen.

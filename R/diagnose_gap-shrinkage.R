@@ -12,14 +12,20 @@ gap_folds <- function(ctx, base_terms, cand_terms) {
   out
 }
 
+# Leave out the observed cells of x setting k (NULL when it has none: there is
+# nothing to predict).
 fold_one <- function(ctx, tm, k, model) {
   a <- ctx$prior$shape
   b <- ctx$prior$rate
   n <- ctx$n
-  m <- ctx$n_t
-  cols <- (k - 1L) * m + seq_len(m)
-  # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|, (R^-1)_BB = (R_x^-1)_kk Pt
+  pos <- ctx$setting_pos[[k]]
+  m <- length(pos)
+  if (m == 0L) return(NULL)
+  cols <- ctx$obs[pos]
+  # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|: for complete data (R^-1)_BB =
+  # (R_x^-1)_kk Pt, otherwise from the node's factor of P_BB
   ld_bb <- vapply(ctx$nodes, function(node) {
+    if (ctx$dense) return(2 * sum(log(diag(node$setting_chol[[k]]))))
     m * log(node$Rx_inv[k, k]) - sum(log1p(-node$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
@@ -29,13 +35,15 @@ fold_one <- function(ctx, tm, k, model) {
   w <- normalise_log(lj)
   y_b <- ctx$y[cols]
   pred <- drop(rowSums(w) %*% tm$Y[, cols, drop = FALSE])
-  # physics-only predictive: simulator at the run plus fitted noise (t)
+  # physics-only predictive: simulator at the run plus fitted noise (t), each
+  # point's noise sd times its relative sd
   keep <- top_pairs(w, 0.9999, 500L)
   wk <- w[keep] / sum(w[keep])
   ij <- arrayInd(keep, dim(w))
   nu <- 2 * a + n - m
   scale <- sqrt((b + Qm[keep] / 2) / (a + (n - m) / 2))
   z <- (matrix(y_b, length(keep), m, byrow = TRUE) - tm$Y[ij[, 1], cols, drop = FALSE]) / scale
+  if (!is.null(ctx$sd)) z <- sweep(z, 2, ctx$sd[cols], "/")
   pit <- colSums(wk * stats::pt(z, nu))
   data.frame(model = model, x = k, n = m, sse = sum((y_b - pred)^2),
              rmse = sqrt(mean((y_b - pred)^2)), lpd = lpd,

@@ -10,8 +10,15 @@ gap_where <- function(ctx, tm, windows, fdr) {
   n_t <- ctx$n_t
   blocks <- expand.grid(w = seq_along(win), x = seq_len(ctx$n_x))
   nb <- nrow(blocks)
-  stat <- matrix(0, nrow(pairs), nb)
-  pval <- matrix(0, nrow(pairs), nb)
+  # each block's observed cells, as positions in the data vector; a block
+  # with none is not checked (NA score and p-value, n = 0)
+  pos <- lapply(seq_len(nb), function(i) {
+    block_positions(ctx$obs, blocks$x[i], win[[blocks$w[i]]], n_t)
+  })
+  size <- lengths(pos)
+  checked <- which(size > 0L)
+  stat <- matrix(NA_real_, nrow(pairs), nb)
+  pval <- matrix(NA_real_, nrow(pairs), nb)
   lcond <- matrix(0, nrow(pairs), nb)                    # log p(y_B | y_-B, pair)
   a <- ctx$prior$shape
   b <- ctx$prior$rate
@@ -19,24 +26,23 @@ gap_where <- function(ctx, tm, windows, fdr) {
   for (g in unique(pairs[, 2])) {
     node <- ctx$nodes[[g]]
     at <- which(pairs[, 2] == g)
-    chols <- lapply(seq_len(nb), function(i) {
-      W <- win[[blocks$w[i]]]
-      chol(node$Rx_inv[blocks$x[i], blocks$x[i]] * node$Pt[W, W, drop = FALSE])
+    P_BB <- lapply(seq_len(nb), function(i) {
+      if (size[i] > 0L) block_precision(ctx, node, pos[[i]], win[[blocks$w[i]]], blocks$x[i])
     })
+    chols <- lapply(P_BB, function(S) if (!is.null(S)) chol(S))
     for (p in at) {
       j <- pairs[p, 1]
-      Em <- matrix(tm$E[j, ], n_t, ctx$n_x)
-      err <- run_emulation(tm$emulation, j)
-      for (i in seq_len(nb)) {
-        W <- win[[blocks$w[i]]]
-        bs <- if (is.null(err)) {
-          if (i == 1L) H <- node$Pt %*% Em %*% node$Rx_inv
-          plain_block(H[W, blocks$x[i]], chols[[i]], tm$Q[j, g])
-        } else {
-          if (i == 1L) wood <- emulated_inverse(node, Em, err, n_t, ctx$n_x)
-          emulated_block(wood, node, W, blocks$x[i], n_t)
-        }
-        m <- length(W)
+      e <- tm$E[j, ctx$obs]
+      err <- run_emulation(tm$emulation, j, ctx$obs)
+      if (is.null(err)) {
+        h <- apply_precision(ctx, node, e)
+      } else {
+        wood <- emulated_inverse(ctx, node, e, err)
+      }
+      for (i in checked) {
+        bs <- if (is.null(err)) plain_block(h[pos[[i]]], chols[[i]], tm$Q[j, g]) else
+          emulated_block(wood, P_BB[[i]], pos[[i]])
+        m <- size[i]
         rest <- max(2 * b + bs$Q - bs$D, 1e-300)
         nu <- 2 * a + n - m
         f <- (bs$D / m) / (rest / nu)
@@ -56,11 +62,23 @@ gap_where <- function(ctx, tm, windows, fdr) {
   score <- colSums(wb * stat)
   p_value <- colSums(wb * pval)
   t_of <- function(f) vapply(blocks$w, function(k) f(ctx$t[win[[k]]]), numeric(1))
-  out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max),
-                    n = vapply(win, length, integer(1))[blocks$w],
-                    score = score, p_value = p_value,
-                    flagged = stats::p.adjust(p_value, "BH") <= fdr)
+  flagged <- stats::p.adjust(p_value, "BH") <= fdr
+  out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
+                    score = score, p_value = p_value, flagged = flagged & !is.na(flagged))
   list(blocks = out, map = gap_map(ctx, tm, w), breaks = win)
+}
+
+# h = P e for the data vector e: P = R_x^-1 (x) Pt for complete data, the
+# node's dense P otherwise.
+apply_precision <- function(ctx, node, e) {
+  if (ctx$dense) return(drop(node$P %*% e))
+  as.vector(node$Pt %*% matrix(e, ctx$n_t, ctx$n_x) %*% node$Rx_inv)
+}
+
+# P_BB for the block of setting x and t indices W at data positions `pos`.
+block_precision <- function(ctx, node, pos, W, x) {
+  if (ctx$dense) return(node$P[pos, pos, drop = FALSE])
+  node$Rx_inv[x, x] * node$Pt[W, W, drop = FALSE]
 }
 
 # The leave-block pieces of a run whose covariance is R_g: with h = R_g^-1 r
@@ -70,28 +88,27 @@ plain_block <- function(h_B, U, Q) {
   list(D = sum(z^2), Q = Q, logdet = 0, logdet_BB = 2 * sum(log(diag(U))))
 }
 
-# A predicted run's covariance S = R_g + V V' (V = U diag(sqrt(kappa lambda /
-# s2)), its prediction error; library_refined.R): S^-1 = P - PV K V'P with
-# P = R_g^-1 = R_x^-1 (x) P_t and K = (I + V'PV)^-1, h = S^-1 r, Q = r'S^-1 r
-# and log|S| - log|R_g| = log|I + V'PV|.
-emulated_inverse <- function(node, Em, err, n_t, n_x) {
-  apply_P <- function(v) as.vector(node$Pt %*% matrix(v, n_t, n_x) %*% node$Rx_inv)
-  PV <- apply(err$V, 2, apply_P)
+# A predicted run's covariance S = R_g + V V' over the data points (V = U
+# diag(sqrt(kappa lambda / s2)) restricted to them, its prediction error;
+# library_refined.R): S^-1 = P - PV K V'P with P = R_g^-1 (apply_precision())
+# and K = (I + V'PV)^-1, h = S^-1 r, Q = r'S^-1 r and
+# log|S| - log|R_g| = log|I + V'PV|.
+emulated_inverse <- function(ctx, node, e, err) {
+  PV <- apply(err$V, 2, function(v) apply_precision(ctx, node, v))
   inner <- diag(ncol(err$V)) + crossprod(err$V, PV)
   K <- solve(inner)
-  Pr <- apply_P(as.vector(Em))
-  h <- Pr - drop(PV %*% (K %*% crossprod(PV, as.vector(Em))))
-  list(PV = PV, K = K, h = h, Q = sum(as.vector(Em) * h),
+  Pr <- apply_precision(ctx, node, e)
+  h <- Pr - drop(PV %*% (K %*% crossprod(PV, e)))
+  list(PV = PV, K = K, h = h, Q = sum(e * h),
        logdet = as.numeric(determinant(inner)$modulus))
 }
 
 # Its leave-block pieces: (S^-1)_BB = P_BB - (PV)_B K (PV)_B'.
-emulated_block <- function(wood, node, W, x, n_t) {
-  idx <- (x - 1L) * n_t + W
-  A <- wood$PV[idx, , drop = FALSE]
-  S_BB <- node$Rx_inv[x, x] * node$Pt[W, W, drop = FALSE] - A %*% wood$K %*% t(A)
+emulated_block <- function(wood, P_BB, pos) {
+  A <- wood$PV[pos, , drop = FALSE]
+  S_BB <- P_BB - A %*% wood$K %*% t(A)
   U <- chol(S_BB)
-  z <- backsolve(U, wood$h[idx], transpose = TRUE)
+  z <- backsolve(U, wood$h[pos], transpose = TRUE)
   list(D = sum(z^2), Q = wood$Q, logdet = wood$logdet, logdet_BB = 2 * sum(log(diag(U))))
 }
 
@@ -136,11 +153,13 @@ gap_windows <- function(ctx, tm, windows) {
   unname(split(seq_len(n_t)[keep], idx[keep]))
 }
 
-# Posterior-mean residual field of the base model and its size in noise sds.
+# Posterior-mean residual field of the base model and its size in noise sds
+# (each point's own, with relative sd); NA at missing cells.
 gap_map <- function(ctx, tm, w) {
   wr <- rowSums(w)
   resid <- colSums(tm$E * wr)
   sigma <- sqrt(sum(w * (ctx$prior$rate + tm$Q / 2) / (ctx$prior$shape + ctx$n / 2)))
+  if (!is.null(ctx$sd)) sigma <- sigma * ctx$sd
   data.frame(x = rep(seq_len(ctx$n_x), each = ctx$n_t), t = rep(ctx$t, ctx$n_x),
              residual = resid, z = resid / sigma)
 }

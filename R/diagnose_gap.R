@@ -23,8 +23,16 @@
 #' already resolved are left as they are. Every part of the diagnosis below
 #' uses the refined libraries.
 #'
-#' **Not yet supported:** fits with missing field data, relative `sd` (see
-#' [field_data()]) or noise groups (see [calibrate()]): an error of class
+#' **Missing data and relative sd.** Field data with missing cells or a
+#' relative `sd` (see [field_data()]) are diagnosed on the observed points
+#' only, under the fit's noise covariance \eqn{\tau^{-1} S R_g S} restricted
+#' to them (dense algebra where the Kronecker shortcuts no longer hold). A
+#' block (of "where") or x setting (of "how much") is its observed cells; a
+#' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
+#' never flagged) and a setting with none has no fold. Candidates' quadratic
+#' forms use the same observed points and sd. **Not yet supported:** noise
+#' groups (see [calibrate()]): with a precision per group the block
+#' statistic has no single F distribution; such a fit is an error of class
 #' `griddy_error_unsupported`.
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
@@ -48,7 +56,10 @@
 #' uniform priors (length-scales too short to correlate neighbouring points
 #' are dropped: such a "discrepancy" is white noise, which the base model
 #' already has); its evidence is exact too (one dense Cholesky factor per
-#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). Model probabilities use `prior_models`
+#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). With
+#' relative `sd`, \eqn{s} is relative to the mean noise variance over the
+#' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
+#' discrepancy stays smooth in output units. Model probabilities use `prior_models`
 #' (default: equal). **Decision rule:** the answer is the most probable model
 #' that is not confounded with theta; "none" means no detectable gap,
 #' "other" a gap that no candidate explains. When that model is "none" but
@@ -74,7 +85,9 @@
 #' `NA` when no strength is large enough to judge.
 #'
 #' **Where.** For block \eqn{B}, with \eqn{h = R_g^{-1} r} and
-#' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B}, the statistic
+#' \eqn{D = h_B' (R_g^{-1})_{BB}^{-1} h_B} (\eqn{R_g} here the noise
+#' correlation of the observed points, \eqn{n} their number and \eqn{|B|}
+#' the block's observed cells), the statistic
 #' \eqn{F = (D/|B|) / ((2b + r'R_g^{-1}r - D)/\nu)}, \eqn{\nu = 2a + n - |B|},
 #' is \eqn{F(|B|, \nu)} under the fitted model at fixed (run, correlation);
 #' `score` is its mean and `p_value` its tail probability, both averaged over
@@ -110,7 +123,8 @@
 #'   places are random).
 #' @return An object of class `gap_diagnosis`, a list with
 #'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
-#'     (t range), `n` (points), `score`, `p_value`, `flagged`;
+#'     (t range), `n` (observed points; 0: not checked), `score`, `p_value`,
+#'     `flagged`;
 #'   * `which`: one row per model, sorted by `prob` decreasing: `effect`,
 #'     `prob`, `log_evidence`, `confounded`, `separable`, `detectable` (the
 #'     irreducible part of the largest-strength effect in noise standard
@@ -120,7 +134,8 @@
 #'     `cover90_after`;
 #'   * `folds`: the same per left-out x setting;
 #'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
-#'     residual / fitted noise sd) under the base posterior;
+#'     residual / fitted noise sd, times the point's relative sd where given)
+#'     under the base posterior, `NA` at missing cells;
 #'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
 #'     `advice`, `n_flagged` and `prob_none`.
 #' @seealso [posterior_exact()], [calibrate()]
@@ -217,17 +232,18 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
 
 # ---- candidates --------------------------------------------------------------
 
-# The leave-out algebra here uses the Kronecker structure and one tau: a fit
-# with missing field data, relative sd or noise groups (a noise pattern, see
-# correlation_setup()) is not yet supported.
+# The leave-out algebra works on the observed points with one tau (missing
+# cells and relative sd are fine). Noise groups are not supported: each group's
+# own tau makes the leave-block-out predictive a product of Student-t pieces
+# with different degrees of freedom, which the block statistic F does not have,
+# and "other"'s discrepancy would need a scale per group.
 check_gap_pattern <- function(fit) {
-  if (!is.null(fit$setup$dense)) {
-    griddy_abort("diagnose_gap() does not yet support fits with missing field data, ",
-                 "relative `sd` or noise groups; this fit has ",
-                 paste(c(if (fit$n_obs < length(fit$y_field)) "missing field data",
-                         if (!is.null(fit$setup$pattern$sd)) "relative sd",
-                         if (length(fit$setup$group_sizes) > 1L) "noise groups"),
-                       collapse = " and "), ".", class = "unsupported")
+  n_groups <- length(fit$setup$group_sizes)
+  if (n_groups > 1L) {
+    griddy_abort("diagnose_gap() does not yet support fits with noise groups (this fit has ",
+                 n_groups, "); missing field data and relative `sd` are supported. Refit ",
+                 "without `noise_groups` (one tau) to diagnose the gap.",
+                 class = "unsupported")
   }
 }
 
@@ -338,23 +354,55 @@ model_prior <- function(prior_models, models) {
 
 # The fit's noise model: one node per correlation grid point, holding the
 # grid point (grid_posterior.R) and the dense inverse correlations that the
-# block checks need.
+# block checks need. The data are the observed points `obs` (library order;
+# all of them for complete data). Under a noise pattern (missing cells,
+# relative sd) a node also holds P = (S R_g S)_oo^-1 over the observed points
+# and, per x setting, the Cholesky factor of P_BB for B its observed cells
+# (NULL for a setting with none): the Kronecker shortcuts do not hold there.
 gap_context <- function(fit) {
   lib <- fit$library
   setup <- fit$setup
   n_x <- lib_n_x(lib)
   n_t <- lib_n_t(lib)
+  obs <- if (is.null(setup$dense)) seq_len(n_x * n_t) else setup$dense$obs
+  setting_pos <- lapply(seq_len(n_x), function(k) block_positions(obs, k, seq_len(n_t), n_t))
   nodes <- lapply(seq_len(n_grid_points(setup)), function(g) {
     point <- grid_point(setup, g)
     # rows of the whitened / coloured identity are the columns of A_t, L_t
     A_t <- t(ar1_whiten_rows_cpp(diag(n_t), point$phi, 1L))
-    c(point, list(Pt = crossprod(A_t),
-                  Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), point$phi, 1L))),
-                  log_prior = fit$log_prior_grid[g]))
+    node <- c(point, list(Pt = crossprod(A_t),
+                          Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), point$phi, 1L))),
+                          log_prior = fit$log_prior_grid[g]))
+    if (!is.null(point$dense)) {
+      node$P <- dense_precision(point)
+      node$setting_chol <- lapply(setting_pos, function(pos) {
+        if (length(pos) > 0L) chol(node$P[pos, pos, drop = FALSE])
+      })
+    }
+    node
   })
   list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
        nodes = nodes, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
-       logdet = setup$logdet, log_prior_grid = fit$log_prior_grid)
+       logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
+       obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
+       setting_pos = setting_pos)
+}
+
+# P = (S R_g S)_oo^-1 over the observed points of a dense grid point with one
+# noise group: R_oo^-1 = A A' (dense_factors()), scaled by 1/sd on both sides.
+dense_precision <- function(point) {
+  d <- point$dense
+  P <- tcrossprod(d$A[[1]])
+  if (!is.null(d$scale)) P <- P * outer(d$scale, d$scale)
+  P
+}
+
+# The positions, in the vector of observed points `obs`, of the observed
+# cells of x setting k at t indices W (a block restricted to what was
+# measured; empty when none was).
+block_positions <- function(obs, k, W, n_t) {
+  pos <- match((k - 1L) * n_t + W, obs)
+  pos[!is.na(pos)]
 }
 
 # Per model: Q (runs x nodes), its log joint lj, the leave-setting-out pieces
@@ -362,7 +410,7 @@ gap_context <- function(fit) {
 # model's own table of misfits (a refined library's, with the prediction
 # error of its predicted runs): it sets the posterior and evidence (lj),
 # while the leave-out algebra (Q, D, lj_plain) works on the plain quadratic
-# forms, which leave-out identities hold for.
+# forms, which leave-out identities hold for. `E` holds NA at missing cells.
 gap_terms <- function(ctx, Y, log_prior_run,
                       Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
   n_x <- ctx$n_x
@@ -373,6 +421,17 @@ gap_terms <- function(ctx, Y, log_prior_run,
   D <- array(0, c(J, G, n_x))
   for (g in seq_len(G)) {
     node <- ctx$nodes[[g]]
+    if (ctx$dense) {
+      # the general form: h = P e over the observed points, D_k = h_B' P_BB^-1 h_B
+      H <- E[, ctx$obs, drop = FALSE] %*% node$P
+      for (k in seq_len(n_x)) {
+        U <- node$setting_chol[[k]]
+        if (is.null(U)) next                          # no observed cell: nothing left out
+        pos <- ctx$setting_pos[[k]]
+        D[, g, k] <- colSums(backsolve(U, t(H[, pos, drop = FALSE]), transpose = TRUE)^2)
+      }
+      next
+    }
     # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = R_x^-1 (x) Pt it is
     # v_k' Pt v_k / (R_x^-1)_kk, v_k = sum_l (R_x^-1)_lk e_l (the AR(1) innovations of v_k).
     V <- matrix(matrix(E, J * n_t, n_x) %*% node$Rx_inv, J, n_x * n_t)
@@ -386,6 +445,16 @@ gap_terms <- function(ctx, Y, log_prior_run,
   lj <- if (is.null(C)) lj_plain else
     collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
   list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
+}
+
+# The noise covariance S R_g S of a node over the observed points (R_g for
+# complete data without sd).
+node_covariance <- function(ctx, node) {
+  R <- kronecker(crossprod(node$Rx_chol), node$Rt)
+  if (!ctx$dense) return(R)
+  R <- R[ctx$obs, ctx$obs, drop = FALSE]
+  if (!is.null(ctx$sd)) R <- R * outer(ctx$sd[ctx$obs], ctx$sd[ctx$obs])
+  R
 }
 
 # ---- "other": the base model plus a generic smooth discrepancy ---------------
@@ -405,7 +474,10 @@ smooth_kernel <- function(ctx, scale) {
 # Evidence over runs x correlation nodes x scales x variance ratios.
 other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   n <- ctx$n
-  Et <- t(base_terms$E)
+  Et <- t(base_terms$E[, ctx$obs, drop = FALSE])
+  # with relative sd the discrepancy stays smooth in output units (S K S would
+  # not be): its variance is s times the mean noise variance over the data
+  sd2 <- if (is.null(ctx$sd)) 1 else mean(ctx$sd[ctx$obs]^2)
   kernels <- lapply(scales, function(sc) smooth_kernel(ctx, sc))
   # a kernel that does not correlate neighbouring points is white noise, which
   # the noise model already has (with tau integrated out it is the base model)
@@ -414,9 +486,10 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
     stats::median(apply(K, 1, max)) >= 0.5
   }, logical(1))
   kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
+  kernels <- lapply(kernels, function(K) sd2 * K[ctx$obs, ctx$obs, drop = FALSE])
   pieces <- unlist(lapply(kernels, function(K) {
     unlist(lapply(ctx$nodes, function(node) {
-      R <- kronecker(crossprod(node$Rx_chol), node$Rt)
+      R <- node_covariance(ctx, node)
       vapply(ratios, function(s) {
         L <- chol(R + s * K)
         Q <- matrix(colSums(backsolve(L, Et, transpose = TRUE)^2))

@@ -10,6 +10,18 @@
 #' every cell. Library x settings the field does not have, and library
 #' output coordinates it does not have, are missing too.
 #'
+#' **Replicates.** Several experiments at one x setting are rows of `y` with
+#' the same row of `x` (or, in long format, several rows of `y` at one
+#' (x, t)). They are independent measurements of the same simulator output:
+#' the likelihood sees each cell's (sd-weighted) mean, with relative sd
+#' \eqn{1/\sqrt{\sum_r sd_r^{-2}}} (\eqn{1/\sqrt{n_{rep}}} without `sd`), the
+#' correlation \eqn{R_g} holding between the means, and the replicates'
+#' pure-error sum of squares \eqn{\sum_r (y_r - \bar y)^2 / sd_r^2}, with its
+#' \eqn{n_{rep} - 1} degrees of freedom, added to every run's misfit: for
+#' independent noise this is exactly the likelihood of every measurement,
+#' and \eqn{n} counts every measurement. See [calibrate()]. The field keeps
+#' the measurements as given.
+#'
 #' @param y The measurements: an `n_x x n_t` numeric matrix whose row `k` holds
 #'   the measurements at the `k`-th x setting, or a numeric vector in the
 #'   library's order (blocks of `n_t` values by x setting; `n_x * n_t`
@@ -17,11 +29,15 @@
 #'   measurement. Or, in long format, a data.frame with one row per
 #'   measurement: a column `t` (the output coordinate), a column `y` (the
 #'   value), optionally a column `sd` (as the argument `sd`), and the x
-#'   columns; cells not listed are missing.
-#' @param x A data.frame of the `n_x` control settings, with the library's
-#'   (distinct) column names; `NULL` means "the library's settings, in its order". Rows
-#'   may come in another order than the library's: [calibrate()] matches them
-#'   by value. In long format, `NULL` means the distinct settings of `y`.
+#'   columns; cells not listed are missing, cells listed more than once are
+#'   replicated (the j-th value of each cell goes to the j-th row of its
+#'   setting).
+#' @param x A data.frame of the `n_x` control settings, one per row of `y`,
+#'   with the library's (distinct) column names; `NULL` means "the library's
+#'   settings, in its order". Rows may come in another order than the
+#'   library's: [calibrate()] matches them by value. A setting repeated is a
+#'   replicated experiment (see Replicates). In long format, `NULL` means the
+#'   distinct settings of `y`, and a given `x` must have distinct rows.
 #' @param t The `n_t` output coordinates; `NULL` means "the library's" (in
 #'   long format, the distinct `t` of `y`, sorted). They must be among the
 #'   library's coordinates (matched by value); the library's other
@@ -31,14 +47,15 @@
 #'   \eqn{\tau^{-1} S R S} with \eqn{S = diag(sd)}, so a measurement with
 #'   twice the `sd` has twice the noise standard deviation. Positive numbers
 #'   in the shape of `y` (`NA` allowed where `y` is missing), one per output
-#'   coordinate (`n_t` values) or one per x setting (`n_x` values); in long
+#'   coordinate (`n_t` values) or one per row of `y` (`n_x` values); in long
 #'   format, one per row of `y`. Outputs in different units can be given
 #'   their scales here (or see `noise_groups` in [calibrate()]).
 #' @return An object of class `griddy_field`: a list with elements `y` (an
 #'   `n_x x n_t` matrix, or a one-row matrix when `y` was a vector and neither
 #'   `x` nor `t` fixes its shape; `NA` where missing), `x` and `t` as given
 #'   (or as read from long format) and `sd` (`NULL` or a matrix the shape of
-#'   `y`).
+#'   `y`); and `one_setting = TRUE` for replicates in long format without x
+#'   columns (every row at the library's single setting).
 #' @seealso [sim_library()], [calibrate()]
 #' @examples
 #' field_data(matrix(rnorm(6), nrow = 2), x = data.frame(height = c(10, 20)))
@@ -46,20 +63,28 @@
 #' # ragged: two outputs at height 10, one at height 20
 #' field_data(data.frame(height = c(10, 10, 20), t = c(0, 1, 1),
 #'                       y = c(1.1, 0.7, 0.4)))
+#' # replicates: three experiments at height 10, one at height 20
+#' field_data(matrix(c(1.1, 1.0, 1.2, 0.4), ncol = 1),
+#'            x = data.frame(height = c(10, 10, 10, 20)))
+#' # in long format, two values of the cell (height 10, t 1)
+#' field_data(data.frame(height = c(10, 10, 10, 20), t = c(0, 1, 1, 1),
+#'                       y = c(1.1, 0.7, 0.8, 0.4)))
 #' @export
 field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
+  one_setting <- FALSE
   if (is_long_field(y)) {
     long <- long_field(y, x, t, sd)
     y <- long$y
     x <- long$x
     t <- long$t
     sd <- long$sd
+    one_setting <- long$one_setting
   }
   if (is.data.frame(x)) {
     assert_column_names(x, "x")
     x <- as_numeric_columns(x, "x")
   }
-  x <- as_settings(x, "x")
+  x <- as_settings(x, "x", distinct = FALSE)
   if (!is.null(t)) t <- assert_numeric_vector(t, "t")
   if (is.null(dim(y)) || length(dim(y)) == 1L) {
     y <- allow_missing(y, assert_numeric_vector, "y")
@@ -79,7 +104,11 @@ field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
   }
   if (!is.null(t)) as_coordinates(t, ncol(y), "t", "columns of `y`")
   dimnames(y) <- NULL
-  structure(list(y = y, x = x, t = t, sd = field_sd_matrix(sd, y)), class = "griddy_field")
+  field <- list(y = y, x = x, t = t, sd = field_sd_matrix(sd, y))
+  # long format without x columns, with replicates: every row is at the
+  # library's single setting
+  if (one_setting) field$one_setting <- TRUE
+  structure(field, class = "griddy_field")
 }
 
 # Validate `v` with `check` (a validator that refuses NA) with its NA cells
@@ -192,19 +221,27 @@ long_field <- function(y, x, t, sd) {
     griddy_abort("Row(s) ", show_some(which(is.na(row) | is.na(col))), " of `y` are at ",
                  "settings or coordinates not in `x` or `t`.")
   }
-  cell <- cbind(row, col)
-  if (anyDuplicated(cell)) {
-    griddy_abort("`y` measures some cells twice: row(s) ",
-                 show_some(which(duplicated(cell))), " repeat an earlier (x, t).")
-  }
-  wide <- matrix(NA_real_, max(1L, if (!is.null(x)) nrow(x) else 1L), length(t))
+  # Replicates: the j-th value of a cell (in the order of `y`) goes to the
+  # j-th field row of its setting, so each setting has as many rows as its
+  # most replicated cell. Which replicate shares a row with which does not
+  # matter: the likelihood sees each cell's replicates only (field_layout()).
+  n_set <- if (!is.null(x)) nrow(x) else 1L
+  rep_no <- stats::ave(seq_along(row), (row - 1L) * length(t) + col, FUN = seq_along)
+  depth <- vapply(seq_len(n_set), function(s) max(c(1L, rep_no[row == s])), integer(1))
+  wide_row <- cumsum(c(0L, depth))[row] + rep_no
+  cell <- cbind(wide_row, col)
+  wide <- matrix(NA_real_, sum(depth), length(t))
   wide[cell] <- value
   if (!is.null(sd)) {
     sd_wide <- matrix(NA_real_, nrow(wide), ncol(wide))
     sd_wide[cell] <- sd
     sd <- sd_wide
   }
-  list(y = wide, x = x, t = t, sd = sd)
+  if (!is.null(x)) {
+    x <- x[rep(seq_len(n_set), depth), , drop = FALSE]
+    rownames(x) <- NULL
+  }
+  list(y = wide, x = x, t = t, sd = sd, one_setting = is.null(x) && nrow(wide) > 1L)
 }
 
 # A vector of measurements as an n_x x n_t matrix (blocks of n_t by x
@@ -236,25 +273,74 @@ split_field_vector <- function(y, n_x, n_t) {
 #' @export
 print.griddy_field <- function(x, ...) {
   n_miss <- sum(is.na(x$y))
-  cli::cat_line("<griddy_field> ", length(x$y) - n_miss, " measurement(s): ",
-                nrow(x$y), " x setting(s) x ", ncol(x$y), " output(s)",
-                if (n_miss > 0L) paste0(", ", n_miss, " missing"),
-                if (!is.null(x$sd)) ", with relative sd")
+  n <- length(x$y) - n_miss
+  rep <- field_replication(x)
+  head <- if (rep$replicated == 0L && rep$settings == nrow(x$y)) {
+    paste0(n, " measurement(s): ", nrow(x$y), " x setting(s) x ", ncol(x$y), " output(s)",
+           if (n_miss > 0L) paste0(", ", n_miss, " missing"))
+  } else {
+    paste0(n, " measurement(s) at ", rep$settings, " x setting(s), ", rep$replicated,
+           " replicated (", nrow(x$y), " experiments) x ", ncol(x$y), " output(s)")
+  }
+  cli::cat_line("<griddy_field> ", head, if (!is.null(x$sd)) ", with relative sd")
   cli::cat_line("  range ", format(min(x$y, na.rm = TRUE), digits = 4), " to ",
                 format(max(x$y, na.rm = TRUE), digits = 4))
   invisible(x)
 }
 
-# The field measurements as one vector in the library's order (blocks by x
-# setting), NA where not measured, after checking that their x and t are
-# among the library's. The caller has checked `library` (check_library()).
-field_vector <- function(library, field) {
-  field_layout(library, field)$y
+# The distinct x setting of each field row (experiment): `setting`, indices
+# into the field's distinct settings; how many there are (`settings`); and
+# how many of them have some output measured more than once (`replicated`).
+field_replication <- function(field) {
+  setting <- if (isTRUE(field$one_setting)) {
+    rep(1L, nrow(field$y))
+  } else if (is.null(field$x)) {
+    seq_len(nrow(field$y))
+  } else {
+    distinct <- unique(field$x)
+    match_setting_rows(field$x, distinct)
+  }
+  count <- rowsum(1L * !is.na(field$y), setting, reorder = TRUE)
+  list(setting = setting, settings = nrow(count),
+       replicated = sum(apply(count > 1L, 1, any)))
 }
 
-# The field's measurements and relative sd (NULL when not given), each one
-# vector in the library's order: field settings and coordinates matched to
-# the library's by value, the library's others missing (NA).
+# The field measurements as one vector in the library's order (blocks by x
+# setting), NA where not measured, after checking that their x and t are
+# among the library's; for methods that take one measurement per cell (not
+# replicates). The caller has checked `library` (check_library()).
+field_vector <- function(library, field) {
+  layout <- field_layout(library, field)
+  if (any(layout$n_rep > 1L)) {
+    griddy_abort("This method takes one field measurement per x setting and output; ",
+                 "`field` has replicated measurements (", sum(layout$n_rep), " at ",
+                 sum(layout$n_rep > 0L), " cells). calibrate() takes them.",
+                 class = "unsupported")
+  }
+  layout$y
+}
+
+# What the likelihood needs from the field, each a vector in the library's
+# order (field settings and coordinates matched to the library's by value,
+# the library's others missing):
+#   y       each cell's measurement, or the sd-weighted mean of its
+#           replicates (NA where not measured);
+#   sd      NULL, or the relative sd of one measurement (a replicated cell's
+#           sqrt(n_rep / sum 1/sd_r^2), its replicates' sd when they share
+#           it; an unmeasured cell keeps the sd the field gives it): what
+#           predict() adds noise with;
+#   sd_mean NULL (no sd, no replicates), or the relative sd of y:
+#           1 / sqrt(sum 1/sd_r^2), 1 / sqrt(n_rep) without sd;
+#   n_rep   the number of measurements in each cell (0 where missing);
+#   pure_ss the pure-error sum of squares of each cell,
+#           sum_r (y_r - ybar)^2 / sd_r^2, with n_rep - 1 degrees of freedom;
+#   log_sd_excess  sum_r log sd_r^2 - log sd_mean^2, summed over the cells.
+# For independent noise, sum_r (y_r - g)^2 / sd_r^2 = pure_ss +
+# (ybar - g)^2 / sd_mean^2 and the replicates' density is that of the mean
+# times exp(-tau pure_ss / 2) tau^((n_rep - 1)/2) (2 pi)^(-(n_rep - 1)/2)
+# exp(-log_sd_excess / 2): this is where replicates reduce to cells (and
+# noise_pattern() hands pure_ss and its degrees of freedom to the noise
+# groups).
 field_layout <- function(library, field) {
   if (!inherits(field, "griddy_field")) {
     griddy_abort("`field` must be a griddy_field (see ?field_data); received ",
@@ -263,12 +349,13 @@ field_layout <- function(library, field) {
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
   y <- field$y
-  if (is.null(field$x) && is.null(field$t)) {
+  if (is.null(field$x) && is.null(field$t) && !isTRUE(field$one_setting)) {
     if (length(y) != n_x * n_t) {
       griddy_abort("`field` has ", length(y), " measurements but the library has ",
                    n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
     }
-    return(list(y = as.vector(t(y)), sd = if (!is.null(field$sd)) as.vector(t(field$sd))))
+    return(cell_summary(seq_len(n_x * n_t), as.vector(t(y)),
+                        if (!is.null(field$sd)) as.vector(t(field$sd)), n_x * n_t))
   }
   cols <- if (is.null(field$t)) {
     if (ncol(y) != n_t) {
@@ -279,7 +366,13 @@ field_layout <- function(library, field) {
   } else {
     match_coordinates(field$t, library$t)
   }
-  rows <- if (is.null(field$x)) {
+  rows <- if (isTRUE(field$one_setting)) {
+    if (n_x != 1L) {
+      griddy_abort("`field` has replicated measurements at one setting and no x columns, ",
+                   "but the library has ", n_x, " x settings: give the x columns.")
+    }
+    rep(1L, nrow(y))
+  } else if (is.null(field$x)) {
     if (nrow(y) != n_x) {
       griddy_abort("`field` has ", nrow(y), " x setting(s) but the library has ", n_x, ".")
     }
@@ -287,15 +380,62 @@ field_layout <- function(library, field) {
   } else {
     match_settings(field$x, library$x)
   }
-  place <- function(m) {
-    out <- matrix(NA_real_, n_x, n_t)
-    out[rows, cols] <- m
-    as.vector(t(out))
-  }
-  out <- list(y = place(y), sd = if (!is.null(field$sd)) place(field$sd))
+  out <- cell_summary(as.vector(outer((rows - 1L) * n_t, cols, "+")), as.vector(y),
+                      if (!is.null(field$sd)) as.vector(field$sd), n_x * n_t)
   if (all(is.na(out$y))) {
     griddy_abort("`field` holds no measurement at the library's settings.")
   }
+  out
+}
+
+# field_layout() from the measurements `value` (NA where missing), their
+# relative sd (NULL, or one per value) and the library output `cell` each is
+# at, over `n_cells` library outputs. A cell measured once keeps its value
+# and sd exactly.
+cell_summary <- function(cell, value, sd, n_cells) {
+  keep <- !is.na(value)
+  n_rep <- tabulate(cell[keep], n_cells)
+  sd_one <- if (!is.null(sd)) one_measurement_sd(cell, sd, keep | n_rep[cell] == 0L, n_cells)
+  cell <- cell[keep]
+  value <- value[keep]
+  s <- if (is.null(sd)) rep(1, length(value)) else sd[keep]
+  y <- rep(NA_real_, n_cells)
+  if (all(n_rep <= 1L)) {
+    y[cell] <- value
+    return(list(y = y, sd = sd_one, sd_mean = sd_one, n_rep = n_rep,
+                pure_ss = numeric(n_cells), log_sd_excess = 0))
+  }
+  w <- 1 / s^2
+  measured <- sort(unique(cell))
+  W <- numeric(n_cells)
+  W[measured] <- rowsum(w, cell)[, 1]
+  y[measured] <- rowsum(w * value, cell)[, 1]
+  y <- y / W
+  single <- n_rep[cell] == 1L
+  y[cell[single]] <- value[single]
+  pure_ss <- numeric(n_cells)
+  pure_ss[measured] <- rowsum(w * (value - y[cell])^2, cell)[, 1]
+  pure_ss[cell[single]] <- 0
+  sd_mean <- rep(NA_real_, n_cells)
+  sd_mean[measured] <- 1 / sqrt(W[measured])
+  sd_mean[cell[single]] <- s[single]
+  list(y = y, sd = sd_one, sd_mean = sd_mean, n_rep = n_rep, pure_ss = pure_ss,
+       log_sd_excess = sum(log(s^2)) - sum(log(sd_mean[measured]^2)))
+}
+
+# The relative sd of one measurement in each cell from the sd of the entries
+# `use` (a measured cell's measurements; any entry of an unmeasured cell, so
+# predict() has its sd): sqrt(m / sum 1/sd^2) over its m entries, the sd
+# itself for one entry, NA for none.
+one_measurement_sd <- function(cell, sd, use, n_cells) {
+  use <- use & !is.na(sd)
+  out <- rep(NA_real_, n_cells)
+  if (!any(use)) return(out)
+  m <- tabulate(cell[use], n_cells)
+  has <- sort(unique(cell[use]))
+  out[has] <- sqrt(m[has] / rowsum(1 / sd[use]^2, cell[use])[, 1])
+  one <- use & m[cell] == 1L
+  out[cell[one]] <- sd[one]
   out
 }
 

@@ -87,6 +87,11 @@ print.gap_diagnosis <- function(x, ...) {
   } else {
     cli::cat_line("Where: no block departs from the fitted noise (FDR ", pct(x$settings$fdr), ").")
   }
+  n_empty <- sum(wh$n == 0L)
+  if (n_empty > 0L) {
+    cli::cat_line(n_empty, " block(s) with no observed point were not checked (n = 0 in ",
+                  "$where).")
+  }
   for (a in gap_advice(x$which, x$x)) cli::cat_line(strwrap(a, width = 90))
   p <- ifelse(x$which$prob < 0.001, "<0.001", sprintf("%.3f", x$which$prob))
   cli::cat_line("Models (posterior probability): ",
@@ -124,7 +129,7 @@ plot.gap_diagnosis <- function(x, ...) {
   map$setting <- factor(lab[map$x], levels = lab)
   wh <- x$where
   wh$setting <- factor(lab[wh$x], levels = lab)
-  lim <- max(3, max(abs(map$z)))
+  lim <- max(3, max(abs(map$z), na.rm = TRUE))
   title <- paste0("Gap map: ", sum(wh$flagged), " of ", nrow(wh), " block(s) flagged; ",
                   "answer: ", x$verdict$answer, " (P = ", format(x$verdict$prob, digits = 2), ")")
   if (length(x$t) == 1L) {

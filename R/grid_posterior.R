@@ -77,7 +77,11 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
   setup$dense <- dense_factors(setup, lib_t(library), pattern)
   setup$logdet <- setup$dense$logdet
   setup$dense$logdet <- NULL
-  setup$group_sizes <- lengths(setup$dense$groups)
+  # a group's size counts its replicates: its observed cells plus their
+  # pure-error degrees of freedom; the pure error's sum of squares enters
+  # every run's form in group_quad_forms()
+  setup$group_sizes <- lengths(setup$dense$groups) + pattern$pure_df
+  setup$pure_ss <- pattern$pure_ss
   setup$fold_prior <- pattern$prior
   setup$pattern <- pattern[c("observed", "sd", "group", "labels")]
   setup
@@ -109,7 +113,10 @@ dense_factors <- function(setup, t, pattern) {
   obs <- which(pattern$observed)
   groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
   names(groups) <- pattern$labels
-  log_sd <- if (is.null(pattern$sd)) 0 else 2 * sum(log(pattern$sd[obs]))
+  # log|S R S| over the cells, plus the constant that makes it the
+  # replicates' own (field_layout())
+  log_sd <- if (is.null(pattern$sd_mean)) 0 else
+    2 * sum(log(pattern$sd_mean[obs])) + pattern$log_sd_excess
   G <- length(setup$logdet)
   A <- vector("list", G)
   logdet <- numeric(G)
@@ -129,7 +136,7 @@ dense_factors <- function(setup, t, pattern) {
     })
     logdet[g] <- logdet[g] + log_sd
   }
-  list(obs = obs, scale = if (!is.null(pattern$sd)) 1 / pattern$sd[obs],
+  list(obs = obs, scale = if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs],
        groups = groups, A = A, logdet = logdet)
 }
 
@@ -213,7 +220,7 @@ misfit_table <- function(library, y_field, setup, prior) {
   # an emulated library's leave-one-out error against the noise, reported by
   # summary() (see library_emulated.R)
   error <- attr(C, "emulation_error")
-  C <- fold_extra_logdet(C, prior, sum(!is.na(y_field)))
+  C <- fold_extra_logdet(C, prior, sum(setup$group_sizes))  # every measurement
   attr(C, "emulation_error") <- error
   C
 }
@@ -235,7 +242,10 @@ plain_quad_forms <- function(Y, y_field, setup) {
 }
 
 # The quadratic forms of each noise group (runs x groups) at grid point g,
-# over the observed points.
+# over the observed points, each with its group's pure error (the
+# replicates' sum of squares about their cell means, the same for every run;
+# see field_layout()). Every per-group form (C, the tau_k draws, refine()'s
+# new and emulated runs) is formed here.
 group_quad_forms <- function(Y, y_field, setup, g) {
   resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
   point <- grid_point(setup, g)
@@ -243,8 +253,8 @@ group_quad_forms <- function(Y, y_field, setup, g) {
     n_x <- dim(setup$Rx_chol)[1]
     return(matrix(rowSums(whiten_rows(resid, point, n_x, length(y_field) %/% n_x)^2)))
   }
-  matrix(vapply(whiten_groups(resid, point), function(W) rowSums(W^2), numeric(nrow(Y))),
-         nrow(Y))
+  Ck <- vapply(whiten_groups(resid, point), function(W) rowSums(W^2), numeric(nrow(Y)))
+  sweep(matrix(Ck, nrow(Y)), 2, setup$pure_ss, "+")
 }
 
 # The effective quadratic form of the noise groups' forms Ck (runs x

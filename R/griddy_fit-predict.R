@@ -21,10 +21,14 @@
 #' @return A data.frame with one row per library output at the settings
 #'   predicted (the library's order, or `newdata`'s), measured or not: `x`
 #'   (the row of the library's x settings), the x columns, `t`,
-#'   `observed` (the field data, `NA` where missing), `mean`, `lower` and
+#'   `observed` (the field data, the mean of a cell's replicates, `NA`
+#'   where missing), `mean`, `lower` and
 #'   `upper` (the simulator outputs at the drawn runs) and `pred_lower`,
 #'   `pred_upper` (with noise: each noise group's at its own precision, times
-#'   the field's relative `sd` where given, `NA` where the field has no sd).
+#'   the field's relative `sd` where given, `NA` where the field has no sd;
+#'   for one measurement, also where the field has replicates: a replicated
+#'   cell's sd is \eqn{\sqrt{n_{rep} / \sum_r sd_r^{-2}}}, its replicates'
+#'   when they share one).
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)

@@ -104,9 +104,11 @@ fit_description <- function(fit) {
 }
 
 missing_description <- function(fit) {
-  n_miss <- length(fit$y_field) - fit$n_obs
+  n_miss <- sum(is.na(fit$y_field))
+  n_cells <- length(fit$y_field) - n_miss
   groups <- length(fit$setup$group_sizes)
-  paste0(if (n_miss > 0L) paste0(" (", n_miss, " missing)"),
+  paste0(if (fit$n_obs > n_cells) paste0(" at ", n_cells, " measured cells (replicates)"),
+         if (n_miss > 0L) paste0(" (", n_miss, " missing)"),
          if (groups > 1L) paste0(" in ", groups, " noise groups"))
 }
 

@@ -232,7 +232,7 @@ emulated_library_forms <- function(library, y_field, setup, s2) {
 # for these field data is used as it is. Returns list(C, noise_var, ratio =
 # the leave-one-out error near the mode over the noise sd).
 emulated_noise_var <- function(library, y_field, setup, times = 4L) {
-  n <- sum(!is.na(y_field))  # the observed points
+  n <- sum(setup$group_sizes)  # every measurement
   stored <- library$noise
   if (!is.null(stored) && identical(stored$y_field, y_field)) {
     C <- emulated_library_forms(library, y_field, setup, stored$noise_var)

@@ -231,7 +231,9 @@ emulated_group_forms <- function(y, y_field, setup, err, kappa, n_x, n_t, g) {
   Wr <- whiten(resid)
   WU <- whiten(t(err$U))
   s2 <- rep_len(err$noise_var, length(Wr))
-  C <- matrix(0, nrow(y), length(Wr))
+  # the plain forms (with the replicates' pure error), less the part the
+  # emulation error explains
+  C <- group_quad_forms(y, y_field, setup, g)
   extra <- numeric(nrow(y))
   for (k in seq_along(Wr)) {
     WUk <- WU[[k]] * sqrt(err$lambda / s2[k])
@@ -239,7 +241,7 @@ emulated_group_forms <- function(y, y_field, setup, err, kappa, n_x, n_t, g) {
     gamma <- pmax(eg$values, 0)
     e <- Wr[[k]] %*% t(WUk) %*% eg$vectors
     shrink <- outer(kappa, gamma, function(k, g) k / (1 + k * g))
-    C[, k] <- rowSums(Wr[[k]]^2) - rowSums(e^2 * shrink)
+    C[, k] <- C[, k] - rowSums(e^2 * shrink)
     extra <- extra + rowSums(log1p(outer(kappa, gamma)))
   }
   list(C = C, logdet = extra)

@@ -10,8 +10,10 @@
 #' * `simobs`: one row per `design` row holding that run's `n_t` outputs, or
 #'   the transposed layout, one column per `design` row (as the Los Alamos
 #'   `simobs` code writes it); see `simobs_layout`.
-#' * `expobs`: one row per x setting, the `n_x` x columns first, then the
-#'   `n_t` measurements.
+#' * `expobs`: one row per experiment, the `n_x` x columns first, then the
+#'   `n_t` measurements (`NA` or an empty cell where not measured). Rows at
+#'   the same x setting (all rows, when `n_x` is 0) are replicated
+#'   experiments (see [field_data()]).
 #'
 #' Files are read with [data.table::fread()] (csv or whitespace-separated).
 #' A header line is optional: a file whose first line is all numbers has
@@ -87,31 +89,42 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
   if (n_x > 0L) assert_finite(as.matrix(expobs[, x_cols, drop = FALSE]), "expobs's x columns")
   x_names <- names(design)[x_cols]
   exp_x <- stats::setNames(as.data.frame(expobs[, x_cols, drop = FALSE]), x_names)
-  if (n_x > 0L && anyDuplicated(exp_x)) {
-    griddy_abort("`expobs` has duplicated x settings at row(s) ",
-                 show_some(which(duplicated(exp_x))), ".")
-  }
-  setting <- design_settings(design[, x_cols, drop = FALSE], exp_x)
+  # rows of expobs at one x setting are replicated experiments (see ?field_data)
+  settings <- if (n_x > 0L) unique(exp_x) else exp_x[1L, , drop = FALSE]
+  rownames(settings) <- NULL
+  setting <- design_settings(design[, x_cols, drop = FALSE], settings)
   used <- !is.na(setting)
   theta <- as.data.frame(design[used, setdiff(seq_len(ncol(design)), x_cols), drop = FALSE])
   run <- data.table::frankv(data.table::as.data.table(theta), ties.method = "dense")
   run <- match(run, unique(run))
   assert_distinct_pairs(run, setting[used], which(used))
-  lib_x <- if (n_x > 0L) exp_x else NULL
-  y_field <- as.matrix(expobs[, n_x + seq_len(n_t), drop = FALSE])
-  if (!forms_library(run, setting[used], nrow(expobs))) {
+  lib_x <- if (n_x > 0L) settings else NULL
+  field <- expobs_field(expobs, exp_x, n_x, n_t, t)
+  if (!forms_library(run, setting[used], nrow(settings))) {
     library <- emulate_design(design, sim, n_x, lib_x, t, n_runs, seed)
-    return(list(library = library, field = field_data(y_field, x = lib_x, t = t)))
+    return(list(library = library, field = field))
   }
   if (any(!used)) {
     message(sum(!used), " `design` run(s) at x settings that `expobs` lacks ",
             "were dropped (row(s) ", show_some(which(!used)), ").")
   }
-  y <- matrix(NA_real_, max(run), nrow(expobs) * n_t)
+  y <- matrix(NA_real_, max(run), nrow(settings) * n_t)
   cols <- outer((setting[used] - 1L) * n_t, seq_len(n_t), "+")
   y[cbind(rep(run, n_t), as.vector(cols))] <- as.vector(sim[used, , drop = FALSE])
   library <- sim_library(theta[!duplicated(run), , drop = FALSE], y, x = lib_x, t = t)
-  list(library = library, field = field_data(y_field, x = lib_x, t = t))
+  list(library = library, field = field)
+}
+
+# The field data of expobs, its replicates kept as they are. Without x
+# columns every row is an experiment at the one setting: a long-format
+# field without x (see ?field_data).
+expobs_field <- function(expobs, exp_x, n_x, n_t, t) {
+  y <- as.matrix(expobs[, n_x + seq_len(n_t), drop = FALSE])
+  dimnames(y) <- NULL
+  if (n_x > 0L || nrow(y) == 1L) return(field_data(y, x = if (n_x > 0L) exp_x, t = t))
+  coords <- if (is.null(t)) seq_len(n_t) else t
+  long <- data.frame(t = rep(coords, times = nrow(y)), y = as.vector(t(y)))
+  field_data(long[!is.na(long$y), , drop = FALSE])
 }
 
 # The emulated library of a design that does not form one at the field's

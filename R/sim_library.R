@@ -136,8 +136,10 @@ as_theta_matrix <- function(theta) {
   as_numeric_matrix(theta, "theta")
 }
 
-# Control settings: a data.frame with named numeric columns and distinct rows.
-as_settings <- function(x, arg) {
+# Control settings: a data.frame with named numeric columns and distinct rows
+# (`distinct = FALSE`: rows may repeat, as the field's replicated experiments
+# do).
+as_settings <- function(x, arg, distinct = TRUE) {
   if (is.null(x)) {
     return(NULL)
   }
@@ -154,7 +156,7 @@ as_settings <- function(x, arg) {
   }
   # plain doubles: integer and integer64 columns are read as their numbers
   x <- as.data.frame(as_numeric_matrix(x, arg))
-  dup <- which(duplicated(x))
+  dup <- if (distinct) which(duplicated(x)) else integer(0)
   if (length(dup) > 0L) {
     griddy_abort("`", arg, "` has duplicated settings at row(s) ", show_some(dup), ".")
   }

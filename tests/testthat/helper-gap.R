@@ -2,8 +2,11 @@
 # the effect "quadratic" adds s * load^2 * t^2 (changes shape across loads),
 # the effect "scale" multiplies a by (1 + s) (a shift of theta imitates it).
 # The library holds a = `a_grid`; the data are made at a = `a_true`.
+# `missing` (cells in library order) are left unmeasured (NA); `rel_sd`, one
+# per cell, is the field's relative sd (the noise sd is `sd * rel_sd`).
 toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t = 0,
-                    a_true = 1, a_grid = seq(0.5, 1.5, length.out = 41)) {
+                    a_true = 1, a_grid = seq(0.5, 1.5, length.out = 41), missing = NULL,
+                    rel_sd = NULL) {
   t <- seq(0, 1, length.out = n_t)
   x <- data.frame(load = c(1, 2, 3))
   sim <- function(a, s) unlist(lapply(x$load, function(l) a * l * sin(3 * t) + s * l^2 * t^2))
@@ -15,10 +18,13 @@ toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t =
   scale <- sim_library(g2, t(mapply(function(a, s) sim(a * (1 + s), 0), g2$a, g2$s)),
                        x = x, t = t)
   set.seed(seed)
-  y <- sim(a_true, s_true) + stats::rnorm(3 * n_t, sd = sd)
+  noise_sd <- sd * (if (is.null(rel_sd)) 1 else rel_sd)
+  y <- sim(a_true, s_true) + stats::rnorm(3 * n_t, sd = noise_sd)
   # a localised discrepancy: a bump at the second load around t = 0.5
   y[n_t + seq_len(n_t)] <- y[n_t + seq_len(n_t)] + bump * exp(-((t - 0.5) / 0.05)^2)
-  field <- field_data(matrix(y, 3, byrow = TRUE), x = x, t = t)
+  y[missing] <- NA
+  field <- field_data(matrix(y, 3, byrow = TRUE), x = x, t = t,
+                      sd = if (!is.null(rel_sd)) matrix(rel_sd, 3, byrow = TRUE))
   fit <- suppressWarnings(calibrate(lib, field, rho_t = rho_t, n_iter = 300, burn_in = 100,
                                     seed = 1))
   list(lib = lib, field = field, fit = fit, quad = quad, scale = scale, sim = sim,

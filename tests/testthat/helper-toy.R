@@ -92,3 +92,38 @@ brute_log_joint <- function(toy, grid, prior, groups = rep(1, 15), sd = rep(1, 1
   }
   lj - log(nrow(toy$Y)) - log(nrow(grid))
 }
+
+# toy_missing()'s library with replicated field experiments: 3, 1 and 2 rows
+# at its three x settings (6 x 5 measurements, two of them missing), with
+# relative sd `sd` (a 6 x 5 matrix) or none.
+toy_replicates <- function(sd = NULL, seed = 4) {
+  toy <- toy_missing(integer(0))
+  rows <- rep(1:3, c(3, 1, 2))
+  set.seed(seed)
+  truth <- matrix(toy$Y[4, ], 3, byrow = TRUE)[rows, ]
+  y <- truth + stats::rnorm(30, sd = 0.3) * (if (is.null(sd)) 1 else sd)
+  y[2, 3] <- NA
+  y[6, 1] <- NA
+  c(toy[c("library", "Y", "x", "t")],
+    list(rows = rows, y_rep = y, sd = sd,
+         field = field_data(y, x = toy$x[rows, , drop = FALSE], t = toy$t, sd = sd)))
+}
+
+# The log joint over runs (uniform prior, independent noise) from every
+# individual measurement of toy_replicates(): in each noise group (labels
+# `groups`, one per library output) the Gamma-normal marginal likelihood of
+# its measurements.
+brute_replicates <- function(toy, prior, groups = rep(1, 15)) {
+  sd <- if (is.null(toy$sd)) 1 + 0 * toy$y_rep else toy$sd
+  group <- matrix(groups, 3, byrow = TRUE)[toy$rows, ]
+  vapply(seq_len(nrow(toy$Y)), function(i) {
+    r <- toy$y_rep - matrix(toy$Y[i, ], 3, byrow = TRUE)[toy$rows, ]
+    sum(vapply(unique(groups), function(k) {
+      o <- !is.na(r) & group == k
+      n <- sum(o)
+      C <- sum((r[o] / sd[o])^2)
+      prior$shape * log(prior$rate) - lgamma(prior$shape) + lgamma(prior$shape + n / 2) -
+        n / 2 * log(2 * pi) - sum(log(sd[o])) - (prior$shape + n / 2) * log(prior$rate + C / 2)
+    }, numeric(1)))
+  }, numeric(1)) - log(nrow(toy$Y))
+}

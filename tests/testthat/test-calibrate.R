@@ -298,3 +298,50 @@ test_that("calibrate() with missing data samples the exact posterior over the ob
   expect_lt(tv_distance(freq, ex$run), 0.05)
   expect_output(print(summary(fit)), "11 data points \\(4 missing\\)")
 })
+
+test_that("replicates: tau's posterior uses every measurement", {
+  prior <- list(shape = 2, rate = 0.5)
+  toy <- toy_replicates()
+  fit <- without_resolution_warning(
+    calibrate(toy$library, toy$field, prior = prior, n_iter = 4000, burn_in = 200, seed = 1))
+  expect_identical(fit$n_obs, 28L)
+  # E[tau | y] = sum_i p_i (a + n/2) / (b + RSS_i/2), RSS_i over all 28
+  # measurements
+  rss <- vapply(seq_len(nrow(toy$Y)), function(i) {
+    sum((toy$y_rep - matrix(toy$Y[i, ], 3, byrow = TRUE)[toy$rows, ])^2, na.rm = TRUE)
+  }, numeric(1))
+  p <- posterior_exact(toy$library, toy$field, prior = prior)$run
+  expect_equal(mean(fit$draws$tau), sum(p * (prior$shape + 14) / (prior$rate + rss / 2)),
+               tolerance = 0.03)
+  # with noise groups, each tau_k from its group's measurements
+  by_t <- c("a", "a", "b", "b", "b")
+  fit_g <- without_resolution_warning(
+    calibrate(toy$library, toy$field, prior = prior, noise_groups = by_t, n_iter = 4000,
+              burn_in = 200, seed = 1))
+  in_a <- matrix(rep(by_t, 3) == "a", 3, byrow = TRUE)[toy$rows, ]
+  rss_a <- vapply(seq_len(nrow(toy$Y)), function(i) {
+    r <- toy$y_rep - matrix(toy$Y[i, ], 3, byrow = TRUE)[toy$rows, ]
+    sum(r[in_a]^2, na.rm = TRUE)
+  }, numeric(1))
+  n_a <- sum(!is.na(toy$y_rep[in_a]))
+  expect_identical(fit_g$setup$group_sizes, c(a = n_a, b = 28L - n_a))
+  p_g <- posterior_exact(toy$library, toy$field, prior = prior, noise_groups = by_t)$run
+  expect_equal(mean(fit_g$draws$tau_a),
+               sum(p_g * (prior$shape + n_a / 2) / (prior$rate + rss_a / 2)), tolerance = 0.03)
+})
+
+test_that("replicates: summary counts measurements and cells; predict() is per measurement", {
+  toy <- toy_replicates()
+  fit <- without_resolution_warning(
+    calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 200, seed = 1))
+  expect_output(print(summary(fit)), "28 data points at 15 measured cells \\(replicates\\)")
+  pr <- predict(fit, ndraws = 2000, seed = 1)
+  # the observed column holds the cell means
+  expect_equal(pr$observed[1], mean(toy$y_rep[1:3, 1]))
+  # the noise of one measurement: as wide at the thrice-replicated setting as
+  # at the unreplicated one (a mean's would be 1/sqrt(3) as wide)
+  width <- pr$pred_upper - pr$pred_lower
+  expect_equal(mean(width[pr$x == 1]) / mean(width[pr$x == 2]), 1, tolerance = 0.1)
+  expect_equal(mean(width), 2 * stats::qnorm(0.975) * sqrt(mean(1 / fit$draws$tau)),
+               tolerance = 0.1)
+})

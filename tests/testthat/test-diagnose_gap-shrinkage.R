@@ -51,3 +51,38 @@ test_that("leaving out a setting is exact with correlation across settings too",
   expect_equal(fold$rmse, sqrt(mean((toy$field$y[2, ] - drop(ex$run %*% toy$lib$y[, cols]))^2)),
                tolerance = 1e-8)
 })
+
+test_that("with missing cells and sd, leaving out a setting's observed cells is exact", {
+  miss <- c(3, 4, 40:47, 70)
+  rs <- rep(c(1, 2, 0.5), each = 30)
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3), missing = miss, rel_sd = rs)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), max_runs = 0)
+  full <- posterior_exact(toy$lib, toy$field, rho_t = c(0, 0.3))$log_evidence
+  for (k in 1:3) {
+    cols <- (k - 1) * 30 + 1:30
+    red_lib <- sim_library(toy$lib$theta, toy$lib$y[, -cols], x = toy$x[-k, , drop = FALSE],
+                           t = toy$t)
+    red_field <- field_data(toy$field$y[-k, ], x = toy$x[-k, , drop = FALSE], t = toy$t,
+                            sd = toy$field$sd[-k, ])
+    ex <- posterior_exact(red_lib, red_field, rho_t = c(0, 0.3))
+    fold <- gap$folds[gap$folds$model == "none" & gap$folds$x == k, ]
+    seen <- setdiff(cols, miss)
+    expect_identical(fold$n, length(seen))
+    expect_equal(fold$lpd, full - ex$log_evidence, tolerance = 1e-8)
+    y_b <- as.vector(t(toy$field$y))[seen]
+    expect_equal(fold$rmse, sqrt(mean((y_b - drop(ex$run %*% toy$lib$y[, seen]))^2)),
+                 tolerance = 1e-8)
+  }
+})
+
+test_that("a setting with no observed cell has no fold", {
+  toy <- toy_gap(0.2, missing = 31:60)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), max_runs = 0)
+  expect_setequal(gap$folds$x, c(1, 3))
+  expect_equal(sum(gap$folds$n[gap$folds$model == "none"]), 60)
+  ctx <- gap_context(toy$fit)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
+  expect_true(all(tm$D[, , 2] == 0))
+  expect_equal(nrow(gap$where[gap$where$x == 2 & gap$where$n == 0, ]),
+               sum(gap$where$x == 2))
+})

@@ -50,3 +50,46 @@ test_that("windows are given by count, by breaks, or by default", {
   expect_error(diagnose_gap(toy$fit, list(q = toy$quad), windows = 1.5), "whole number")
   expect_error(diagnose_gap(toy$fit, list(q = toy$quad), windows = c(5, 6)), "cover none")
 })
+
+test_that("with missing cells and relative sd the block statistic is the dense one", {
+  miss <- c(5, 33, 34, 45:48, 61)
+  rs <- 1 + 0.4 * cos(1:90)
+  toy <- toy_gap(0, bump = 0.2, rho_t = 0.3, missing = miss, rel_sd = rs)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 3, max_runs = 0)
+  y <- as.vector(t(toy$field$y))
+  obs <- which(!is.na(y))
+  n <- length(obs)
+  a <- toy$fit$prior$shape
+  b <- toy$fit$prior$rate
+  P <- solve((kronecker(diag(3), corr_t(toy$t, 0.3)) * outer(rs, rs))[obs, obs])
+  B <- which(obs %in% (30 + 11:20))                  # x = 2, second window
+  m <- length(B)
+  expect_identical(m, 6L)
+  stat <- vapply(seq_len(nrow(toy$lib$y)), function(j) {
+    r <- (y - toy$lib$y[j, ])[obs]
+    h <- P %*% r
+    D <- drop(t(h[B]) %*% solve(P[B, B], h[B]))
+    Q <- drop(t(r) %*% P %*% r)
+    c(f = (D / m) / ((2 * b + Q - D) / (2 * a + n - m)),
+      lw = -(a + (n - m) / 2) * log(b + (Q - D) / 2))
+  }, numeric(2))
+  w <- exp(stat["lw", ] - max(stat["lw", ]))
+  row <- gap$where[gap$where$x == 2, ][2, ]
+  expect_identical(row$n, m)
+  expect_equal(row$score, sum(w * stat["f", ]) / sum(w), tolerance = 1e-3)
+})
+
+test_that("a block with no observed cell is reported unchecked, not dropped", {
+  toy <- toy_gap(0, missing = 30 + 11:20)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 3, max_runs = 0)
+  wh <- gap$where
+  expect_equal(nrow(wh), 9)
+  empty <- wh$x == 2 & wh$from > 0.3 & wh$to < 0.7
+  expect_equal(which(empty), 5L)
+  expect_identical(wh$n[empty], 0L)
+  expect_true(is.na(wh$score[empty]) && is.na(wh$p_value[empty]))
+  expect_false(wh$flagged[empty])
+  expect_false(anyNA(wh$score[!empty]))
+  expect_equal(sum(wh$n), 80)
+  expect_output(print(gap), "1 block\\(s\\) with no observed point")
+})

@@ -167,11 +167,98 @@ test_that("diagnose_gap() on a fit from a library on disk equals the in-memory d
   expect_equal(gap_disk$shrinkage, gap_mem$shrinkage)
 })
 
-test_that("diagnose_gap() refuses fits with missing data, sd or noise groups", {
+test_that("diagnose_gap() refuses fits with noise groups, saying missing data and sd are fine", {
   toy <- toy_missing()
   fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 200, burn_in = 50, seed = 1,
                                     prior = list(shape = 2, rate = 0.5), noise_groups = "x"))
   expect_error(diagnose_gap(fit, list(a = toy$library)),
-               "does not yet support.*missing field data and noise groups",
+               "does not yet support fits with noise groups.*missing field data and relative",
                class = "griddy_error_unsupported")
+})
+
+# missing cells (a run of t at the first load, most of the second load's
+# middle, one at the third) and an uneven relative sd
+gap_missing <- c(3, 4, 5, 40:47, 70)
+gap_rel_sd <- rep(c(1, 2, 0.5), each = 30) * (1 + 0.3 * sin(1:90))
+
+test_that("over the observed points, Q, evidence and leave-out pieces are the dense algebra's", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3), missing = gap_missing, rel_sd = gap_rel_sd)
+  ctx <- gap_context(toy$fit)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
+  expect_equal(tm$Q, toy$fit$C, tolerance = 1e-10)
+  ex <- posterior_exact(toy$lib, toy$field, rho_t = c(0, 0.3))
+  expect_equal(log_sum_exp(tm$lj), ex$log_evidence, tolerance = 1e-10)
+  y <- as.vector(t(toy$field$y))
+  obs <- which(!is.na(y))
+  for (g in 1:2) {
+    R <- kronecker(diag(3), corr_t(toy$t, c(0, 0.3)[g])) * outer(gap_rel_sd, gap_rel_sd)
+    P <- solve(R[obs, obs])
+    for (k in 1:3) {
+      B <- which(obs %in% ((k - 1) * 30 + 1:30))
+      D <- vapply(seq_len(nrow(toy$lib$y)), function(j) {
+        h <- P %*% (y - toy$lib$y[j, ])[obs]
+        drop(t(h[B]) %*% solve(P[B, B], h[B]))
+      }, numeric(1))
+      expect_equal(tm$D[, g, k], D, tolerance = 1e-8)
+    }
+  }
+})
+
+test_that("'other' over the observed points is the exact evidence (discrepancy in output units)", {
+  miss <- c(2, 3, 12, 20)
+  rs <- 1 + 0.5 * sin(1:24)
+  toy <- toy_gap(0.1, n_t = 8, rho_t = c(0, 0.4), missing = miss, rel_sd = rs)
+  ctx <- gap_context(toy$fit)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
+  got <- other_log_evidence(ctx, tm, 0.3)
+  a <- ctx$prior$shape
+  b <- ctx$prior$rate
+  y <- as.vector(t(toy$field$y))
+  obs <- which(!is.na(y))
+  n <- length(obs)
+  expect_identical(ctx$n, n)
+  K <- kronecker(exp(-as.matrix(stats::dist(c(0, 0.5, 1)))^2 / 0.09),
+                 exp(-outer(toy$t, toy$t, "-")^2 / 0.09))[obs, obs] * mean(rs[obs]^2)
+  terms <- c()
+  for (rho in c(0, 0.4)) {
+    R <- (kronecker(diag(3), corr_t(toy$t, rho)) * outer(rs, rs))[obs, obs]
+    for (s in 4^(1:4)) {
+      S <- R + s * K
+      Si <- solve(S)
+      ld <- determinant(S)$modulus[1]
+      for (j in seq_len(nrow(toy$lib$y))) {
+        r <- (y - toy$lib$y[j, ])[obs]
+        terms <- c(terms, -log(41) - log(2) - log(4) + lgamma(a + n / 2) - lgamma(a) +
+                     a * log(b) - n / 2 * log(2 * pi) - ld / 2 -
+                     (a + n / 2) * log(b + drop(t(r) %*% Si %*% r) / 2))
+      }
+    }
+  }
+  expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
+})
+
+test_that("the dense path agrees with the Kronecker path on complete data (sd all 1)", {
+  plain <- toy_gap(0.2, bump = 0.2, rho_t = c(0, 0.3))
+  dense <- toy_gap(0.2, bump = 0.2, rho_t = c(0, 0.3), rel_sd = rep(1, 90))
+  expect_false(is.null(dense$fit$setup$dense))
+  g1 <- diagnose_gap(plain$fit, list(quadratic = plain$quad), windows = 3, max_runs = 0)
+  g2 <- diagnose_gap(dense$fit, list(quadratic = dense$quad), windows = 3, max_runs = 0)
+  expect_equal(g2$which, g1$which, tolerance = 1e-8)
+  expect_equal(g2$where, g1$where, tolerance = 1e-8)
+  expect_equal(g2$folds, g1$folds, tolerance = 1e-8)
+  expect_equal(g2$map, g1$map, tolerance = 1e-8)
+})
+
+test_that("on data with missing cells and relative sd the true effect is named", {
+  toy <- toy_gap(0.2, missing = gap_missing, rel_sd = gap_rel_sd)
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad), seed = 1)
+  expect_identical(gap$verdict$answer, "quadratic")
+  expect_gt(gap$which$prob[gap$which$effect == "quadratic"], 0.99)
+  expect_equal(sum(gap$where$n), 90 - length(gap_missing))
+  expect_true(all(is.na(gap$map$residual[gap_missing])))
+  expect_false(anyNA(gap$map$residual[-gap_missing]))
+  sh <- gap$shrinkage
+  expect_gt(sh$shrink[sh$effect == "quadratic"], 0.5)
+  expect_output(print(gap), "best explained by 'quadratic'")
+  expect_s3_class(plot(gap), "ggplot")
 })

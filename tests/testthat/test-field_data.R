@@ -101,7 +101,6 @@ test_that("long format gives the wide matrix with NA where not measured", {
   f3 <- field_data(data.frame(h = 10, t = 0.5, y = 1))
   expect_error(field_vector(lib, f3), "0.5 \\(position\\(s\\) 1\\) are not among the library's",
                class = "griddy_error_input")
-  expect_error(field_data(rbind(long, long[1, ])), "measures some cells twice: row\\(s\\) 4")
   expect_error(field_data(long, t = 0), "Row\\(s\\) 1, 3 of `y`")
 })
 
@@ -114,4 +113,71 @@ test_that("sd takes the shape of y, one value per t or one per x setting", {
   expect_error(field_data(y, sd = 1:4), "per measurement \\(6\\)", class = "griddy_error_shape")
   expect_error(field_data(y, sd = c(1, -1, 1)), "positive number wherever `y` is measured")
   expect_error(field_data(y, sd = matrix(1, 3, 2)), "shape of `y`", class = "griddy_error_shape")
+})
+
+test_that("replicated experiments: rows of y at a repeated x setting, kept as given", {
+  x <- data.frame(h = c(10, 20, 10, 10))
+  y <- rbind(c(1, 2), c(3, 4), c(1.2, NA), c(0.8, 2.4))
+  f <- field_data(y, x = x, t = c(0, 1))
+  expect_identical(f$y, y)
+  expect_identical(f$x, x)
+  expect_output(print(f), "7 measurement\\(s\\) at 2 x setting\\(s\\), 1 replicated \\(4 experiments\\)")
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  # the cells: means, relative sd of the means, pure error
+  lay <- field_layout(lib, f)
+  expect_equal(lay$y, c(1, 2.2, 3, 4, NA, NA))
+  expect_identical(lay$n_rep, c(3L, 2L, 1L, 1L, 0L, 0L))
+  expect_equal(lay$sd_mean, c(1 / sqrt(3), 1 / sqrt(2), 1, 1, NA, NA))
+  expect_null(lay$sd)
+  expect_equal(lay$pure_ss, c(0.08, 0.08, 0, 0, 0, 0))
+  # sd weights the mean; one measurement's sd is kept for predict()
+  sd <- rbind(c(1, 1), c(1, 1), c(2, NA), c(2, 1))
+  lay_sd <- field_layout(lib, field_data(y, x = x, t = c(0, 1), sd = sd))
+  w <- c(1, 1 / 4, 1 / 4)
+  expect_equal(lay_sd$y[1], sum(w * c(1, 1.2, 0.8)) / sum(w))
+  expect_equal(lay_sd$sd_mean[1], 1 / sqrt(1.5))
+  expect_equal(lay_sd$sd[1:4], c(sqrt(3 / 1.5), 1, 1, 1))
+  expect_equal(lay_sd$pure_ss[1], sum(w * (c(1, 1.2, 0.8) - lay_sd$y[1])^2))
+  # methods that take one measurement per cell refuse replicates
+  expect_error(field_vector(lib, f), "replicated measurements \\(7 at 4 cells\\)",
+               class = "griddy_error_unsupported")
+})
+
+test_that("long format: several values of one (x, t) cell are replicates", {
+  long <- data.frame(h = c(20, 10, 10, 10, 10), t = c(1, 0, 1, 1, 0), y = c(3, 1, 2, 4, 5),
+                     sd = c(1, 1, 2, 2, 1))
+  f <- field_data(long)
+  # the j-th value of a cell goes to the j-th row of its setting
+  expect_identical(f$x, data.frame(h = c(20, 10, 10)))
+  expect_identical(f$y, rbind(c(NA, 3), c(1, 2), c(5, 4)))
+  expect_identical(f$sd, rbind(c(NA, 1), c(1, 2), c(1, 2)))
+  expect_output(print(f), "5 measurement\\(s\\) at 2 x setting\\(s\\), 1 replicated")
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  expect_equal(field_layout(lib, f)$y, c(3, 3, NA, 3, NA, NA))
+  # the same as the wide form
+  wide <- field_data(f$y, x = f$x, t = f$t, sd = f$sd)
+  expect_equal(field_layout(lib, f), field_layout(lib, wide))
+  # without x columns: every row at the library's single setting
+  one <- field_data(data.frame(t = c(0, 1, 0), y = c(1, 2, 3)))
+  expect_true(one$one_setting)
+  expect_identical(one$y, rbind(c(1, 2), c(3, NA)))
+  lib1 <- sim_library(data.frame(k = 1:2), matrix(1:4, 2), t = c(0, 1))
+  expect_equal(field_layout(lib1, one)$y, c(2, 2))
+  expect_error(field_layout(lib, one), "replicated measurements at one setting and no x columns",
+               class = "griddy_error")
+})
+
+test_that("replicated input that does not fit together is refused", {
+  x <- data.frame(h = c(10, 10))
+  expect_error(field_data(matrix(1:6, 3), x = x), "`x` has 2 rows but `y` has 3")
+  expect_error(field_data(matrix(1:6, 2), x = x, sd = c(1, -1)), "positive number wherever")
+  # a long-format `x` lists settings: it must not repeat them
+  long <- data.frame(h = c(10, 10), t = c(0, 0), y = c(1, 2))
+  expect_error(field_data(long, x = x), "duplicated settings at row\\(s\\) 2")
+  # the library must have the replicated settings
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:4, 2), x = data.frame(h = c(20, 30)))
+  expect_error(calibrate(lib, field_data(c(1, 2), x = x), n_iter = 10, burn_in = 1),
+               "x setting\\(s\\) at row\\(s\\) 1, 2 that the library does not have")
 })

@@ -174,7 +174,7 @@ test_that("a correlation that makes the observed block singular is a classed err
                class = "griddy_error_numeric")
 })
 
-test_that("misfit_table() folds an extra log-determinant over the observed points only", {
+test_that("misfit_table() folds an extra log-determinant over the measurements, not the cells", {
   # it used length(y_field), counting the missing cells too
   C <- matrix(c(1, 2), 2, 1)
   extra <- matrix(c(0.5, 1), 2, 1)
@@ -182,9 +182,59 @@ test_that("misfit_table() folds an extra log-determinant over the observed point
                    function(library, y_field, setup) structure(C, extra_logdet = extra),
                    envir = asNamespace("griddy"))
   prior <- list(shape = 1, rate = 0.5)
-  got <- misfit_table(structure(list(), class = "fake_library"), c(1, NA, 2), NULL, prior)
+  got <- misfit_table(structure(list(), class = "fake_library"), c(1, NA, 2),
+                     list(group_sizes = 2), prior)
   expect_equal(got, fold_extra_logdet(structure(C, extra_logdet = extra), prior, 2),
                ignore_attr = TRUE)
   expect_false(isTRUE(all.equal(
     c(got), c(fold_extra_logdet(structure(C, extra_logdet = extra), prior, 3)))))
+})
+
+test_that("replicates: the posterior and evidence are those of every measurement (independent noise)", {
+  prior <- list(shape = 2, rate = 0.5)
+  set.seed(2)
+  for (sd in list(NULL, matrix(stats::runif(30, 0.5, 2), 6))) {
+    toy <- toy_replicates(sd)
+    ex <- posterior_exact(toy$library, toy$field, prior = prior)
+    lj <- brute_replicates(toy, prior)
+    expect_equal(ex$run, exp(lj - log_sum_exp(lj)), tolerance = 1e-10)
+    expect_equal(ex$log_evidence, log_sum_exp(lj), tolerance = 1e-10)
+    pr <- calibration_problem(toy$library, toy$field, 0, 0, prior, 2, NULL)
+    expect_identical(pr$n_obs, 28L)
+    # noise groups: the pure error and its degrees of freedom go to each
+    # cell's group
+    by_t <- c("a", "a", "b", "b", "b")
+    ex_g <- posterior_exact(toy$library, toy$field, prior = prior, noise_groups = by_t)
+    lj_g <- brute_replicates(toy, prior, groups = rep(by_t, 3))
+    expect_equal(ex_g$run, exp(lj_g - log_sum_exp(lj_g)), tolerance = 1e-10)
+    expect_equal(ex_g$log_evidence, log_sum_exp(lj_g), tolerance = 1e-10)
+    ex_x <- posterior_exact(toy$library, toy$field, prior = prior, noise_groups = "x")
+    lj_x <- brute_replicates(toy, prior, groups = rep(1:3, each = 5))
+    expect_equal(ex_x$log_evidence, log_sum_exp(lj_x), tolerance = 1e-10)
+  }
+})
+
+test_that("replicates with correlation: R_g between the cell means, plus the pure error", {
+  prior <- list(shape = 2, rate = 0.5)
+  toy <- toy_replicates(matrix(seq(0.6, 1.8, length.out = 30), 6))
+  pr <- calibration_problem(toy$library, toy$field, 0.4, 0.7, prior, 2, NULL)
+  w <- 1 / toy$sd^2
+  w[is.na(toy$y_rep)] <- 0
+  y0 <- toy$y_rep
+  y0[is.na(y0)] <- 0
+  W <- as.vector(t(rowsum(w, toy$rows)))
+  ybar <- as.vector(t(rowsum(w * y0, toy$rows))) / W
+  ss <- sum(w * (y0 - matrix(ybar, 3, byrow = TRUE)[toy$rows, ])^2)
+  S <- diag(1 / sqrt(W))
+  R <- S %*% kronecker(corr_x(toy$x, 0.4), corr_t(toy$t, 0.7)) %*% S
+  for (i in c(2, 5)) {
+    r <- ybar - toy$Y[i, ]
+    expect_equal(pr$C[i, 1], drop(t(r) %*% solve(R, r)) + ss)
+  }
+  expect_equal(pr$y_field, ybar)
+  # the log-determinant: that of the means, plus the constant that makes the
+  # evidence the measurements' at rho = 0
+  expect_equal(pr$setup$logdet,
+               as.numeric(determinant(R)$modulus) + sum(log(toy$sd[!is.na(toy$y_rep)]^2)) -
+                 sum(log(1 / W)))
 })

@@ -190,3 +190,24 @@ test_that("a numeric header line is read as data, and the error says so", {
                "it is 7 x 2\\. \\(The first line of the file holds numbers only, so it was read as data",
                class = "griddy_error_input")
 })
+
+test_that("replicated experiments in expobs are kept as replicates (they were refused)", {
+  theta <- expand.grid(k = 1:3, c = c(0.5, 1))
+  x <- c(10, 20)
+  design <- merge(data.frame(h = x), theta, by = NULL)
+  simobs <- cbind(design$k * design$h, design$c * design$h)
+  expobs <- data.frame(h = c(10, 10, 20, 20, 20), a = c(21, 19, 41, 40, 39),
+                       b = c(5, 6, 10, NA, 11))
+  inputs <- read_calibration_inputs(design, simobs, expobs, n_x = 1)
+  expect_s3_class(inputs$library, "sim_library")
+  expect_equal(inputs$library$x, data.frame(h = c(10, 20)))
+  expect_equal(sum(!is.na(inputs$field$y)), 9L)
+  pr <- calibration_problem(inputs$library, inputs$field, 0, 0, NULL, 2, NULL)
+  expect_identical(pr$n_obs, 9L)
+  # n_x = 0: every row an experiment at the one setting
+  one <- read_calibration_inputs(theta, cbind(theta$k, theta$c),
+                                 data.frame(a = c(2, 2.2), b = c(1, 0.9)), n_x = 0)
+  pr1 <- calibration_problem(one$library, one$field, 0, 0, NULL, 2, NULL)
+  expect_identical(pr1$n_obs, 4L)
+  expect_equal(pr1$y_field, c(2.1, 0.95))
+})

@@ -294,3 +294,23 @@ test_that("refine() without a simulator applies the error model within each nois
   }
   expect_equal(f$logdet, ld, tolerance = 1e-8)
 })
+
+test_that("refine() adds the replicates' pure error to its new runs", {
+  toy <- toy_replicates()
+  sim <- function(theta) {
+    t(vapply(theta$k, function(k) rep(sin(toy$t * k / 3), 3) * rep(toy$x$h, each = 5),
+             numeric(15)))
+  }
+  fit <- without_resolution_warning(
+    calibrate(toy$library, toy$field, n_iter = 500, burn_in = 100, seed = 1))
+  ref <- suppressWarnings(refine(fit, simulator = sim, max_runs = 8, seed = 1))
+  added <- seq(nrow(toy$Y) + 1L, lib_n_runs(ref$library))
+  expect_gt(length(added), 0L)
+  # each new run's C is its residual sum of squares over every measurement
+  Y_new <- lib_outputs(ref$library, added)
+  rss <- vapply(seq_along(added), function(j) {
+    sum((toy$y_rep - matrix(Y_new[j, ], 3, byrow = TRUE)[toy$rows, ])^2, na.rm = TRUE)
+  }, numeric(1))
+  expect_equal(ref$C[added, 1], rss)
+  expect_identical(ref$n_obs, 28L)
+})
