@@ -32,8 +32,8 @@
 #' never flagged) and a setting with none has no fold. Candidates' quadratic
 #' forms use the same observed points and sd. **Not yet supported:** noise
 #' groups (see [calibrate()]): with a precision per group the block
-#' statistic has no single F distribution; such a fit is an error of class
-#' `griddy_error_unsupported`.
+#' statistic has no single F distribution; and replicated field
+#' measurements. Such a fit is an error of class `griddy_error_unsupported`.
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
@@ -244,6 +244,14 @@ check_gap_pattern <- function(fit) {
                  n_groups, "); missing field data and relative `sd` are supported. Refit ",
                  "without `noise_groups` (one tau) to diagnose the gap.",
                  class = "unsupported")
+  }
+  # replicates enter the likelihood as their cell means plus a pure-error sum
+  # of squares, which the leave-block-out pieces (on the means) leave out
+  if (fit$n_obs > sum(!is.na(fit$y_field))) {
+    griddy_abort("diagnose_gap() does not yet support replicated field measurements (",
+                 fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)), " cells). ",
+                 "Diagnose the gap on the replicates' means (one row per setting in ",
+                 "field_data()).", class = "unsupported")
   }
 }
 

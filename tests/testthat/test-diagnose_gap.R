@@ -176,6 +176,18 @@ test_that("diagnose_gap() refuses fits with noise groups, saying missing data an
                class = "griddy_error_unsupported")
 })
 
+test_that("diagnose_gap() refuses replicated field measurements (its pieces would drop the pure error)", {
+  toy <- toy_gap(0.2)
+  f <- toy$field
+  replicated <- field_data(rbind(f$y, f$y[1, ] + 0.01), x = rbind(f$x, f$x[1, , drop = FALSE]),
+                           t = f$t)
+  fit <- suppressWarnings(calibrate(toy$lib, replicated, n_iter = 200, burn_in = 50,
+                                    seed = 1))
+  expect_error(diagnose_gap(fit, list(quadratic = toy$quad)),
+               "does not yet support replicated field measurements",
+               class = "griddy_error_unsupported")
+})
+
 # missing cells (a run of t at the first load, most of the second load's
 # middle, one at the third) and an uneven relative sd
 gap_missing <- c(3, 4, 5, 40:47, 70)
