@@ -30,7 +30,10 @@
 #'   used 7 values per parameter, 343 runs); or an [emulated_library()], whose
 #'   own emulator of its design runs is then the math model (its predicted
 #'   runs are not used), the prior on \eqn{\theta} uniform on its range.
-#' @param field A [field_data()] object at the library's x and t.
+#' @param field A [field_data()] object at the library's x and t. Missing
+#'   cells are left out of the likelihood; a relative `sd` and replicated
+#'   measurements are not supported (an error of class
+#'   `griddy_error_unsupported`; [calibrate()] takes them).
 #' @param discrepancy `"GaSP"`, `"S-GaSP"` or `"none"`.
 #' @param n_iter Total MCMC iterations, burn-in included.
 #' @param burn_in Iterations discarded at the start.
@@ -89,10 +92,13 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   assert_flag(quiet, "quiet")
   check_library(library)
   y <- field_vector(library, field)
-  if (anyNA(y) || !is.null(field$sd)) {
-    griddy_abort("koh_calibrate() does not yet support field data with missing values or ",
-                 "relative `sd`; calibrate() does.", class = "unsupported")
+  if (!is.null(field$sd)) {
+    griddy_abort("koh_calibrate() does not yet support field data with a relative `sd`; ",
+                 "calibrate() does.", class = "unsupported")
   }
+  # missing measurements are no observations: KOH's likelihood is over the
+  # observed cells (the design and math model are cut to them)
+  observed <- !is.na(y)
   theta <- as.matrix(lib_theta(library))
   p <- ncol(theta)
   if (!is.null(proposal_sd)) {
@@ -108,8 +114,12 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
                  show_some(colnames(theta)[theta_range[, 2] <= theta_range[, 1]]), ".")
   }
   design <- koh_design(library)
+  obs_design <- design[observed, , drop = FALSE]
+  varies <- apply(obs_design, 2, function(v) length(unique(v)) > 1L)
+  if (!any(varies)) varies[1] <- TRUE
+  obs_design <- obs_design[, varies, drop = FALSE]
   type <- if (discrepancy == "none") "no-discrepancy" else discrepancy
-  n_x <- ncol(design)
+  n_x <- ncol(obs_design)
   run <- function() {
     t0 <- proc.time()[["elapsed"]]
     emulator <- if (inherits(library, "emulated_library")) {
@@ -119,11 +129,11 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
       koh_emulator(theta, lib_outputs(library), quiet)
     }
     t1 <- proc.time()[["elapsed"]]
-    math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))
+    math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))[observed]
     sampler <- function(sd_frac, S, S_0, start) {
       sd_all <- if (type == "no-discrepancy") sd_frac else c(sd_frac, rep(0.25, n_x), 0.25)
       koh_quietly(quiet, RobustCalibration::rcalibration(
-        design = design, observations = y, p_theta = p, simul_type = 1,
+        design = obs_design, observations = y[observed], p_theta = p, simul_type = 1,
         math_model = math_model, theta_range = theta_range, sd_proposal = sd_all,
         S = S, S_0 = S_0, discrepancy_type = type, kernel_type = kernel,
         initial_values = start))

@@ -34,6 +34,24 @@ test_that("koh_calibrate() recovers the truth of a tiny problem (GaSP and no dis
   }
 })
 
+test_that("koh_calibrate() takes field data with missing cells (they were refused)", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  y <- toy$field$y
+  y[c(2, 5)] <- NA
+  field <- field_data(y, x = toy$library$x)
+  fit <- koh_calibrate(toy$library, field, discrepancy = "none", n_iter = 3000,
+                       burn_in = 1000, tune_iter = 300, seed = 11)
+  s <- summary(fit)
+  expect_true(all(s$lower < toy$truth & toy$truth < s$upper))
+  p <- predict(fit, ndraws = 100)
+  expect_equal(nrow(p), 8)
+  expect_true(all(is.na(p$observed[c(2, 5)])))
+  expect_error(koh_calibrate(toy$library, field_data(toy$field$y, x = toy$library$x,
+                                                      sd = rep(1, 8))),
+               "relative `sd`", class = "griddy_error_unsupported")
+})
+
 test_that("koh_calibrate() is reproducible with a seed and keeps the global stream", {
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy()
