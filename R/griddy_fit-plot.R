@@ -4,7 +4,9 @@
 #'   per chain.
 #' * `"posterior"`: the posterior of each \eqn{\theta} column as bars over the
 #'   library's distinct values (the thesis's figures), with the truth marked
-#'   when given; for a library from [refine()], a histogram of the draws.
+#'   when given; for a library from [refine()] or a scattered design (a
+#'   Latin hypercube, an [emulated_library()]: values that do not repeat), a
+#'   histogram of the draws.
 #' * `"ppc"`: posterior predictive check: the field data against the
 #'   simulator outputs at the drawn runs (mean and band) and the predictive
 #'   band with the fitted noise, per x setting.
@@ -47,7 +49,7 @@ plot_trace <- function(fit) {
 
 plot_posterior <- function(fit, truth) {
   theta <- lib_theta(fit$library)
-  p <- if (inherits(fit$library, "refined_library")) posterior_histogram(fit, theta) else
+  p <- if (scattered_library(fit$library)) posterior_histogram(fit, theta) else
     posterior_bars(fit, theta)
   if (!is.null(truth)) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
@@ -63,8 +65,17 @@ plot_posterior <- function(fit, truth) {
 }
 
 # A refined library's runs are many and unevenly spread, each weighed by its
-# prior weight, so a bar per value says little: the draws' histogram is the
-# posterior density.
+# prior weight, and the values of a scattered design of several parameters
+# do not repeat (most of a column's values are distinct, where a grid
+# repeats each), so a bar per value says little: the draws' histogram is the
+# posterior density. (With one parameter a run is a value: bars.)
+scattered_library <- function(library) {
+  theta <- lib_theta(library)
+  inherits(library, "refined_library") ||
+    (ncol(theta) > 1L &&
+       any(vapply(theta, function(v) length(unique(v)) > nrow(theta) / 2, logical(1))))
+}
+
 posterior_histogram <- function(fit, theta) {
   drawn <- do.call(rbind, lapply(names(theta), function(p) {
     data.frame(parameter = factor(p, levels = names(theta)), value = theta[[p]][fit$draws$run])

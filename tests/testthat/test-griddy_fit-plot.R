@@ -39,3 +39,23 @@ test_that("the posterior of a refined fit is a histogram of its draws", {
   expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomBar"), logical(1))))
   expect_silent(ggplot2::ggplot_build(p))
 })
+
+test_that("the posterior of a scattered design is a histogram, of a grid bars", {
+  # an emulated library's 10,000 distinct values made bars one run wide
+  set.seed(1)
+  n <- 400
+  theta <- data.frame(k = (sample(n) - stats::runif(n)) / n, c = (sample(n) - stats::runif(n)) / n)
+  t <- seq(0, 1, length.out = 8)
+  sim <- function(th) outer(th$k, t) + outer(th$c, t^2)
+  field <- field_data(drop(sim(data.frame(k = 0.4, c = 0.6))) + stats::rnorm(8, sd = 0.05),
+                      t = t)
+  lhs <- sim_library(theta, sim(theta), t = t)
+  fit <- suppressWarnings(calibrate(lhs, field, n_iter = 500, burn_in = 100, seed = 1))
+  p <- plot(fit, "posterior")
+  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomBar"), logical(1))))
+  grid <- expand.grid(k = seq(0, 1, length.out = 20), c = seq(0, 1, length.out = 20))
+  fit_grid <- suppressWarnings(calibrate(sim_library(grid, sim(grid), t = t), field,
+                                         n_iter = 500, burn_in = 100, seed = 1))
+  expect_false(any(vapply(plot(fit_grid, "posterior")$layers,
+                          function(l) inherits(l$geom, "GeomBar"), logical(1))))
+})
