@@ -85,7 +85,7 @@ posterior_histogram <- function(fit, theta) {
                             fill = "steelblue", colour = NA) +
     ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
     ggplot2::labs(x = "Value", y = "Posterior density",
-                  title = "Posterior over the refined library") +
+                  title = "Posterior (histogram of the draws)") +
     ggplot2::theme_bw()
 }
 
