@@ -167,7 +167,9 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                                  noise_groups)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
-  warn_resolution(fit)
+  exact_run <- exact_from_problem(fit)$run
+  warn_resolution(fit, exact_run)
+  warn_convergence(fit, exact_run)
   fit
 }
 

@@ -57,14 +57,12 @@
 summary.griddy_fit <- function(object, level = 0.95, ...) {
   assert_level(level)
   draws <- parameter_draws(object)
-  chains <- split(draws, object$draws$chain)
   tail <- (1 - level) / 2
   rows <- lapply(names(draws), function(p) {
     v <- draws[[p]]
     q <- stats::quantile(v, c(tail, 0.5, 1 - tail), type = 1, names = FALSE)
     data.frame(parameter = p, mean = mean(v), median = q[2], lower = q[1], upper = q[3],
-               ess = effective_size(lapply(chains, `[[`, p)),
-               rhat = potential_scale_reduction(lapply(chains, `[[`, p)))
+               chain_diagnostics(chain_matrix(v, object$draws$chain)))
   })
   out <- do.call(rbind, rows)
   adequacy <- library_adequacy(object, level)
@@ -74,24 +72,6 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
             info = fit_description(object))
-}
-
-effective_size <- function(chains) {
-  if (all(vapply(chains, function(v) all(v == v[1]), logical(1)))) {
-    return(NA_real_)
-  }
-  sum(vapply(chains, function(v) {
-    if (all(v == v[1])) 0 else unname(coda::effectiveSize(v))
-  }, numeric(1)))
-}
-
-potential_scale_reduction <- function(chains) {
-  if (length(chains) < 2L || all(unlist(chains) == chains[[1]][1])) {
-    return(NA_real_)
-  }
-  mc <- coda::mcmc.list(lapply(chains, coda::mcmc))
-  tryCatch(coda::gelman.diag(mc, autoburnin = FALSE)$psrf[1, 1],
-           error = function(e) NA_real_)
 }
 
 fit_description <- function(fit) {
@@ -130,7 +110,14 @@ print.griddy_summary <- function(x, digits = 4, ...) {
   bounds <- names(tab) %in% c("lower", "upper")
   names(tab)[bounds] <- paste0(names(tab)[bounds], " (", format(100 * level), "%)")
   print(tab, digits = digits, row.names = FALSE)
-  if (!is.null(attr(x, "adequacy"))) cli::cat_line(format_adequacy(attr(x, "adequacy")))
+  adequacy <- attr(x, "adequacy")
+  if (!is.null(adequacy)) cli::cat_line(format_adequacy(adequacy))
+  if (!is.null(tab$rhat) && !is.null(adequacy$tv_reference)) {
+    problems <- convergence_problems(stats::setNames(tab$rhat, tab$parameter),
+                                     adequacy$tv_distance, adequacy$tv_reference)
+    notes <- format_convergence(problems, adequacy$tv_distance, adequacy$tv_reference)
+    if (length(notes) > 0L) cli::cat_line(paste("Convergence:", notes))
+  }
   invisible(x)
 }
 

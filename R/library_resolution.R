@@ -92,14 +92,18 @@ run_probabilities <- function(fit) {
 }
 
 # What summary() reports: the resolution table (exact posterior), the
-# effective number of runs (exact and sampled) and the total-variation
-# distance between the sampled and the exact posterior over runs.
+# effective number of runs (exact and sampled), the total-variation distance
+# between the sampled and the exact posterior over runs, and what Monte Carlo
+# error alone would give at the draws' effective number (see convergence.R).
 library_adequacy <- function(fit, level = 0.95) {
   p <- run_probabilities(fit)
+  effective_draws <- run_effective_draws(fit, p$exact)
   list(parameters = resolution_table(p$exact, lib_theta(fit$library), level),
        effective_runs = 1 / sum(p$exact^2),
        effective_runs_sampled = 1 / sum(p$sampled^2),
        tv_distance = sum(abs(p$sampled - p$exact)) / 2,
+       tv_reference = expected_tv(p$exact, effective_draws),
+       effective_draws = effective_draws,
        emulation_error = emulation_error(fit))
 }
 
@@ -113,8 +117,8 @@ emulation_error <- function(fit) {
 
 # calibrate()'s warning. A constant column is left out: sim_library() has
 # warned about it, and more runs cannot resolve it.
-warn_resolution <- function(fit) {
-  tab <- resolution_limited(fit)
+warn_resolution <- function(fit, exact_run = exact_from_problem(fit)$run) {
+  tab <- resolution_table(exact_run, lib_theta(fit$library))
   tab <- tab[tab$limited & tab$library_values > 1L, , drop = FALSE]
   if (nrow(tab) == 0L) {
     return(invisible(NULL))
@@ -139,7 +143,11 @@ format_adequacy <- function(adequacy) {
     paste0("Library: effective number of runs ", format(adequacy$effective_runs, digits = 3),
            " (sampled ", format(adequacy$effective_runs_sampled, digits = 3), ")."),
     paste0("Draws vs exact posterior over runs: total-variation distance ",
-           format(adequacy$tv_distance, digits = 2), "."),
+           format(adequacy$tv_distance, digits = 2),
+           if (!is.null(adequacy$tv_reference)) {
+             paste0(" (Monte Carlo error alone: ", format(adequacy$tv_reference, digits = 2),
+                    " at ", format(round(adequacy$effective_draws)), " effective draws)")
+           }, "."),
     if (!is.null(adequacy$emulation_error)) {
       paste0("Emulated runs: leave-one-out error near the posterior ",
              format(adequacy$emulation_error, digits = 2), " x the noise sd",

@@ -1,4 +1,4 @@
-test_that("summary has one row per sampled parameter with coda diagnostics", {
+test_that("summary has one row per sampled parameter with rank-normalised diagnostics", {
   toy <- toy_ar1(n_runs = 100, n_t = 30)
   fit <- calibrate(toy$library, toy$field, rho_t = c(0, 1e-3, 0.1), n_iter = 3000, burn_in = 500,
                    chains = 2, seed = 1)
@@ -6,14 +6,20 @@ test_that("summary has one row per sampled parameter with coda diagnostics", {
   expect_s3_class(s, "griddy_summary")
   expect_s3_class(s, "data.frame")
   expect_identical(s$parameter, c("theta", "tau", "rho_t"))
-  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess", "rhat",
-                               "resolution"))
+  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess_bulk",
+                               "ess_tail", "rhat", "mcse", "resolution"))
   d <- as.data.frame(fit)
   expect_equal(s$mean[1], mean(d$theta))
   expect_true(all(s$lower <= s$median & s$median <= s$upper))
   expect_true(all(s$lower[1:2] %in% c(unique(d$theta), d$tau)))
-  expect_true(all(s$ess > 100))
+  expect_true(all(s$ess_bulk > 100))
+  expect_true(all(s$ess_tail[1:2] > 100))
   expect_true(all(abs(s$rhat - 1) < 0.1))
+  m <- matrix(d$theta, ncol = 2)
+  expect_equal(s$ess_bulk[1], posterior::ess_bulk(m))
+  expect_equal(s$ess_tail[1], posterior::ess_tail(m))
+  expect_equal(s$rhat[1], posterior::rhat(m))
+  expect_equal(s$mcse[1], posterior::mcse_mean(m))
   narrow <- summary(fit, level = 0.5)
   expect_gte(narrow$lower[1], s$lower[1])
   expect_error(summary(fit, level = 1), "`level` must be a single number in \\(0, 1\\)")
@@ -24,15 +30,19 @@ test_that("summary has one row per sampled parameter with coda diagnostics", {
   expect_equal(attr(narrow, "adequacy")$parameters,
                resolution_table(exact, toy$library$theta, level = 0.5))
   expect_lt(a$tv_distance, 0.2)
+  expect_gt(a$tv_reference, 0)
+  expect_lte(a$effective_draws, nrow(d))
 })
 
-test_that("one chain gives NA rhat; print shows the table and the adequacy lines", {
+test_that("one chain gives a split-chain rhat; print shows the table and the adequacy lines", {
   toy <- toy_ar1(n_runs = 40, n_t = 20)
   fit <- suppressWarnings(
     calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, seed = 1),
     classes = "griddy_warning_resolution")
   s <- summary(fit)
-  expect_true(all(is.na(s$rhat)))
+  expect_true(all(is.finite(s$rhat)))
+  expect_output(print(s), "ess_bulk ess_tail")
+  expect_output(print(s), "Monte Carlo error alone: [0-9.]+ at [0-9]+ effective draws")
   expect_output(print(s), "collapsed update\\) over 40 runs x 1 correlation grid point")
   expect_output(print(s), "lower \\(95%\\)")
   expect_output(print(s), "effective number of runs")

@@ -1,0 +1,122 @@
+# Convergence diagnostics: rank-normalised ESS, R-hat and MCSE per parameter
+# (posterior package; Vehtari et al. 2021), the Monte Carlo reference for the
+# total-variation distance between the sampled and the exact posterior over
+# runs, and calibrate()'s warning when either says the chains have not mixed.
+
+# Above this R-hat (Vehtari et al. 2021) a parameter's chains disagree.
+rhat_threshold <- 1.01
+# A total-variation distance counts as beyond Monte Carlo error when it is more
+# than `tv_ratio_threshold` times the reference and above `tv_min_threshold`.
+tv_ratio_threshold <- 3
+tv_min_threshold <- 0.05
+
+# Draws of one parameter as a matrix, iterations x chains (every chain keeps
+# as many draws).
+chain_matrix <- function(v, chain) {
+  do.call(cbind, split(v, chain))
+}
+
+# Rank-normalised diagnostics of one parameter from a matrix of draws,
+# iterations x chains: bulk and tail ESS, R-hat (over split chains, so one
+# chain has one too) and the Monte Carlo standard error of the mean. All NA
+# for a parameter whose kept draws are all one value.
+chain_diagnostics <- function(m) {
+  if (all(m == m[1])) {
+    return(data.frame(ess_bulk = NA_real_, ess_tail = NA_real_, rhat = NA_real_,
+                      mcse = NA_real_))
+  }
+  data.frame(ess_bulk = posterior::ess_bulk(m), ess_tail = posterior::ess_tail(m),
+             rhat = chain_rhat(m), mcse = posterior::mcse_mean(m))
+}
+
+# posterior::rhat(), but Inf (not NA) when the draws differ although every
+# chain half sits on one value: chains stuck on different values.
+chain_rhat <- function(m) {
+  if (all(m == m[1])) return(NA_real_)
+  r <- posterior::rhat(m)
+  if (is.na(r)) Inf else r
+}
+
+# R-hat of every sampled parameter of a fit (NA for a constant one).
+fit_rhat <- function(fit) {
+  draws <- parameter_draws(fit)
+  vapply(draws, function(v) {
+    chain_rhat(chain_matrix(v, fit$draws$chain))
+  }, numeric(1))
+}
+
+# The effective number of draws of the run index: the smallest bulk ESS of
+# the run's exact log probability and of each theta column that moves, at
+# most the number of draws. When nothing moves (every draw on one run) the
+# draws are taken as independent, so a chain stuck off the posterior's mass
+# is far beyond the reference.
+run_effective_draws <- function(fit, exact_run) {
+  n <- nrow(fit$draws)
+  cols <- c(list(log_p = log(exact_run[fit$draws$run])),
+            as.list(lib_theta(fit$library)[fit$draws$run, , drop = FALSE]))
+  ess <- vapply(cols, function(v) {
+    m <- chain_matrix(v, fit$draws$chain)
+    if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else posterior::ess_bulk(m)
+  }, numeric(1))
+  if (all(is.na(ess))) return(n)
+  min(n, ess, na.rm = TRUE)
+}
+
+# Expected total-variation distance between p and the empirical frequencies
+# of m independent draws from p: (1/2) sum_i E|X_i/m - p_i| with
+# X_i ~ Binomial(m, p_i), whose mean absolute deviation is De Moivre's
+# E|X - mp| = 2 (k + 1) (1 - p) P(X = k + 1), k = floor(m p). Exact (no
+# normal approximation, which overstates it for runs with m p_i < 1), and
+# about (1/2) sum_i sqrt(2 p_i (1 - p_i) / (pi m)) for large m p_i.
+expected_tv <- function(p, m) {
+  m <- max(1, round(m))
+  p <- p[p > 0]
+  k <- floor(m * p)
+  sum((k + 1) * (1 - p) * stats::dbinom(k + 1, m, p)) / m
+}
+
+# TRUE when the sampled posterior over runs is further from the exact one
+# than Monte Carlo error explains (see tv_ratio_threshold).
+tv_beyond_reference <- function(tv, reference) {
+  is.finite(tv) && is.finite(reference) && tv > tv_min_threshold &&
+    tv > tv_ratio_threshold * reference
+}
+
+# What the convergence checks find: parameters with R-hat above the threshold
+# (named R-hat values) and whether the total-variation distance is beyond its
+# Monte Carlo reference.
+convergence_problems <- function(rhat, tv, reference) {
+  list(rhat = rhat[!is.na(rhat) & rhat > rhat_threshold],
+       tv = tv_beyond_reference(tv, reference))
+}
+
+# One sentence per problem, for calibrate()'s warning and summary()'s notes.
+format_convergence <- function(problems, tv, reference) {
+  c(if (length(problems$rhat) > 0L) {
+      paste0("R-hat above ", rhat_threshold, " for ",
+             paste0(names(problems$rhat), " (", formatC(problems$rhat, digits = 3, format = "f"),
+                    ")",
+                    collapse = ", "),
+             ": the chains (each split in halves) disagree, so they have not mixed. Run ",
+             "longer chains, or use ",
+             "`update = \"collapsed\"` if the fit uses the thesis's update.")
+    },
+    if (problems$tv) {
+      paste0("The draws are ", format(tv, digits = 2), " in total-variation distance from ",
+             "the exact posterior over runs, beyond Monte Carlo error alone (",
+             format(reference, digits = 2), "): the chains have not explored the ",
+             "posterior; compare with posterior_exact().")
+    })
+}
+
+# calibrate()'s warning (class griddy_warning_convergence).
+warn_convergence <- function(fit, exact_run) {
+  tv <- sum(abs(tabulate(fit$draws$run, nbins = length(exact_run)) / nrow(fit$draws) -
+                  exact_run)) / 2
+  reference <- expected_tv(exact_run, run_effective_draws(fit, exact_run))
+  problems <- convergence_problems(fit_rhat(fit), tv, reference)
+  lines <- format_convergence(problems, tv, reference)
+  if (length(lines) == 0L) return(invisible(NULL))
+  griddy_warn("The chains may not have converged. ", paste(lines, collapse = " "),
+              class = "convergence")
+}
