@@ -37,6 +37,16 @@
 #' marginal masses \eqn{m_v} of its distinct values); see
 #' [summary()][summary.griddy_fit] and `?refine`.
 #'
+#' **Convergence.** `calibrate()` also warns (class
+#' `griddy_warning_convergence`) when the rank-normalised R-hat of some
+#' sampled parameter is above 1.01 (over chains split in halves, so one chain
+#' is checked too), or when the total-variation distance between the sampled
+#' and the exact posterior over runs is more than 3 times what Monte Carlo
+#' error alone would give and above 0.05 (see [summary()][summary.griddy_fit]).
+#' The thesis's update stuck on one \eqn{\rho} grid point is caught by one
+#' or the other. Short chains can trip the R-hat check by chance: run longer
+#' ones.
+#'
 #' **Field data.** Only the observed points enter: with missing field data
 #' (see [field_data()]) \eqn{n} is their number and \eqn{C_{ig}} and
 #' \eqn{|R_g|} are those of the observed block of \eqn{R_g} (dense algebra;

@@ -25,8 +25,19 @@ chain_diagnostics <- function(m) {
     return(data.frame(ess_bulk = NA_real_, ess_tail = NA_real_, rhat = NA_real_,
                       mcse = NA_real_))
   }
-  data.frame(ess_bulk = posterior::ess_bulk(m), ess_tail = posterior::ess_tail(m),
-             rhat = chain_rhat(m), mcse = posterior::mcse_mean(m))
+  data.frame(ess_bulk = quiet_cap(posterior::ess_bulk(m)),
+             ess_tail = quiet_cap(posterior::ess_tail(m)),
+             rhat = chain_rhat(m), mcse = quiet_cap(posterior::mcse_mean(m)))
+}
+
+# posterior caps an ESS at n log10(n) (antithetic chains) and says so each
+# time; the cap is documented in ?summary.griddy_fit instead.
+quiet_cap <- function(expr) {
+  withCallingHandlers(expr, warning = function(w) {
+    if (grepl("ESS has been capped", conditionMessage(w), fixed = TRUE)) {
+      invokeRestart("muffleWarning")
+    }
+  })
 }
 
 # posterior::rhat(), but Inf (not NA) when the draws differ although every
@@ -56,7 +67,7 @@ run_effective_draws <- function(fit, exact_run) {
             as.list(lib_theta(fit$library)[fit$draws$run, , drop = FALSE]))
   ess <- vapply(cols, function(v) {
     m <- chain_matrix(v, fit$draws$chain)
-    if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else posterior::ess_bulk(m)
+    if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else quiet_cap(posterior::ess_bulk(m))
   }, numeric(1))
   if (all(is.na(ess))) return(n)
   min(n, ess, na.rm = TRUE)
@@ -94,7 +105,7 @@ convergence_problems <- function(rhat, tv, reference) {
 format_convergence <- function(problems, tv, reference) {
   c(if (length(problems$rhat) > 0L) {
       paste0("R-hat above ", rhat_threshold, " for ",
-             paste0(names(problems$rhat), " (", formatC(problems$rhat, digits = 3, format = "f"),
+             paste0(names(problems$rhat), " (", trimws(formatC(problems$rhat, digits = 3, format = "f")),
                     ")",
                     collapse = ", "),
              ": the chains (each split in halves) disagree, so they have not mixed. Run ",

@@ -18,20 +18,38 @@
 #'   the library; above 5% the truth may lie outside the library's range.
 #' * **Runs.** The effective number of runs (\eqn{1 / \sum p_i^2}), and the
 #'   total-variation distance between the sampled and the exact posterior
-#'   over runs.
+#'   over runs, beside what Monte Carlo error alone would give: its expected
+#'   value for independent draws from the exact posterior, as many as the
+#'   draws' effective number \eqn{m}, \eqn{\frac{1}{2}\sum_i E|X_i/m - p_i|}
+#'   with \eqn{X_i \sim Binomial(m, p_i)} (exact, by De Moivre's formula;
+#'   about \eqn{\frac{1}{2}\sum_i \sqrt{2 p_i (1 - p_i) / (\pi m)}} when
+#'   every \eqn{m p_i} is large). The effective number \eqn{m} of the run
+#'   index is the smallest bulk ESS of the drawn run's exact log probability
+#'   and of each \eqn{\theta} column, at most the number of draws (all the
+#'   draws when none of them moves). A distance more than 3 times the
+#'   reference and above 0.05 is noted, and [calibrate()] warns.
 #'
 #' Bounds are quantiles of the draws (type 1, so for \eqn{\theta} they are
-#' library values). `ess` is [coda::effectiveSize()] summed over chains;
-#' `rhat` is [coda::gelman.diag()]'s point estimate, `NA` with one chain or a
-#' constant parameter.
+#' library values). The chain diagnostics are the rank-normalised ones of
+#' Vehtari et al. (2021), from the \pkg{posterior} package, over all chains:
+#' the bulk and tail effective sample sizes `ess_bulk`
+#' ([posterior::ess_bulk()]) and `ess_tail` ([posterior::ess_tail()]),
+#' `rhat` ([posterior::rhat()], over chains split in halves, so one chain has
+#' one too; `Inf` when every chain half sits on one value but they differ)
+#' and `mcse` ([posterior::mcse_mean()]), the Monte Carlo standard error of
+#' the mean. All four are `NA` for a parameter whose kept draws are all one
+#' value. An R-hat above 1.01 is noted, and [calibrate()] warns. A discrete
+#' parameter that seldom changes value can still have a large ESS: the ESS
+#' is about its mean, and says nothing of the library's resolution (see
+#' above). [coda::as.mcmc.list()] gives the draws to coda.
 #'
 #' @param object,x A `griddy_fit` from [calibrate()], or its summary.
 #' @param level Probability of the central interval.
 #' @param digits Significant digits to print.
 #' @param ... Ignored.
 #' @return `summary()`: a data.frame of class `griddy_summary` with columns
-#'   `parameter`, `mean`, `median`, `lower`, `upper`, `ess`, `rhat` and
-#'   `resolution` (`"resolved"` or `"limited"` for each \eqn{\theta}
+#'   `parameter`, `mean`, `median`, `lower`, `upper`, `ess_bulk`,
+#'   `ess_tail`, `rhat`, `mcse` and `resolution` (`"resolved"` or `"limited"` for each \eqn{\theta}
 #'   parameter, `NA` for the others). Attribute `"adequacy"` holds the checks:
 #'   `parameters`, a data.frame with one row per \eqn{\theta} parameter and
 #'   columns `parameter`, `lower` and `upper` (the interval of the exact
@@ -39,13 +57,21 @@
 #'   `distinct_in_interval` (distinct values with positive mass in the
 #'   interval), `limited`, `mass_at_min`, `mass_at_max` and `library_values`
 #'   (distinct values in the library); `effective_runs` (exact) and
-#'   `effective_runs_sampled`; `tv_distance`; and `emulation_error`, for a
+#'   `effective_runs_sampled`; `tv_distance`, `tv_reference` (its Monte
+#'   Carlo reference) and `effective_draws` (the effective number of draws of
+#'   the run index it uses); and `emulation_error`, for a
 #'   library whose runs were predicted by an emulator ([emulated_library()],
 #'   or [refine()] without a simulator), the emulator's leave-one-out error
 #'   near the posterior over the noise sd (`NULL` when every run was
 #'   simulated). `print()` prints the
 #'   table, then one line per limited parameter and per parameter with mass at
-#'   the edge of its range, and returns its argument invisibly.
+#'   the edge of its range, then a "Convergence:" note for an R-hat above
+#'   1.01 and for a total-variation distance beyond Monte Carlo error, and
+#'   returns its argument invisibly.
+#' @references Vehtari, A., Gelman, A., Simpson, D., Carpenter, B. and
+#'   Buerkner, P.-C. (2021). Rank-normalization, folding, and localization: an
+#'   improved R-hat for assessing convergence of MCMC. *Bayesian Analysis*
+#'   16(2), 667-718. \doi{10.1214/20-BA1221}
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200,

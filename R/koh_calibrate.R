@@ -232,8 +232,10 @@ koh_quietly <- function(quiet, expr) {
 #' @param level Credible level of the equal-tailed interval.
 #' @param ... Unused.
 #' @return A data.frame (class `griddy_koh_summary`) with one row per
-#'   parameter: `parameter`, `mean`, `median`, `lower`, `upper` and `ess`
-#'   (effective sample size, [coda::effectiveSize()]).
+#'   parameter: `parameter`, `mean`, `median`, `lower`, `upper`, and the
+#'   rank-normalised `ess_bulk`, `ess_tail`, `rhat` (split chain) and `mcse`
+#'   of Vehtari et al. (2021), as in [summary()][summary.griddy_fit], so the
+#'   two methods' effective sample sizes compare like for like.
 #' @examplesIf requireNamespace("RobustCalibration", quietly = TRUE)
 #' f <- piston_field_data(15, seed = 1)
 #' lib <- piston_library(4, locations = attr(f, "locations"))
@@ -248,7 +250,7 @@ summary.griddy_koh <- function(object, level = 0.95, ...) {
     v <- object$draws[[p]]
     q <- stats::quantile(v, c(tail, 0.5, 1 - tail), names = FALSE)
     data.frame(parameter = p, mean = mean(v), median = q[2], lower = q[1], upper = q[3],
-               ess = if (all(v == v[1])) NA_real_ else unname(coda::effectiveSize(v)))
+               chain_diagnostics(matrix(v, ncol = 1L)))
   })
   structure(do.call(rbind, rows), class = c("griddy_koh_summary", "data.frame"),
             level = level)

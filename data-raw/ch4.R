@@ -14,10 +14,10 @@ truth <- c(htc_undercrown = 1000, htc_gallery1 = 3000, htc_gallery2 = 2000)
 
 # Tables 4.1-4.4: 95% lower bound, estimate (posterior mean), truth, 95% upper.
 tables <- rbindlist(lapply(results, function(r) {
-  s <- as.data.frame(unclass(r$summary))[, c("parameter", "mean", "lower", "upper", "ess")]
+  s <- as.data.frame(unclass(r$summary))[, c("parameter", "mean", "lower", "upper", "ess_bulk")]
   data.table(n_points = r$n_points, method = r$method, parameter = s$parameter,
              lower = s$lower, estimate = s$mean, truth = truth[s$parameter],
-             upper = s$upper, ess = s$ess)
+             upper = s$upper, ess_bulk = s$ess_bulk)
 }))
 
 # Posterior shapes: Griddy Gibbs as mass per library value, KOH as draws

@@ -118,7 +118,8 @@ fit_record <- function(fit, warnings, rho_t) {
       .SDcols = c("observed", "mean", "lower", "upper", "pred_lower", "pred_upper")]
   sigma <- 1 / sqrt(fit$draws$tau)
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
-                                               "upper", "ess", "rhat", "resolution")],
+                                               "upper", "ess_bulk", "ess_tail", "rhat", "mcse",
+                                               "resolution")],
        printed = printed, warnings = warnings,
        adequacy = list(effective_runs = ad$effective_runs,
                        effective_runs_sampled = ad$effective_runs_sampled,
@@ -197,7 +198,8 @@ refined_record <- function(fit, warnings, elapsed) {
   }))
   sigma <- 1 / sqrt(fit$draws$tau)
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
-                                               "upper", "ess", "rhat", "resolution")],
+                                               "upper", "ess_bulk", "ess_tail", "rhat", "mcse",
+                                               "resolution")],
        printed = utils::capture.output(print(s)), warnings = unique(warnings),
        resolution = ad$parameters,
        adequacy = list(effective_runs = ad$effective_runs,

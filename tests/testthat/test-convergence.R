@@ -1,0 +1,94 @@
+test_that("expected_tv is the exact mean of the TV distance of independent draws", {
+  p <- c(0.5, 0.3, 0.15, 0.05)
+  m <- 7
+  # E|X/m - p| cell by cell, by summing over the binomial
+  by_sum <- sum(vapply(p, function(q) {
+    sum(stats::dbinom(0:m, m, q) * abs(0:m / m - q))
+  }, numeric(1))) / 2
+  expect_equal(expected_tv(p, m), by_sum)
+  expect_equal(expected_tv(c(p, 0), m), by_sum)
+  # large m: the normal approximation
+  expect_equal(expected_tv(p, 1e5), expected_tv_iid(p, 1e5), tolerance = 0.01)
+  # tiny cells: about 2 p e^{-m p} each, far below the normal approximation
+  tiny <- c(0.999, rep(1e-5, 100))
+  expect_lt(expected_tv(tiny, 100), expected_tv_iid(tiny, 100) / 5)
+  expect_equal(expected_tv(1, 100), 0)
+})
+
+test_that("chain_rhat: NA for a constant parameter, Inf for chains stuck apart", {
+  expect_true(is.na(chain_rhat(matrix(1, 10, 2))))
+  expect_identical(chain_rhat(matrix(rep(c(0, 1), each = 10), 10, 2)), Inf)
+  set.seed(1)
+  expect_lt(chain_rhat(matrix(stats::rnorm(2000), 1000, 2)), rhat_threshold)
+})
+
+test_that("the Monte Carlo reference matches the observed TV of an exact sampler", {
+  # one correlation grid point: the collapsed update draws theta independently
+  # from the exact posterior, so the TV distance is Monte Carlo error alone
+  toy <- toy_ar1(n_runs = 200, n_t = 30, sd = 0.3, lag_cor = 0)
+  ratios <- vapply(1:5, function(s) {
+    fit <- calibrate(toy$library, toy$field, n_iter = 1200, burn_in = 200, seed = s)
+    a <- attr(summary(fit), "adequacy")
+    expect_gt(a$effective_draws, 400)
+    c(a$tv_distance, a$tv_reference)
+  }, numeric(2))
+  expect_equal(mean(ratios[1, ]) / mean(ratios[2, ]), 1, tolerance = 0.2)
+})
+
+stalled_toy <- function() {
+  toy_ar1(n_runs = 100, n_t = 60, lag_cor = 0.9)
+}
+stall_grid <- c(0, 0.3, 0.6, 0.9)
+
+test_that("thesis update stuck on one rho grid point: a convergence warning", {
+  # both chains start at rho_t = 0, which the exact posterior gives 6e-6, and
+  # never leave it (the thesis's tau-rho coupling, see ?calibrate): R-hat
+  # sees nothing (rho_t is constant), the TV distance is 0.78 against a Monte
+  # Carlo reference of 0.06
+  toy <- stalled_toy()
+  expect_warning(
+    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
+                     chains = 2, update = "thesis", seed = 26),
+    "total-variation distance from the exact posterior over runs, beyond Monte Carlo error",
+    class = "griddy_warning_convergence")
+  expect_true(all(fit$draws$grid_point == 1L))
+  s <- summary(fit)
+  a <- attr(s, "adequacy")
+  expect_gt(a$tv_distance, 0.7)
+  expect_lt(a$tv_reference, 0.1)
+  expect_output(print(s), "Convergence: The draws are 0.7[0-9] in total-variation distance")
+})
+
+test_that("thesis chains stuck on different rho grid points: R-hat warns", {
+  # chain 1 sits on rho_t = 0.9, chain 2 on rho_t = 0: R-hat of rho_t is
+  # infinite (coda's gelman.diag gave about 10), and tau's is 1.8
+  toy <- stalled_toy()
+  expect_warning(
+    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
+                     chains = 2, update = "thesis", seed = 14),
+    "R-hat above 1.01 for theta \\([0-9.]+\\), tau \\([0-9.]+\\), rho_t \\(Inf\\)",
+    class = "griddy_warning_convergence")
+  s <- summary(fit)
+  expect_true(all(s$rhat > rhat_threshold))
+  expect_output(print(s), "Convergence: R-hat above 1.01")
+})
+
+test_that("a well-mixed collapsed fit gives no convergence warning or note", {
+  toy <- stalled_toy()
+  expect_no_warning(
+    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
+                     chains = 2, seed = 14),
+    class = "griddy_warning_convergence")
+  s <- summary(fit)
+  expect_true(all(s$rhat < rhat_threshold))
+  a <- attr(s, "adequacy")
+  expect_lt(a$tv_distance, tv_ratio_threshold * a$tv_reference)
+  expect_false(any(grepl("Convergence", utils::capture.output(print(s)))))
+})
+
+test_that("tv_beyond_reference needs both the ratio and the floor", {
+  expect_true(tv_beyond_reference(0.3, 0.05))
+  expect_false(tv_beyond_reference(0.04, 0.001))
+  expect_false(tv_beyond_reference(0.3, 0.2))
+  expect_false(tv_beyond_reference(0.3, NA))
+})
