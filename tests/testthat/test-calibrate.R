@@ -53,7 +53,7 @@ test_that("burn-in and thinning keep the right iterations", {
   toy <- toy_ar1(n_runs = 30, n_t = 10)
   fit <- suppressWarnings(
     calibrate(toy$library, toy$field, n_iter = 100, burn_in = 40, thin = 7, chains = 3, seed = 1),
-    classes = "griddy_warning_resolution")
+    classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
   expect_identical(fit$draws$iteration, rep(seq(47L, 100L, by = 7L), 3))
   expect_identical(fit$draws$chain, rep(1:3, each = 8))
   expect_true(all(fit$draws$tau > 0))
@@ -69,7 +69,7 @@ test_that("runs with zero prior weight are never drawn", {
     fit <- suppressWarnings(
       calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 0, seed = 2,
                 update = u, run_weights = w),
-      classes = "griddy_warning_resolution")
+      classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
     expect_false(any(fit$draws$run %in% which(w == 0)))
   }
 })

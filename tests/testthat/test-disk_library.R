@@ -19,11 +19,11 @@ test_that("an old .rds chunk directory gives the in-memory C, exact posterior an
     a <- suppressWarnings(
       calibrate(toy$library, toy$field, rho$rho_x, rho$rho_t, n_iter = 600, burn_in = 100,
                 update = u, seed = 3),
-      classes = "griddy_warning_resolution")
+      classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
     b <- suppressWarnings(
       calibrate(lib, toy$field, rho$rho_x, rho$rho_t, n_iter = 600, burn_in = 100,
                 update = u, seed = 3),
-      classes = "griddy_warning_resolution")
+      classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
     expect_identical(b$draws, a$draws)
   }
   # summaries and predictions read the drawn runs from the chunks

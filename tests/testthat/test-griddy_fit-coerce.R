@@ -3,7 +3,7 @@ test_that("as.data.frame joins theta and rho values to the draws", {
   fit <- suppressWarnings(
     calibrate(toy$library, toy$field, rho_x = list(load = c(0, 0.5), speed = 0),
               n_iter = 300, burn_in = 100, chains = 2, seed = 1),
-    classes = "griddy_warning_resolution")
+    classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
   d <- as.data.frame(fit)
   expect_identical(names(d), c("chain", "iteration", "run", "a", "b", "tau", "rho_x_load",
                                "rho_x_speed", "rho_t"))
@@ -17,7 +17,7 @@ test_that("as.mcmc.list gives one mcmc per chain with the sampled parameters", {
   fit <- suppressWarnings(
     calibrate(toy$library, toy$field, rho_x = list(load = c(0, 0.5), speed = 0),
               n_iter = 300, burn_in = 100, thin = 2, chains = 2, seed = 1),
-    classes = "griddy_warning_resolution")
+    classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
   mc <- coda::as.mcmc.list(fit)
   expect_s3_class(mc, "mcmc.list")
   expect_identical(coda::nchain(mc), 2L)

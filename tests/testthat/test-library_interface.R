@@ -25,7 +25,7 @@ test_that("one library in memory, in HDF5 (both orientations) and in an old .rds
     suppressWarnings(
       calibrate(mem, toy$field, rho$rho_x, rho$rho_t, n_iter = 500, burn_in = 100, update = u,
                 seed = 7),
-      classes = "griddy_warning_resolution")$draws
+      classes = c("griddy_warning_resolution", "griddy_warning_convergence"))$draws
   })
   for (nm in names(libs)) {
     lib <- libs[[nm]]
@@ -40,13 +40,13 @@ test_that("one library in memory, in HDF5 (both orientations) and in an old .rds
       fit <- suppressWarnings(
         calibrate(lib, toy$field, rho$rho_x, rho$rho_t, n_iter = 500, burn_in = 100,
                   update = u, seed = 7),
-        classes = "griddy_warning_resolution")
+        classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
       expect_identical(fit$draws, draws[[k]], label = paste(nm, u))
     }
     fit_mem <- suppressWarnings(
       calibrate(mem, toy$field, rho$rho_x, rho$rho_t, n_iter = 500, burn_in = 100,
                 update = "thesis", seed = 7),
-      classes = "griddy_warning_resolution")
+      classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
     expect_identical(predict(fit, seed = 1), predict(fit_mem, seed = 1), label = nm)
   }
 })
