@@ -33,6 +33,7 @@
 NULL
 
 #' @rdname griddy_fit-draws
+#' @usage \method{as_draws_df}{griddy_fit}(x, ...)
 #' @exportS3Method posterior::as_draws_df
 as_draws_df.griddy_fit <- function(x, ...) {
   require_package("posterior", "to convert draws to the posterior package's formats")
@@ -48,6 +49,7 @@ as_draws_df.griddy_fit <- function(x, ...) {
 }
 
 #' @rdname griddy_fit-draws
+#' @usage \method{as_draws}{griddy_fit}(x, ...)
 #' @exportS3Method posterior::as_draws
 as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 
