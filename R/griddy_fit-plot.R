@@ -77,7 +77,7 @@ plot_pairs <- function(fit, truth) {
   }
   pairs <- utils::combn(names_, 2L, simplify = FALSE)
   drawn <- theta[fit$draws$run, , drop = FALSE]
-  panel <- vapply(pairs, paste, "", collapse = " vs ")
+  panel <- vapply(pairs, function(pr) paste0(pr[1], " (x), ", pr[2], " (y)"), "")
   long <- do.call(rbind, Map(function(pr, label) {
     data.frame(pair = factor(label, levels = panel), x = drawn[[pr[1]]], y = drawn[[pr[2]]])
   }, pairs, panel))
@@ -85,14 +85,14 @@ plot_pairs <- function(fit, truth) {
     ggplot2::geom_bin2d(bins = 40) +
     ggplot2::scale_fill_gradient(low = "grey90", high = "steelblue4", name = "Draws") +
     ggplot2::facet_wrap(ggplot2::vars(.data$pair), scales = "free") +
-    ggplot2::labs(x = "first parameter", y = "second parameter",
+    ggplot2::labs(x = "Value (x)", y = "Value (y)",
                   title = "Joint posterior of pairs of parameters") +
     ggplot2::theme_bw()
   if (!is.null(truth)) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
     known <- Filter(function(pr) all(pr %in% names(truth)), pairs)
     if (length(known) > 0L) {
-      marks <- data.frame(pair = factor(vapply(known, paste, "", collapse = " vs "),
+      marks <- data.frame(pair = factor(vapply(known, function(pr) paste0(pr[1], " (x), ", pr[2], " (y)"), ""),
                                         levels = panel),
                           x = vapply(known, function(pr) truth[[pr[1]]], numeric(1)),
                           y = vapply(known, function(pr) truth[[pr[2]]], numeric(1)))

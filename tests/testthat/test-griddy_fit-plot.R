@@ -86,7 +86,8 @@ test_that("the pairs plot shows every pair of theta columns, the truth marked", 
     calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100, seed = 1))
   p <- plot(fit, "pairs", truth = ex$truth)
   expect_s3_class(p, "ggplot")
-  pairs <- as.vector(utils::combn(names(ex$library$theta), 2L, paste, collapse = " vs "))
+  pairs <- as.vector(utils::combn(names(ex$library$theta), 2L,
+                                  function(pr) paste0(pr[1], " (x), ", pr[2], " (y)")))
   expect_identical(levels(p$data$pair), pairs)
   expect_equal(nrow(p$data), length(pairs) * nrow(fit$draws))
   expect_silent(ggplot2::ggplot_build(p))
