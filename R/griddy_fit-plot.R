@@ -66,6 +66,8 @@ plot_trace <- function(fit, max_points) {
     ggplot2::theme_bw()
 }
 
+pair_label <- function(pair) paste0(pair[1], " (x), ", pair[2], " (y)")
+
 # Every pair of theta columns: the draws binned on a 40 x 40 grid over the
 # range they visit, one panel per pair.
 plot_pairs <- function(fit, truth) {
@@ -77,7 +79,7 @@ plot_pairs <- function(fit, truth) {
   }
   pairs <- utils::combn(names_, 2L, simplify = FALSE)
   drawn <- theta[fit$draws$run, , drop = FALSE]
-  panel <- vapply(pairs, function(pr) paste0(pr[1], " (x), ", pr[2], " (y)"), "")
+  panel <- vapply(pairs, pair_label, "")
   long <- do.call(rbind, Map(function(pr, label) {
     data.frame(pair = factor(label, levels = panel), x = drawn[[pr[1]]], y = drawn[[pr[2]]])
   }, pairs, panel))
@@ -92,8 +94,7 @@ plot_pairs <- function(fit, truth) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
     known <- Filter(function(pr) all(pr %in% names(truth)), pairs)
     if (length(known) > 0L) {
-      marks <- data.frame(pair = factor(vapply(known, function(pr) paste0(pr[1], " (x), ", pr[2], " (y)"), ""),
-                                        levels = panel),
+      marks <- data.frame(pair = factor(vapply(known, pair_label, ""), levels = panel),
                           x = vapply(known, function(pr) truth[[pr[1]]], numeric(1)),
                           y = vapply(known, function(pr) truth[[pr[2]]], numeric(1)))
       p <- p + ggplot2::geom_point(data = marks, colour = "red", shape = 4, size = 3, stroke = 1.2)
