@@ -1,7 +1,9 @@
 #' Diagnose the gap between a calibrated simulator and the field data
 #'
-#' After a calibration, asks three questions of the residual gap, all answered
-#' exactly on the library grid (no refits, no sampling):
+#' After a calibration, asks three questions of the residual gap: where it
+#' lies, which offered effect explains it, and how much adding that effect
+#' shrinks it. All three are answered exactly on the library grid (no
+#' refits, no sampling).
 #'
 #' * **where** the data depart from what the fitted noise explains: every
 #'   block (one x setting times one window of t) gets an exact

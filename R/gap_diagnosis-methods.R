@@ -1,18 +1,26 @@
 # The verdict of a gap diagnosis, and its print() and plot() methods.
 
-# One sentence per confounded candidate: what absorbs it, what design change
-# would separate them.
+# One sentence per confounded candidate: what absorbs it, and where a
+# measurement could separate them. At the settings measured the effect acts
+# as a shift of the absorbing parameter does, so new data must lie where the
+# two differ: outside the range of the control settings measured (their
+# ranges are given), or at a condition the simulator's parameter does not
+# depend on.
 gap_advice <- function(which_tab, x) {
   conf <- which_tab[which_tab$confounded, ]
-  x_names <- if (is.null(x)) "the control settings" else paste(names(x), collapse = "/")
+  where <- if (is.null(x)) {
+    "at a second value of a condition the effect depends on (this library has one setting)"
+  } else {
+    ranges <- vapply(x, function(v) paste0(format(min(v), digits = 3), "-",
+                                            format(max(v), digits = 3)), "")
+    paste0("outside the ", paste0(names(x), " range measured (", ranges, ")",
+                                  collapse = ", "),
+           ", or at a condition the effect depends on and the simulator does not")
+  }
   vapply(seq_len(nrow(conf)), function(i) {
-    by <- conf$absorbed_by[i]
-    paste0("'", conf$effect[i], "' is confounded with theta: a shift of ", by,
-           " imitates it at these settings (separable fraction ",
-           format(round(conf$separable[i], 3)), "). To separate them, measure where the ",
-           "effect and ", by, " act differently: at a second value of the condition the ",
-           "effect depends on (e.g. another speed or pressure), or at further values of ",
-           x_names, " if the effect depends on them otherwise than ", by, " does.")
+    paste0("'", conf$effect[i], "' is confounded with ", conf$absorbed_by[i], ": at these ",
+           "settings a shift of ", conf$absorbed_by[i], " imitates it (separable fraction ",
+           format(round(conf$separable[i], 3)), "). To tell them apart, measure ", where, ".")
   }, character(1))
 }
 
@@ -130,8 +138,8 @@ plot.gap_diagnosis <- function(x, ...) {
   wh <- x$where
   wh$setting <- factor(lab[wh$x], levels = lab)
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
-  title <- paste0("Gap map: ", sum(wh$flagged), " of ", nrow(wh), " block(s) flagged; ",
-                  "answer: ", x$verdict$answer, " (P = ", format(x$verdict$prob, digits = 2), ")")
+  title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),
+                  " block(s) flagged; ", verdict_label(x$verdict))
   if (length(x$t) == 1L) {
     map$flagged <- wh$flagged[match(map$x, wh$x)]
     return(ggplot2::ggplot(map, ggplot2::aes(.data$setting, .data$z, fill = .data$flagged)) +
@@ -159,6 +167,18 @@ plot.gap_diagnosis <- function(x, ...) {
   p + ggplot2::labs(x = "t", y = "x setting", title = title,
                     subtitle = "Outlined: blocks the fitted noise does not explain") +
     ggplot2::theme_bw()
+}
+
+# The verdict in a few words: a gap flagged by blocks but beaten in evidence
+# by no model is named as such (its "other" probability, often tiny, says
+# nothing about it).
+verdict_label <- function(v) {
+  pct <- function(p) if (p < 0.001) "< 0.1%" else paste0(format(100 * p, digits = 3), "%")
+  switch(v$answer,
+         none = paste0("no gap (P = ", pct(v$prob), ")"),
+         other = if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
+           paste0("a gap no candidate explains (P(other) = ", pct(v$prob), ")"),
+         paste0("best explained by '", v$answer, "' (P = ", pct(v$prob), ")"))
 }
 
 gap_x_labels <- function(x) {

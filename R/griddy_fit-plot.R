@@ -1,7 +1,8 @@
 #' Plot a griddy fit
 #'
 #' * `"trace"`: the draws of every parameter against the iteration, one line
-#'   per chain.
+#'   per chain, thinned for display to at most `max_points` draws per chain
+#'   (the subtitle says which are shown; the summaries use them all).
 #' * `"posterior"`: the posterior of each \eqn{\theta} column as bars over the
 #'   library's distinct values (the thesis's figures), with the truth marked
 #'   when given; for a library from [refine()] or a scattered design (a
@@ -10,32 +11,48 @@
 #' * `"ppc"`: posterior predictive check: the field data against the
 #'   simulator outputs at the drawn runs (mean and band) and the predictive
 #'   band with the fitted noise, per x setting.
+#' * `"pairs"`: the joint posterior of every pair of \eqn{\theta} columns,
+#'   the draws binned in two dimensions, so that ridges (parameters that
+#'   trade off) show; the truth is marked when given.
 #'
 #' @param x A `griddy_fit` from [calibrate()].
-#' @param type `"trace"`, `"posterior"` or `"ppc"`.
+#' @param type `"trace"`, `"posterior"`, `"ppc"` or `"pairs"`.
 #' @param truth Optional named numeric vector of true \eqn{\theta} values,
-#'   marked in red on the `"posterior"` plot.
-#' @param ... Passed to [predict.griddy_fit()] for `"ppc"` (e.g. `ndraws`,
-#'   `seed`).
+#'   marked in red on the `"posterior"` and `"pairs"` plots.
+#' @param max_points For `"trace"`, the most draws per chain drawn.
+#' @param ... Passed to [predict.griddy_fit()] for `"ppc"` (e.g. `level`,
+#'   `ndraws`, `seed`).
 #' @return A ggplot object.
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #' plot(fit, "posterior", truth = ex$truth)
 #' plot(fit, "ppc", ndraws = 200, seed = 1)
+#' plot(fit, "pairs", truth = ex$truth)
 #' @importFrom ggplot2 .data
 #' @export
-plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc"), truth = NULL, ...) {
-  type <- assert_choice(type, "type", c("trace", "posterior", "ppc"), vector_default = TRUE)
+plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc", "pairs"), truth = NULL,
+                            max_points = 1000, ...) {
+  type <- assert_choice(type, "type", c("trace", "posterior", "ppc", "pairs"),
+                        vector_default = TRUE)
   switch(type,
-         trace = plot_trace(x),
+         trace = plot_trace(x, assert_count(max_points, "max_points", min = 2L)),
          posterior = plot_posterior(x, truth),
-         ppc = plot_ppc(x, ...))
+         ppc = plot_ppc(x, ...),
+         pairs = plot_pairs(x, truth))
 }
 
-plot_trace <- function(fit) {
+# Thousands of draws per chain draw as a solid block (and take seconds to
+# save): every k-th draw is shown, at most `max_points` per chain.
+plot_trace <- function(fit, max_points) {
   draws <- parameter_draws(fit)
-  long <- data.frame(iteration = fit$draws$iteration, chain = factor(fit$draws$chain),
+  per_chain <- max(tabulate(fit$draws$chain))
+  step <- max(1L, ceiling(per_chain / max_points))
+  shown <- stats::ave(seq_along(fit$draws$chain), fit$draws$chain, FUN = seq_along) %% step == 1L |
+    step == 1L
+  draws <- draws[shown, , drop = FALSE]
+  long <- data.frame(iteration = fit$draws$iteration[shown],
+                     chain = factor(fit$draws$chain[shown]),
                      parameter = factor(rep(names(draws), each = nrow(draws)),
                                         levels = names(draws)),
                      value = unlist(draws, use.names = FALSE))
@@ -43,8 +60,47 @@ plot_trace <- function(fit) {
     ggplot2::geom_line(linewidth = 0.3) +
     ggplot2::facet_wrap(ggplot2::vars(.data$parameter), ncol = 1, scales = "free_y") +
     ggplot2::labs(x = "Iteration", y = "Draw", colour = "Chain",
-                  title = "Trace plots") +
+                  title = "Trace plots",
+                  subtitle = if (step > 1L) paste0("One kept draw in ", step, " shown (",
+                                                   sum(shown), " of ", length(shown), ")")) +
     ggplot2::theme_bw()
+}
+
+pair_label <- function(pair) paste0(pair[1], " (x), ", pair[2], " (y)")
+
+# Every pair of theta columns: the draws binned on a 40 x 40 grid over the
+# range they visit, one panel per pair.
+plot_pairs <- function(fit, truth) {
+  theta <- lib_theta(fit$library)
+  names_ <- names(theta)[vapply(theta, function(v) length(unique(v)) > 1L, logical(1))]
+  if (length(names_) < 2L) {
+    griddy_abort("A pairs plot needs at least two theta columns that vary; this library has ",
+                 length(names_), ".")
+  }
+  pairs <- utils::combn(names_, 2L, simplify = FALSE)
+  drawn <- theta[fit$draws$run, , drop = FALSE]
+  panel <- vapply(pairs, pair_label, "")
+  long <- do.call(rbind, Map(function(pr, label) {
+    data.frame(pair = factor(label, levels = panel), x = drawn[[pr[1]]], y = drawn[[pr[2]]])
+  }, pairs, panel))
+  p <- ggplot2::ggplot(long, ggplot2::aes(.data$x, .data$y)) +
+    ggplot2::geom_bin2d(bins = 40) +
+    ggplot2::scale_fill_gradient(low = "grey90", high = "steelblue4", name = "Draws") +
+    ggplot2::facet_wrap(ggplot2::vars(.data$pair), scales = "free") +
+    ggplot2::labs(x = "Value (x)", y = "Value (y)",
+                  title = "Joint posterior of pairs of parameters") +
+    ggplot2::theme_bw()
+  if (!is.null(truth)) {
+    truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
+    known <- Filter(function(pr) all(pr %in% names(truth)), pairs)
+    if (length(known) > 0L) {
+      marks <- data.frame(pair = factor(vapply(known, pair_label, ""), levels = panel),
+                          x = vapply(known, function(pr) truth[[pr[1]]], numeric(1)),
+                          y = vapply(known, function(pr) truth[[pr[2]]], numeric(1)))
+      p <- p + ggplot2::geom_point(data = marks, colour = "red", shape = 4, size = 3, stroke = 1.2)
+    }
+  }
+  p
 }
 
 plot_posterior <- function(fit, truth) {
@@ -125,8 +181,8 @@ library_ticks <- function(theta, bars) {
   }))
 }
 
-plot_ppc <- function(fit, ...) {
-  pred <- predict(fit, ...)
+plot_ppc <- function(fit, level = 0.95, ...) {
+  pred <- predict(fit, level = level, ...)
   single_t <- lib_n_t(fit$library) == 1L
   pred$position <- if (single_t) pred$x else pred$t
   pred$setting <- factor(setting_labels(fit$library)[pred$x], levels = setting_labels(fit$library))
@@ -152,8 +208,9 @@ plot_ppc <- function(fit, ...) {
       ggplot2::labs(x = "t")
   }
   p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
-                    subtitle = paste("Black: field data. Blue: simulator at the drawn runs",
-                                     "(mean, 95% band). Grey: with fitted noise.")) +
+                    subtitle = paste0("Black: field data. Blue: simulator at the drawn runs ",
+                                      "(mean, ", format(100 * level), "% band). Grey: with ",
+                                      "fitted noise.")) +
     ggplot2::theme_bw()
 }
 

@@ -4,7 +4,7 @@ test_that("print reads as a verdict with the numbers", {
   out <- paste(capture.output(print(gap)), collapse = " ")
   expect_match(out, "best explained by 'quadratic'")
   expect_match(out, "held-out settings from")
-  expect_match(out, "'scale' is confounded with theta")
+  expect_match(out, "'scale' is confounded with a: ")
   null <- diagnose_gap(toy_gap(0)$fit, list(quadratic = toy$quad))
   expect_match(paste(capture.output(print(null)), collapse = " "), "No detectable gap")
   other <- diagnose_gap(toy_gap(0.3)$fit, list(scale = toy$scale))
@@ -43,4 +43,14 @@ test_that("a gap the base model's block check flags is 'other' even when evidenc
     expect_identical(gap$verdict$reason, "evidence")
   }
   expect_false(gap$verdict$answer %in% c("none", "quadratic"))
+})
+
+test_that("the verdict label names a gap the blocks flag without a tiny probability", {
+  # the plot's title read "answer: other (P = 1.1e-08)"
+  expect_identical(verdict_label(list(answer = "other", reason = "blocks", prob = 1.1e-8)),
+                   "a local gap no candidate explains")
+  expect_identical(verdict_label(list(answer = "quadratic", reason = "evidence", prob = 0.976)),
+                   "best explained by 'quadratic' (P = 97.6%)")
+  expect_identical(verdict_label(list(answer = "none", reason = "evidence", prob = 2e-4)),
+                   "no gap (P = < 0.1%)")
 })

@@ -59,3 +59,40 @@ test_that("the posterior of a scattered design is a histogram, of a grid bars", 
   expect_false(any(vapply(plot(fit_grid, "posterior")$layers,
                           function(l) inherits(l$geom, "GeomBar"), logical(1))))
 })
+
+test_that("traces are thinned for display and say so", {
+  # 4 x 20,000 draws drew as a solid block and took seconds to save
+  ex <- griddy_example()
+  fit <- without_resolution_warning(
+    calibrate(ex$library, ex$field, n_iter = 6000, burn_in = 1000, chains = 2, seed = 1))
+  tr <- plot(fit, max_points = 500)
+  per_chain <- table(tr$data$chain) / nlevels(tr$data$parameter)
+  expect_true(all(per_chain <= 500))
+  expect_match(tr$labels$subtitle, "One kept draw in 10 shown")
+  expect_null(plot(fit, max_points = 5000)$labels$subtitle)
+})
+
+test_that("the predictive check's subtitle follows `level`", {
+  ex <- griddy_example()
+  fit <- without_resolution_warning(
+    calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100, seed = 1))
+  expect_match(plot(fit, "ppc", level = 0.8, ndraws = 50, seed = 1)$labels$subtitle, "80% band")
+  expect_match(plot(fit, "ppc", ndraws = 50, seed = 1)$labels$subtitle, "95% band")
+})
+
+test_that("the pairs plot shows every pair of theta columns, the truth marked", {
+  ex <- griddy_example()
+  fit <- without_resolution_warning(
+    calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100, seed = 1))
+  p <- plot(fit, "pairs", truth = ex$truth)
+  expect_s3_class(p, "ggplot")
+  pairs <- as.vector(utils::combn(names(ex$library$theta), 2L,
+                                  function(pr) paste0(pr[1], " (x), ", pr[2], " (y)")))
+  expect_identical(levels(p$data$pair), pairs)
+  expect_equal(nrow(p$data), length(pairs) * nrow(fit$draws))
+  expect_silent(ggplot2::ggplot_build(p))
+  one <- sim_library(data.frame(k = 1:5), outer(1:5, 1:4))
+  fit1 <- suppressWarnings(calibrate(one, field_data(c(1, 2, 3, 4.1)), n_iter = 300,
+                                     burn_in = 50, seed = 1))
+  expect_error(plot(fit1, "pairs"), "at least two theta columns", class = "griddy_error_input")
+})
