@@ -271,15 +271,7 @@ emulated_weights <- function(C, setup, n) {
 emulated_error_ratio <- function(library, C, setup, s2, n) {
   w <- emulated_weights(C, setup, n)
   mode <- as.matrix(library$theta)[which.max(rowSums(w)), ]
-  design_error_near(library$emulator, mode, s2)
-}
-
-design_error_near <- function(gp, mode, s2) {
-  th <- gp$loo_theta
-  width <- pmax(apply(th, 2, function(v) diff(range(v))), 1e-300)
-  d2 <- colSums(((t(th) - mode) / width)^2)
-  near <- order(d2)[seq_len(min(2L * ncol(th) + 1L, length(d2)))]
-  sqrt(mean(gp$loo[near, ]^2) / s2)
+  loo_error_near(library$emulator, mode, s2)
 }
 
 warn_design_emulation <- function(ratio) {

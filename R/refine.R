@@ -257,11 +257,19 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 # on the emulator's error model, an estimate.
 emulation_error_ratio <- function(emulator, state) {
   theta <- as.matrix(lib_theta(state$problem$library))
-  mode <- theta[which.max(state$p), ]
-  width <- pmax(apply(emulator$loo_theta, 2, function(v) diff(range(v))), 1e-300)
-  d2 <- colSums(((t(emulator$loo_theta) - mode) / width)^2)
-  near <- order(d2)[seq_len(min(2L * ncol(theta) + 1L, length(d2)))]
-  sqrt(mean(emulator$loo[near, ]^2) / noise_var_pooled(state$problem, posterior_noise_var(state)))
+  loo_error_near(emulator, theta[which.max(state$p), ],
+                 noise_var_pooled(state$problem, posterior_noise_var(state)))
+}
+
+# The root mean square of an emulator's leave-one-out residuals (`loo`, at
+# the runs `loo_theta`) over the 2p + 1 runs nearest `mode` (distances on
+# columns scaled by the runs' ranges), over the noise sd sqrt(s2).
+loo_error_near <- function(emulator, mode, s2) {
+  th <- emulator$loo_theta
+  width <- pmax(apply(th, 2, function(v) diff(range(v))), 1e-300)
+  d2 <- colSums(((t(th) - mode) / width)^2)
+  near <- order(d2)[seq_len(min(2L * ncol(th) + 1L, length(d2)))]
+  sqrt(mean(emulator$loo[near, ]^2) / s2)
 }
 
 # One noise variance for all observed points: the groups' own (see
