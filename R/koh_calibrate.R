@@ -113,11 +113,8 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
     griddy_abort("Every library parameter must vary for koh_calibrate(); constant: ",
                  show_some(colnames(theta)[theta_range[, 2] <= theta_range[, 1]]), ".")
   }
-  design <- koh_design(library)
+  design <- koh_design(library, observed)
   obs_design <- design[observed, , drop = FALSE]
-  varies <- apply(obs_design, 2, function(v) length(unique(v)) > 1L)
-  if (!any(varies)) varies[1] <- TRUE
-  obs_design <- obs_design[, varies, drop = FALSE]
   type <- if (discrepancy == "none") "no-discrepancy" else discrepancy
   n_x <- ncol(obs_design)
   run <- function() {
@@ -184,7 +181,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
 }
 
 # Inputs of the observations, in the library's order (blocks by x setting).
-koh_design <- function(library) {
+koh_design <- function(library, observed = TRUE) {
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
   x <- if (is.null(lib_x(library))) matrix(0, n_x, 0) else as.matrix(lib_x(library))
@@ -192,7 +189,8 @@ koh_design <- function(library) {
   if (n_t > 1L) out <- cbind(out, t = rep(lib_t(library), n_x))
   if (ncol(out) == 0L) out <- matrix(1, n_x * n_t, 1L, dimnames = list(NULL, "x"))
   out <- matrix(as.numeric(out), nrow(out), dimnames = list(NULL, colnames(out)))
-  keep <- apply(out, 2, function(v) length(unique(v)) > 1L)
+  # the inputs that vary over the observed cells
+  keep <- apply(out[observed, , drop = FALSE], 2, function(v) length(unique(v)) > 1L)
   if (!any(keep)) keep[1] <- TRUE
   out[, keep, drop = FALSE]
 }
