@@ -40,17 +40,24 @@ stalled_toy <- function() {
 }
 stall_grid <- c(0, 0.3, 0.6, 0.9)
 
+# The thesis update on a rho grid of an AR(1) toy, expected to warn with
+# `message`; returns the fit.
+stalled_thesis_fit <- function(seed, message) {
+  toy <- stalled_toy()
+  expect_warning(
+    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
+                     chains = 2, update = "thesis", seed = seed),
+    message, class = "griddy_warning_convergence")
+  fit
+}
+
 test_that("thesis update stuck on one rho grid point: a convergence warning", {
   # both chains start at rho_t = 0, which the exact posterior gives 6e-6, and
   # never leave it (the thesis's tau-rho coupling, see ?calibrate): R-hat
   # sees nothing (rho_t is constant), the TV distance is 0.78 against a Monte
   # Carlo reference of 0.06
-  toy <- stalled_toy()
-  expect_warning(
-    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
-                     chains = 2, update = "thesis", seed = 26),
-    "total-variation distance from the exact posterior over runs, beyond Monte Carlo error",
-    class = "griddy_warning_convergence")
+  fit <- stalled_thesis_fit(
+    26, "total-variation distance from the exact posterior over runs, beyond Monte Carlo error")
   expect_true(all(fit$draws$grid_point == 1L))
   s <- summary(fit)
   a <- attr(s, "adequacy")
@@ -62,12 +69,8 @@ test_that("thesis update stuck on one rho grid point: a convergence warning", {
 test_that("thesis chains stuck on different rho grid points: R-hat warns", {
   # chain 1 sits on rho_t = 0.9, chain 2 on rho_t = 0: R-hat of rho_t is
   # infinite (coda's gelman.diag gave about 10), and tau's is 1.8
-  toy <- stalled_toy()
-  expect_warning(
-    fit <- calibrate(toy$library, toy$field, rho_t = stall_grid, n_iter = 1000, burn_in = 200,
-                     chains = 2, update = "thesis", seed = 14),
-    "R-hat above 1.01 for theta \\([0-9.]+\\), tau \\([0-9.]+\\), rho_t \\(Inf\\)",
-    class = "griddy_warning_convergence")
+  fit <- stalled_thesis_fit(
+    14, "R-hat above 1.01 for theta \\([0-9.]+\\), tau \\([0-9.]+\\), rho_t \\(Inf\\)")
   s <- summary(fit)
   expect_true(all(s$rhat > rhat_threshold))
   expect_output(print(s), "Convergence: R-hat above 1.01")
