@@ -58,7 +58,7 @@ design_gp <- function(design, settings) {
   gp$vary <- apply(outputs, 2, function(v) max(v) - min(v) > 1e-12 * max(abs(v), 1e-300))
   gp$constant <- outputs[1, ]
   gp$fit <- if (any(gp$vary)) gp_fit(z, outputs[, gp$vary, drop = FALSE])
-  loo <- design_gp_loo(gp, outputs)
+  loo <- ppgasp_loo(gp$fit, gp$vary, nrow(outputs))
   gp$loo <- loo$residuals
   gp$loo_var <- loo$var
   gp$loo_theta <- if (mode == "theta") grouped$theta else design$theta
@@ -145,23 +145,6 @@ gp_mean_var_at <- function(gp, z) {
   v <- pred$sd[, 1]^2 / gp$fit@sigma2_hat[1]
   v[!is.finite(v)] <- max(c(v[is.finite(v)], 1))
   list(mean = out, var = v)
-}
-
-# Leave-one-out residuals and predictive variances (relative, as
-# design_gp_predict()'s) in closed form at the fitted range parameters, the
-# trend re-estimated without the run (Dubrule 1983): with R the runs'
-# correlation and H the trend basis,
-#   Q = R^-1 - R^-1 H (H' R^-1 H)^-1 H' R^-1,
-#   residual_i = (Q y)_i / Q_ii,  variance_i = 1 / Q_ii.
-design_gp_loo <- function(gp, outputs) {
-  res <- matrix(0, nrow(outputs), ncol(outputs))
-  fit <- gp$fit
-  if (is.null(fit)) return(list(residuals = res, var = rep(0, nrow(outputs))))
-  r_inv <- chol2inv(t(fit@L))
-  r_inv_h <- r_inv %*% fit@X
-  q <- r_inv - r_inv_h %*% solve(crossprod(fit@X, r_inv_h), t(r_inv_h))
-  res[, gp$vary] <- (q %*% fit@output) / diag(q)
-  list(residuals = res, var = 1 / diag(q))
 }
 
 # The GP's correlation between the wanted settings (joint form): its Matern

@@ -96,18 +96,25 @@ gp_predict <- function(emulator, pts) {
   list(outputs = pred$mean, rel_var = rel_var)
 }
 
-# Leave-one-out residuals in closed form for the fitted range parameters,
-# the trend re-estimated without the run (Dubrule 1983): with R the runs'
-# correlation and H the trend basis,
-#   Q = R^-1 - R^-1 H (H' R^-1 H)^-1 H' R^-1,  residual_i = (Q y)_i / Q_ii.
+# Leave-one-out residuals of the library's runs (see ppgasp_loo()).
 gp_loo <- function(emulator) {
-  res <- matrix(0, length(emulator$rows), emulator$n_out)
-  fit <- emulator$fit
-  if (!is.null(fit)) {
-    r_inv <- chol2inv(t(fit@L))
-    r_inv_h <- r_inv %*% fit@X
-    q <- r_inv - r_inv_h %*% solve(crossprod(fit@X, r_inv_h), t(r_inv_h))
-    res[, emulator$vary] <- (q %*% fit@output) / diag(q)
-  }
-  list(rows = emulator$rows, residuals = res)
+  loo <- ppgasp_loo(emulator$fit, emulator$vary, length(emulator$rows))
+  list(rows = emulator$rows, residuals = loo$residuals)
+}
+
+# Leave-one-out residuals and predictive variances (relative to an output's
+# estimated variance) of a ppgasp fit on n runs, in closed form for the
+# fitted range parameters, the trend re-estimated without the run (Dubrule
+# 1983): with R the runs' correlation and H the trend basis,
+#   Q = R^-1 - R^-1 H (H' R^-1 H)^-1 H' R^-1,
+#   residual_i = (Q y)_i / Q_ii,  variance_i = 1 / Q_ii.
+# `vary` marks the outputs the fit models (NULL fit: none; residuals 0).
+ppgasp_loo <- function(fit, vary, n) {
+  res <- matrix(0, n, length(vary))
+  if (is.null(fit)) return(list(residuals = res, var = rep(0, n)))
+  r_inv <- chol2inv(t(fit@L))
+  r_inv_h <- r_inv %*% fit@X
+  q <- r_inv - r_inv_h %*% solve(crossprod(fit@X, r_inv_h), t(r_inv_h))
+  res[, vary] <- (q %*% fit@output) / diag(q)
+  list(residuals = res, var = 1 / diag(q))
 }
