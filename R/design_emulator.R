@@ -137,14 +137,13 @@ design_gp_predict_chunk <- function(gp, theta) {
   list(mean = mean, var = var)
 }
 
+# Mean and relative variance at scaled inputs z; a variance ppgasp cannot give
+# (near-singular runs) counts as the largest given, at least 1.
 gp_mean_var_at <- function(gp, z) {
-  out <- matrix(gp$constant, nrow(z), length(gp$constant), byrow = TRUE)
-  if (is.null(gp$fit)) return(list(mean = out, var = rep(0, nrow(z))))
-  pred <- RobustGaSP::predict.ppgasp(gp$fit, z)
-  out[, gp$vary] <- pred$mean
-  v <- pred$sd[, 1]^2 / gp$fit@sigma2_hat[1]
+  pred <- ppgasp_mean_var(gp$fit, gp$vary, gp$constant, z)
+  v <- pred$var
   v[!is.finite(v)] <- max(c(v[is.finite(v)], 1))
-  list(mean = out, var = v)
+  list(mean = pred$mean, var = v)
 }
 
 # The GP's correlation between the wanted settings (joint form): its Matern

@@ -61,11 +61,19 @@ gp_inputs <- function(emulator, u) {
 # var = the predictive variance relative to an output's estimated variance,
 # the same for every output since they share the correlation).
 gp_mean_var <- function(emulator, u) {
-  out <- matrix(emulator$y[1, ], nrow(u), emulator$n_out, byrow = TRUE)
-  if (is.null(emulator$fit)) return(list(mean = out, var = rep(0, nrow(u))))
-  pred <- RobustGaSP::predict.ppgasp(emulator$fit, gp_inputs(emulator, u))
-  out[, emulator$vary] <- pred$mean
-  list(mean = out, var = pred$sd[, 1]^2 / emulator$fit@sigma2_hat[1])
+  ppgasp_mean_var(emulator$fit, emulator$vary, emulator$y[1, ], gp_inputs(emulator, u))
+}
+
+# A ppgasp fit's predictive mean of every output at inputs z (outputs it does
+# not model keep their `constant` value) and its predictive variance relative
+# to an output's estimated variance (the same for every output, which share
+# the correlation; NaN where ppgasp cannot give it).
+ppgasp_mean_var <- function(fit, vary, constant, z) {
+  out <- matrix(constant, nrow(z), length(constant), byrow = TRUE)
+  if (is.null(fit)) return(list(mean = out, var = rep(0, nrow(z))))
+  pred <- RobustGaSP::predict.ppgasp(fit, z)
+  out[, vary] <- pred$mean
+  list(mean = out, var = pred$sd[, 1]^2 / fit@sigma2_hat[1])
 }
 
 # The largest predictive variance in the region, the scale of rel_var:
