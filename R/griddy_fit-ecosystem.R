@@ -62,10 +62,12 @@ as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 #' value):
 #'
 #' * `coef()`: the posterior **median** of each parameter by default
-#'   (`point = "mean"` for the mean). The \eqn{\theta} posterior is discrete,
-#'   over the library's values: its median is a library value and always lies
-#'   within the central interval, while the mean may fall between runs and
-#'   even outside the interval.
+#'   (`point = "mean"` for the mean, `point = "estimate"` for `summary()`'s
+#'   `estimate`: the mean, or the median where the mean lies outside the 95%
+#'   interval). The \eqn{\theta} posterior is discrete, over the library's
+#'   values: its median is a library value and always lies within the central
+#'   interval, while the mean may fall between runs and even outside the
+#'   interval.
 #' * `confint()`: central (equal-tailed) posterior intervals, the type-1
 #'   quantiles of the draws as in `summary()`, so \eqn{\theta} bounds are
 #'   library values.
@@ -84,7 +86,10 @@ as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 #' * `glance()` ([generics::glance()]): one row describing the fit.
 #'
 #' @param object,x A `griddy_fit` from [calibrate()] or [refine()].
-#' @param point `"median"` (the default) or `"mean"` of the draws.
+#' @param point `"median"` (the default) or `"mean"` of the draws, or
+#'   `"estimate"`: the mean where it lies within the central interval (of
+#'   probability 0.95 for `coef()`, `conf.level` for `tidy()`), otherwise the
+#'   median, as `summary()`'s `estimate`.
 #' @param parm Parameters: names or positions among `names(coef(object))`;
 #'   all by default.
 #' @param level,conf.level Probability of the central interval.
@@ -119,15 +124,16 @@ NULL
 #' @rdname griddy_fit-methods
 #' @importFrom stats coef confint logLik nobs
 #' @export
-coef.griddy_fit <- function(object, point = c("median", "mean"), ...) {
-  point <- assert_choice(point, "point", c("median", "mean"), vector_default = TRUE)
-  point_estimates(parameter_draws(object), point)
+coef.griddy_fit <- function(object, point = c("median", "mean", "estimate"), ...) {
+  point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
+  point_estimates(parameter_draws(object), point, level = 0.95, type = 1)
 }
 
-point_estimates <- function(draws, point) {
-  vapply(draws, function(v) {
-    if (point == "mean") mean(v) else stats::quantile(v, 0.5, type = 1, names = FALSE)
-  }, numeric(1))
+point_choices <- c("median", "mean", "estimate")
+
+# One point estimate per column of draws, as summary() computes it.
+point_estimates <- function(draws, point, level, type) {
+  vapply(draws, function(v) draws_estimates(v, level, type)[[point]], numeric(1))
 }
 
 #' @rdname griddy_fit-methods
@@ -196,14 +202,15 @@ nobs.griddy_fit <- function(object, ...) as.integer(object$n_obs)
 #' @importFrom generics tidy
 #' @method tidy griddy_fit
 #' @export
-tidy.griddy_fit <- function(x, conf.int = TRUE, conf.level = 0.95, point = c("median", "mean"),
-                            ...) {
-  point <- assert_choice(point, "point", c("median", "mean"), vector_default = TRUE)
+tidy.griddy_fit <- function(x, conf.int = TRUE, conf.level = 0.95,
+                            point = c("median", "mean", "estimate"), ...) {
+  point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
   draws_tidy(parameter_draws(x), conf.int, conf.level, point, type = 1)
 }
 
 draws_tidy <- function(draws, conf.int, conf.level, point, type) {
-  out <- data.frame(term = names(draws), estimate = unname(point_estimates(draws, point)),
+  out <- data.frame(term = names(draws),
+                    estimate = unname(point_estimates(draws, point, conf.level, type)),
                     std.error = vapply(draws, stats::sd, numeric(1), USE.NAMES = FALSE))
   if (isTRUE(conf.int)) {
     ci <- draws_confint(draws, level = conf.level, type = type)
@@ -267,10 +274,9 @@ koh_draws <- function(object) object$draws[object$parameters]
 
 #' @rdname griddy_koh-methods
 #' @export
-coef.griddy_koh <- function(object, point = c("median", "mean"), ...) {
-  point <- assert_choice(point, "point", c("median", "mean"), vector_default = TRUE)
-  draws <- koh_draws(object)
-  if (point == "mean") colMeans(draws) else vapply(draws, stats::median, numeric(1))
+coef.griddy_koh <- function(object, point = c("median", "mean", "estimate"), ...) {
+  point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
+  point_estimates(koh_draws(object), point, level = 0.95, type = 7)
 }
 
 #' @rdname griddy_koh-methods
@@ -286,10 +292,8 @@ nobs.griddy_koh <- function(object, ...) sum(!is.na(object$y_field))
 #' @rdname griddy_koh-methods
 #' @method tidy griddy_koh
 #' @export
-tidy.griddy_koh <- function(x, conf.int = TRUE, conf.level = 0.95, point = c("median", "mean"),
-                            ...) {
-  point <- assert_choice(point, "point", c("median", "mean"), vector_default = TRUE)
-  out <- draws_tidy(koh_draws(x), conf.int, conf.level, point, type = 7)
-  if (point == "median") out$estimate <- unname(coef(x))
-  out
+tidy.griddy_koh <- function(x, conf.int = TRUE, conf.level = 0.95,
+                            point = c("median", "mean", "estimate"), ...) {
+  point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
+  draws_tidy(koh_draws(x), conf.int, conf.level, point, type = 7)
 }

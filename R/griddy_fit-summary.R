@@ -45,10 +45,14 @@
 #'
 #' @param object,x A `griddy_fit` from [calibrate()], or its summary.
 #' @param level Probability of the central interval.
-#' @param digits Significant digits to print.
+#' @param digits Significant digits to print, per parameter: each row's
+#'   estimate and bounds are formatted on that parameter's own scale.
+#' @param width Width of the printed lines: the header and notes wrap, and
+#'   the table's columns continue below.
 #' @param ... Ignored.
 #' @return `summary()`: a data.frame of class `griddy_summary` with columns
-#'   `parameter`, `mean`, `median`, `lower`, `upper`, `ess_bulk`,
+#'   `parameter`, `estimate`, `estimate_type`, `mean`, `median`, `lower`,
+#'   `upper`, `ess_bulk`,
 #'   `ess_tail`, `rhat`, `mcse` and `resolution` (`"resolved"` or `"limited"` for each \eqn{\theta}
 #'   parameter, `NA` for the others). Attribute `"adequacy"` holds the checks:
 #'   `parameters`, a data.frame with one row per \eqn{\theta} parameter and
@@ -63,8 +67,18 @@
 #'   library whose runs were predicted by an emulator ([emulated_library()],
 #'   or [refine()] without a simulator), the emulator's leave-one-out error
 #'   near the posterior over the noise sd (`NULL` when every run was
-#'   simulated). `print()` prints the
-#'   table, then one line per limited parameter and per parameter with mass at
+#'   simulated). `estimate` is the posterior mean where it lies within
+#'   \[`lower`, `upper`\] (`estimate_type` `"mean"`), otherwise the median
+#'   (`"median"`). A discrete posterior can put its mean outside its own
+#'   interval: with most of the mass on one library value and the rest on
+#'   values far off, the interval is that one value and the mean lies beside
+#'   it; the median is then a library value inside the interval, where the
+#'   mean is not. [coef()][coef.griddy_fit] and [tidy()][tidy.griddy_fit]
+#'   give this estimate with `point = "estimate"`. `print()` prints the
+#'   table (the estimate, marked `*` where it is the median, the interval's
+#'   bounds named by their probabilities, and the diagnostics; `mean` and
+#'   `median` stay in the data.frame) and a line saying which estimate is
+#'   reported, then one line per limited parameter and per parameter with mass at
 #'   the edge of its range, then a "Convergence:" note for an R-hat above
 #'   1.01 and for a total-variation distance beyond Monte Carlo error, and
 #'   returns its argument invisibly.
@@ -82,15 +96,7 @@
 #' @export
 summary.griddy_fit <- function(object, level = 0.95, ...) {
   assert_level(level)
-  draws <- parameter_draws(object)
-  tail <- (1 - level) / 2
-  rows <- lapply(names(draws), function(p) {
-    v <- draws[[p]]
-    q <- stats::quantile(v, c(tail, 0.5, 1 - tail), type = 1, names = FALSE)
-    data.frame(parameter = p, mean = mean(v), median = q[2], lower = q[1], upper = q[3],
-               chain_diagnostics(chain_matrix(v, object$draws$chain)))
-  })
-  out <- do.call(rbind, rows)
+  out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1)
   adequacy <- library_adequacy(object, level)
   tab <- adequacy$parameters
   out$resolution <- ifelse(tab$limited, "limited", "resolved")[match(out$parameter,
@@ -98,6 +104,32 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
             info = fit_description(object))
+}
+
+# summary()'s rows for a data.frame of draws (one column per parameter) from
+# the chains `chain`: the estimates and interval of draws_estimates() and the
+# chain diagnostics.
+draws_summary <- function(draws, chain, level, type) {
+  do.call(rbind, lapply(names(draws), function(p) {
+    v <- draws[[p]]
+    data.frame(parameter = p, draws_estimates(v, level, type),
+               chain_diagnostics(chain_matrix(v, chain)))
+  }))
+}
+
+# The point estimates and central interval (quantiles of `type`) of one
+# parameter's draws. `estimate` is the mean, unless the mean lies outside the
+# interval, which a discrete posterior allows (most of its mass on one library
+# value, the rest far off): then the median, a value inside it.
+draws_estimates <- function(v, level, type) {
+  tail <- (1 - level) / 2
+  q <- stats::quantile(v, c(tail, 0.5, 1 - tail), type = type, names = FALSE)
+  m <- mean(v)
+  # a constant parameter's mean can differ from its value by rounding
+  slack <- sqrt(.Machine$double.eps) * max(abs(q[c(1, 3)]))
+  inside <- q[1] - slack <= m && m <= q[3] + slack
+  data.frame(estimate = if (inside) m else q[2], estimate_type = if (inside) "mean" else "median",
+             mean = m, median = q[2], lower = q[1], upper = q[3])
 }
 
 fit_description <- function(fit) {
@@ -127,29 +159,79 @@ refinement_description <- function(refinement) {
 
 #' @rdname summary.griddy_fit
 #' @export
-print.griddy_summary <- function(x, digits = 4, ...) {
-  cli::cat_line(attr(x, "info"))
+print.griddy_summary <- function(x, digits = 4, width = getOption("width"), ...) {
+  # a subset of the rows or columns has lost the attributes
+  if (!is.null(attr(x, "info"))) cat_wrapped(strsplit(attr(x, "info"), "\n")[[1]], width)
   level <- if (is.null(attr(x, "level"))) 0.95 else attr(x, "level")
-  tab <- as.data.frame(x)
-  class(tab) <- "data.frame"
-  if (!is.null(tab$resolution)) tab$resolution[is.na(tab$resolution)] <- ""
-  bounds <- names(tab) %in% c("lower", "upper")
-  names(tab)[bounds] <- paste0(names(tab)[bounds], " (", format(100 * level), "%)")
-  print(tab, digits = digits, row.names = FALSE)
+  print_summary_table(x, digits, width, level)
   adequacy <- attr(x, "adequacy")
-  if (!is.null(adequacy)) cli::cat_line(format_adequacy(adequacy))
-  if (!is.null(tab$rhat) && !is.null(adequacy$tv_reference)) {
-    problems <- convergence_problems(stats::setNames(tab$rhat, tab$parameter),
+  if (!is.null(adequacy)) cat_wrapped(format_adequacy(adequacy), width)
+  if (!is.null(x$rhat) && !is.null(adequacy$tv_reference)) {
+    problems <- convergence_problems(stats::setNames(x$rhat, x$parameter),
                                      adequacy$tv_distance, adequacy$tv_reference)
     notes <- format_convergence(problems, adequacy$tv_distance, adequacy$tv_reference)
-    if (length(notes) > 0L) cli::cat_line(paste("Convergence:", notes))
+    if (length(notes) > 0L) cat_wrapped(paste("Convergence:", notes), width)
   }
   invisible(x)
 }
 
 #' @rdname summary.griddy_fit
 #' @export
-print.griddy_fit <- function(x, digits = 4, ...) {
-  print(summary(x), digits = digits)
+print.griddy_fit <- function(x, digits = 4, width = getOption("width"), ...) {
+  print(summary(x), digits = digits, width = width)
   invisible(x)
+}
+
+# Lines wrapped to `width` characters, continuation lines indented.
+cat_wrapped <- function(lines, width) {
+  cli::cat_line(unlist(lapply(lines, strwrap, width = width, exdent = 2)))
+}
+
+# A summary's table as print() shows it, within `width` characters: the
+# estimate (or, in a table without it, the mean and median), the interval
+# and the diagnostics, then a line saying which estimate is reported.
+print_summary_table <- function(x, digits, width, level) {
+  tab <- format_summary_table(x, digits, level)
+  old <- options(width = width)
+  on.exit(options(old))
+  print(tab, row.names = FALSE, right = TRUE)
+  if (!is.null(x$estimate)) cat_wrapped(estimate_note(x$estimate_type, level), width)
+}
+
+# Each parameter's estimate and interval formatted on its own scale (a
+# precision in the thousands beside a coefficient below 1 would force one
+# format on both), effective sample sizes as integers, R-hat to 3 decimals,
+# the MCSE to 2 significant digits.
+format_summary_table <- function(x, digits, level) {
+  tab <- as.data.frame(x)
+  class(tab) <- "data.frame"
+  if (!is.null(tab$estimate)) tab$mean <- tab$median <- NULL
+  values <- intersect(c("estimate", "mean", "median", "lower", "upper"), names(tab))
+  by_row <- vapply(seq_len(nrow(tab)), function(i) {
+    format(unlist(tab[i, values]), digits = digits, scientific = 4, trim = TRUE)
+  }, character(length(values)))
+  tab[values] <- as.data.frame(matrix(by_row, nrow = nrow(tab), byrow = TRUE))
+  marked <- tab$estimate_type %in% "median"
+  if (any(marked)) tab$estimate <- paste0(tab$estimate, ifelse(marked, "*", " "))
+  tab$estimate_type <- NULL
+  for (ess in intersect(c("ess_bulk", "ess_tail"), names(tab))) {
+    tab[[ess]] <- format(round(tab[[ess]]), trim = TRUE)
+  }
+  if (!is.null(tab$rhat)) tab$rhat <- formatC(tab$rhat, digits = 3, format = "f")
+  if (!is.null(tab$mcse)) tab$mcse <- vapply(tab$mcse, format, "", digits = 2)
+  if (!is.null(tab$resolution)) tab$resolution[is.na(tab$resolution)] <- ""
+  # the bounds' probabilities, as confint() names them
+  tail <- (1 - level) / 2
+  names(tab)[names(tab) == "lower"] <- format_percent(tail)
+  names(tab)[names(tab) == "upper"] <- format_percent(1 - tail)
+  tab
+}
+
+# Which estimate the table reports, and why where it is the median.
+estimate_note <- function(estimate_type, level) {
+  paste0("estimate: posterior mean",
+         if (any(estimate_type %in% "median")) {
+           paste0("; * posterior median, where the mean lies outside the ", format(100 * level),
+                  "% interval")
+         }, ".")
 }

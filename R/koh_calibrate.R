@@ -227,10 +227,16 @@ koh_quietly <- function(quiet, expr) {
 #' Summarise a Kennedy-O'Hagan baseline fit
 #'
 #' @param object A `griddy_koh` fit from [koh_calibrate()].
+#' @param x A `griddy_koh_summary`.
 #' @param level Credible level of the equal-tailed interval.
+#' @param digits Significant digits to print (per parameter, as in
+#'   [summary()][summary.griddy_fit]).
+#' @param width Width of the printed lines.
 #' @param ... Unused.
 #' @return A data.frame (class `griddy_koh_summary`) with one row per
-#'   parameter: `parameter`, `mean`, `median`, `lower`, `upper`, and the
+#'   parameter: `parameter`, `estimate` and `estimate_type` (the mean, or the
+#'   median where the mean lies outside the interval, as in
+#'   [summary()][summary.griddy_fit]), `mean`, `median`, `lower`, `upper`, and the
 #'   rank-normalised `ess_bulk`, `ess_tail`, `rhat` (split chain) and `mcse`
 #'   of Vehtari et al. (2021), as in [summary()][summary.griddy_fit], so the
 #'   two methods' effective sample sizes compare like for like.
@@ -243,22 +249,17 @@ koh_quietly <- function(quiet, expr) {
 #' @export
 summary.griddy_koh <- function(object, level = 0.95, ...) {
   assert_level(level)
-  tail <- (1 - level) / 2
-  rows <- lapply(object$parameters, function(p) {
-    v <- object$draws[[p]]
-    q <- stats::quantile(v, c(tail, 0.5, 1 - tail), names = FALSE)
-    data.frame(parameter = p, mean = mean(v), median = q[2], lower = q[1], upper = q[3],
-               chain_diagnostics(matrix(v, ncol = 1L)))
-  })
-  structure(do.call(rbind, rows), class = c("griddy_koh_summary", "data.frame"),
-            level = level)
+  draws <- koh_draws(object)
+  structure(draws_summary(draws, rep(1L, nrow(draws)), level, type = 7),
+            class = c("griddy_koh_summary", "data.frame"), level = level)
 }
 
+#' @rdname summary.griddy_koh
 #' @export
-print.griddy_koh_summary <- function(x, digits = 4, ...) {
-  cli::cat_line("Kennedy-O'Hagan baseline, ", 100 * attr(x, "level"),
-                "% equal-tailed intervals")
-  print(as.data.frame(unclass(x)), digits = digits, row.names = FALSE)
+print.griddy_koh_summary <- function(x, digits = 4, width = getOption("width"), ...) {
+  cat_wrapped(paste0("Kennedy-O'Hagan baseline, ", 100 * attr(x, "level"),
+                     "% equal-tailed intervals"), width)
+  print_summary_table(x, digits, width, attr(x, "level"))
   invisible(x)
 }
 

@@ -296,7 +296,7 @@ test_that("calibrate() with missing data samples the exact posterior over the ob
                         prior = prior)
   freq <- tabulate(fit$draws$run, nbins = 8) / nrow(fit$draws)
   expect_lt(tv_distance(freq, ex$run), 0.05)
-  expect_output(print(summary(fit)), "11 data points \\(4 missing\\)")
+  expect_output(print(summary(fit), width = 200), "11 data points \\(4 missing\\)")
 })
 
 test_that("replicates: tau's posterior uses every measurement", {
@@ -334,7 +334,8 @@ test_that("replicates: summary counts measurements and cells; predict() is per m
   toy <- toy_replicates()
   fit <- without_resolution_warning(
     calibrate(toy$library, toy$field, n_iter = 2000, burn_in = 200, seed = 1))
-  expect_output(print(summary(fit)), "28 data points at 15 measured cells \\(replicates\\)")
+  expect_output(print(summary(fit), width = 200),
+                "28 data points at 15 measured cells \\(replicates\\)")
   pr <- predict(fit, ndraws = 2000, seed = 1)
   # the observed column holds the cell means
   expect_equal(pr$observed[1], mean(toy$y_rep[1:3, 1]))

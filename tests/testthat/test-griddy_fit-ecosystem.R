@@ -43,11 +43,17 @@ test_that("the other draws formats and summarise_draws() work on a fit", {
   expect_true(all(c("rhat", "ess_bulk", "ess_tail") %in% names(s)))
 })
 
-test_that("coef() gives summary()'s medians, or its means", {
+test_that("coef() gives summary()'s medians, its means or its estimates", {
   fit <- eco_fit()
+  # a and b: 98% of the draws on run 1, 2% on run 16, so their means lie
+  # outside their 95% intervals and summary()'s estimate is the median
+  fit$draws$run <- ifelse(seq_len(nrow(fit$draws)) %% 50 == 0, 16L, 1L)
   s <- summary(fit)
+  expect_identical(s$estimate_type[1:2], c("median", "median"))
   expect_identical(coef(fit), stats::setNames(s$median, s$parameter))
   expect_identical(coef(fit, point = "mean"), stats::setNames(s$mean, s$parameter))
+  expect_identical(coef(fit, point = "estimate"), stats::setNames(s$estimate, s$parameter))
+  expect_false(identical(s$estimate, s$mean))
   expect_error(coef(fit, point = "mode"), class = "griddy_error_input")
 })
 
@@ -110,6 +116,7 @@ test_that("tidy() has one row per parameter with summary()'s values", {
   expect_identical(td$conf.high, s$upper)
   expect_equal(td$std.error, unname(vapply(parameter_draws(fit), stats::sd, 0)))
   expect_identical(tidy(fit, point = "mean")$estimate, s$mean)
+  expect_identical(tidy(fit, conf.level = 0.9, point = "estimate")$estimate, s$estimate)
   expect_identical(names(tidy(fit, conf.int = FALSE)), c("term", "estimate", "std.error"))
   expect_identical(generics::tidy(fit), tidy(fit))
 })
@@ -141,6 +148,8 @@ test_that("griddy_koh has coef(), confint(), nobs() and tidy()", {
   s <- summary(koh, level = 0.8)
   expect_identical(coef(koh), stats::setNames(s$median, s$parameter))
   expect_identical(coef(koh, point = "mean"), stats::setNames(s$mean, s$parameter))
+  expect_identical(coef(koh, point = "estimate"),
+                   stats::setNames(summary(koh)$estimate, s$parameter))
   ci <- confint(koh, level = 0.8)
   expect_identical(unname(ci[, 1]), s$lower)
   expect_identical(unname(ci[, 2]), s$upper)

@@ -6,10 +6,12 @@ test_that("summary has one row per sampled parameter with rank-normalised diagno
   expect_s3_class(s, "griddy_summary")
   expect_s3_class(s, "data.frame")
   expect_identical(s$parameter, c("theta", "tau", "rho_t"))
-  expect_identical(names(s), c("parameter", "mean", "median", "lower", "upper", "ess_bulk",
-                               "ess_tail", "rhat", "mcse", "resolution"))
+  expect_identical(names(s), c("parameter", "estimate", "estimate_type", "mean", "median",
+                               "lower", "upper", "ess_bulk", "ess_tail", "rhat", "mcse",
+                               "resolution"))
   d <- as.data.frame(fit)
   expect_equal(s$mean[1], mean(d$theta))
+  expect_true(all(s$lower <= s$estimate & s$estimate <= s$upper))
   expect_true(all(s$lower <= s$median & s$median <= s$upper))
   expect_true(all(s$lower[1:2] %in% c(unique(d$theta), d$tau)))
   expect_true(all(s$ess_bulk > 100))
@@ -42,9 +44,11 @@ test_that("one chain gives a split-chain rhat; print shows the table and the ade
   s <- summary(fit)
   expect_true(all(is.finite(s$rhat)))
   expect_output(print(s), "ess_bulk ess_tail")
-  expect_output(print(s), "Monte Carlo error alone: [0-9.]+ at [0-9]+ effective draws")
+  expect_output(print(s, width = 200),
+                "Monte Carlo error alone: [0-9.]+ at [0-9]+ effective draws")
+  expect_output(print(s), "\nestimate: posterior mean\\.\n")
   expect_output(print(s), "collapsed update\\) over 40 runs x 1 correlation grid point")
-  expect_output(print(s), "lower \\(95%\\)")
+  expect_output(print(s), "2.5 % 97.5 %")
   expect_output(print(s), "effective number of runs")
   expect_output(out <- print(fit), "theta")
   expect_identical(out, fit)
@@ -56,10 +60,12 @@ test_that("summary marks limited parameters and print explains them and edge mas
                           classes = "griddy_warning_resolution")
   s <- summary(fit)
   expect_identical(s$resolution, c("limited", NA))
-  expect_output(print(fit), paste0("theta: interval limited by the library's resolution ",
-                                   "\\(1.0 effective values; 10 needed\\); see \\?refine"))
-  expect_output(print(fit), paste0("theta: 100% of the posterior at the library's maximum; ",
-                                   "the truth may lie outside the library's range of theta"))
+  expect_output(print(fit, width = 200),
+                paste0("theta: interval limited by the library's resolution ",
+                       "\\(1.0 effective values; 10 needed\\); see \\?refine"))
+  expect_output(print(fit, width = 200),
+                paste0("theta: 100% of the posterior at the library's maximum; ",
+                       "the truth may lie outside the library's range of theta"))
 })
 
 test_that("a fine library resolves its parameters and prints no resolution line", {
@@ -82,4 +88,64 @@ test_that("two parameters: each gets its own resolution", {
   fit <- suppressWarnings(calibrate(sim_library(grid, y, t = t), f, n_iter = 1000, burn_in = 200,
                                     seed = 1), classes = "griddy_warning_resolution")
   expect_identical(summary(fit)$resolution, c("limited", "resolved", NA))
+})
+
+# A fit whose tau is in the thousands (noise sd 0.025) beside a theta below 1.
+precise_fit <- function() {
+  toy <- toy_ar1(n_runs = 200, n_t = 60, sd = 0.025, lag_cor = 0)
+  suppressWarnings(calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 200, chains = 2,
+                             seed = 1),
+                   classes = "griddy_warning_resolution")
+}
+
+test_that("print formats each parameter on its own scale (tau ~2000 beside theta ~0.4)", {
+  fit <- precise_fit()
+  s <- summary(fit)
+  expect_gt(s$median[2], 1000)
+  expect_lt(s$median[1], 1)
+  out <- utils::capture.output(print(s, width = 200))
+  expect_false(any(grepl("e\\+", out)))
+  # tau's estimate and bounds as whole numbers, theta's to 4 significant digits
+  expect_match(out, "^ +tau +[0-9]{4} +[0-9]{4} +[0-9]{4} ", all = FALSE)
+  expect_match(out, "^ +theta +0\\.[0-9]{4}\\*? +0\\.[0-9]{4} +0\\.[0-9]{4} ", all = FALSE)
+  # the data.frame stays numeric
+  expect_type(s$estimate, "double")
+  expect_type(s$lower, "double")
+})
+
+test_that("a mean outside its own interval is reported as the median, and print says so", {
+  # 98% of the draws on one value, 2% far off: the 95% interval is that value,
+  # the mean beside it
+  expect_equal(draws_estimates(c(rep(0.5, 98), rep(1, 2)), 0.95, type = 1),
+               data.frame(estimate = 0.5, estimate_type = "median", mean = 0.51, median = 0.5,
+                          lower = 0.5, upper = 0.5))
+  expect_identical(draws_estimates(c(0.2, 0.5, 0.5, 0.6), 0.95, type = 1)$estimate_type, "mean")
+  # the same in a fit: its theta draws set to run 101 (theta 0.5025), every
+  # 50th to run 200 (theta 1)
+  fit <- precise_fit()
+  fit$draws$run <- ifelse(seq_len(nrow(fit$draws)) %% 50 == 0, 200L, 101L)
+  s <- summary(fit)
+  expect_identical(s$estimate_type, c("median", "mean"))
+  expect_identical(s$estimate[1], fit$library$theta$theta[101])
+  expect_gt(s$mean[1], s$upper[1])
+  expect_identical(s$estimate[2], s$mean[2])
+  out <- utils::capture.output(print(s, width = 200))
+  expect_match(out, "^ +theta +0\\.5025\\* ", all = FALSE)
+  expect_match(out, paste0("^estimate: posterior mean; \\* posterior median, where the mean ",
+                           "lies outside the 95% interval\\.$"), all = FALSE)
+})
+
+test_that("print keeps every line within width, from the argument or the option", {
+  fit <- precise_fit()
+  s <- summary(fit)
+  for (width in c(40, 60, 100)) {
+    out <- utils::capture.output(print(s, width = width))
+    expect_lte(max(nchar(out)), width)
+    expect_match(out, "^Griddy Gibbs", all = FALSE)
+  }
+  narrow <- withr::with_options(list(width = 50), utils::capture.output(print(fit)))
+  expect_lte(max(nchar(narrow)), 50)
+  expect_match(narrow, "ess_bulk", all = FALSE)
+  # a subset of columns prints what it holds
+  expect_output(print(s[c("parameter", "mean", "rhat")]), "parameter +mean +rhat")
 })

@@ -115,3 +115,20 @@ test_that("koh_calibrate() reads a library on disk through the library interface
   }
   expect_identical(run(disk)$draws, run(toy$library)$draws)
 })
+
+test_that("a KOH summary prints each parameter on its own scale, within width", {
+  set.seed(1)
+  draws <- data.frame(iteration = 1:400, h = stats::rnorm(400, 1510, 30),
+                      k = stats::runif(400, 0.4, 0.6), sigma2 = stats::rexp(400))
+  koh <- structure(list(draws = draws, parameters = c("h", "k")), class = "griddy_koh")
+  s <- summary(koh)
+  expect_identical(s$estimate, s$mean)
+  expect_identical(s$estimate_type, c("mean", "mean"))
+  out <- utils::capture.output(print(s, width = 200))
+  expect_false(any(grepl("e\\+", out)))
+  expect_match(out, "^ +h +1[0-9]{3} +1[0-9]{3} +1[0-9]{3} ", all = FALSE)
+  expect_match(out, "^ +k +0\\.[0-9]{4} +0\\.[0-9]{4} +0\\.[0-9]{4} ", all = FALSE)
+  expect_match(out, "^estimate: posterior mean\\.$", all = FALSE)
+  narrow <- utils::capture.output(print(s, width = 40))
+  expect_lte(max(nchar(narrow)), 40)
+})
