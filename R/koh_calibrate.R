@@ -2,18 +2,22 @@
 #'
 #' Runs the calibration a user would choose instead of Griddy Gibbs: a
 #' Gaussian-process emulator of the simulator trained on a (small) library,
-#' a Gaussian-process discrepancy and random-walk Metropolis within Gibbs,
-#' as implemented by the CRAN package 'RobustCalibration' (Gu), with the
-#' emulator from 'RobustGaSP'. Both packages are optional (Suggests); this is
-#' the baseline of the thesis's chapter 4, see `vignette("chapter4")`.
+#' a Gaussian-process discrepancy (or none) and random-walk Metropolis within
+#' Gibbs, as implemented by the CRAN package 'RobustCalibration' (Gu), with
+#' the emulator from 'RobustGaSP'. Both packages are optional (Suggests).
+#' With `discrepancy = "none"` it is the baseline of the thesis's chapter 4,
+#' whose traditional calibration had no discrepancy in its data model; see
+#' `vignette("chapter4")`.
 #'
 #' The emulator is one parallel partial Gaussian process
 #' ([RobustGaSP::ppgasp()], no nugget) from the library's parameters to all
 #' its outputs, fitted once and passed to [RobustCalibration::rcalibration()]
 #' as the math model, so the sampler evaluates the emulator's predictive mean
 #' at each proposed \eqn{\theta}. The discrepancy is a GP (`"GaSP"`), a scaled
-#' GP (`"S-GaSP"`, Gu and Wang 2018) or absent (`"none"`) over the
-#' observations' inputs: the library's x settings (and t, if any). The prior
+#' GP (`"S-GaSP"`, Gu and Wang 2018) over the observations' inputs (the
+#' library's x settings, and t if any), or absent (`"none"`,
+#' RobustCalibration's `"no-discrepancy"`: the data are the emulator's mean
+#' plus independent noise of unknown variance). The prior
 #' on \eqn{\theta} is uniform on the range of the library's parameters.
 #'
 #' Proposal scale. 'RobustCalibration' proposes all of \eqn{\theta} at once
@@ -46,8 +50,10 @@
 #'   stream is left as it was).
 #' @param quiet Silence the two packages' console output.
 #' @return An object of class `griddy_koh`: a list holding the kept `draws` (a
-#'   data.frame with `iteration`, one column per parameter, and the
-#'   discrepancy's `sigma2`), the `parameters`' names, the fitted `emulator` (a list: the [RobustGaSP::ppgasp()] fit
+#'   data.frame with `iteration`, one column per parameter, and `sigma2`:
+#'   the noise variance, RobustCalibration's \eqn{\sigma_0^2}; with a
+#'   discrepancy, its variance is `sigma2` over the sampled nugget
+#'   parameter), the `parameters`' names, the fitted `emulator` (a list: the [RobustGaSP::ppgasp()] fit
 #'   `gp` of the outputs that vary over the runs, `vary`, and `constant`),
 #'   the `discrepancy`, the `proposal_sd` used, the `acceptance` rates of
 #'   the \eqn{\theta} and kernel moves, `y_field`, the `design` of the

@@ -32,6 +32,11 @@ test_that("koh_calibrate() recovers the truth of a tiny problem (GaSP and no dis
     expect_equal(nrow(p), 8)
     expect_equal(p$observed, drop(toy$field$y))
     expect_lt(max(abs(p$mean - p$observed)), 0.2)
+    if (d == "none") {
+      # without a discrepancy sigma2 is the noise variance (sd 0.02)
+      expect_true(stats::quantile(fit$draws$sigma2, 0.025) < 0.02^2)
+      expect_true(0.02^2 < stats::quantile(fit$draws$sigma2, 0.975))
+    }
   }
 })
 
@@ -85,21 +90,23 @@ test_that("the shipped chapter-4 comparison has the thesis's tables 4.1-4.5", {
   ch4 <- readRDS(path)
   htc <- c("htc_undercrown", "htc_gallery1", "htc_gallery2")
   tab <- ch4$tables[ch4$tables$parameter %in% htc, ]
-  methods <- c("Griddy Gibbs", "KOH (GaSP)", "KOH (S-GaSP)")
+  # the thesis's comparison (no discrepancy in the data model) and our extension
+  methods <- c("Griddy Gibbs", "KOH (no discrepancy)", "KOH (GaSP)", "KOH (S-GaSP)")
   for (n in c(6, 15, 27, 54)) {
     d <- tab[tab$n_points == n & tab$method %in% methods, ]
-    expect_equal(nrow(d), 9)
+    expect_equal(nrow(d), 12)
     expect_setequal(d$method, methods)
-    expect_true(all(c("lower", "estimate", "truth", "upper") %in% names(d)))
+    expect_true(all(c("lower", "estimate", "median", "truth", "upper") %in% names(d)))
     # (a discrete posterior's mean may lie outside an interval collapsed to
-    # one library value, as in the thesis's tables, so only lower <= upper)
-    expect_true(all(d$lower <= d$upper))
+    # one library value, as in the thesis's tables; its median may not)
+    expect_true(all(d$lower <= d$median & d$median <= d$upper))
     expect_equal(unname(d$truth[match(htc, d$parameter)]), c(1000, 3000, 2000))
   }
+  expect_setequal(unique(ch4$thesis_tables$n_points), c(6, 15, 27, 54))
   rt <- ch4$runtime
   expect_setequal(unique(rt$n_points), c(6, 15, 27, 54))
   expect_true(all(c("seconds", "ratio_to_griddy", "ess_per_s") %in% names(rt)))
-  expect_equal(as.vector(table(rt$method)), rep(4L, 4))
+  expect_equal(as.vector(table(rt$method)), rep(4L, 5))
   expect_true(all(rt$seconds > 0))
 })
 
