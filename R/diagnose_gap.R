@@ -139,8 +139,16 @@
 #'     residual / fitted noise sd, times the point's relative sd where given)
 #'     under the base posterior, `NA` at missing cells;
 #'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
-#'     `advice`, `n_flagged` and `prob_none`.
-#' @seealso [posterior_exact()], [calibrate()]
+#'     `advice` (a sentence per parameter that absorbs confounded
+#'     candidates, then where to measure to separate them), `n_flagged` and
+#'     `prob_none`.
+#'
+#'   `print()` gives the short result: the verdict (answer, probability,
+#'   held-out shrinkage), the worst flagged block, one line per model and the
+#'   design advice once; [summary()][summary.gap_diagnosis] explains the
+#'   verdict and gives the full tables.
+#' @seealso [summary.gap_diagnosis()], [plot.gap_diagnosis()], [posterior_exact()],
+#'   [calibrate()]
 #' @examples
 #' t <- seq(0, 1, length.out = 30)
 #' x <- data.frame(load = c(1, 2, 3))
