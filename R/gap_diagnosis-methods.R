@@ -126,7 +126,8 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
                     ends[, 1], "-", ends[, 2],
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
     paste0("Where: ", nrow(fl), " of ", nrow(wh), " blocks ",
-           if (scores) "depart from the fitted noise" else "flagged", " (", fdr, "); worst at ",
+           if (!scores) "flagged" else if (nrow(fl) == 1L) "departs from the fitted noise" else
+             "depart from the fitted noise", " (", fdr, "); worst at ",
            paste(spots, collapse = "; "))
   }
   n_empty <- sum(wh$n == 0L)
@@ -313,7 +314,7 @@ plot.gap_diagnosis <- function(x, ...) {
   wh$setting <- factor(lab[wh$x], levels = lab)
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
   title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),
-                  " block(s) flagged; ", verdict_label(x$verdict))
+                  " blocks flagged; ", verdict_label(x$verdict))
   if (length(x$t) == 1L) {
     map$flagged <- wh$flagged[match(map$x, wh$x)]
     return(ggplot2::ggplot(map, ggplot2::aes(.data$setting, .data$z, fill = .data$flagged)) +
