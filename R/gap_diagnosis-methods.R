@@ -1,18 +1,27 @@
 # The verdict of a gap diagnosis, and its print(), summary() and plot() methods.
 
-# The advice for confounded candidates: one sentence per absorbing parameter
-# (what it imitates), then once where a measurement could separate them.
-gap_advice <- function(which_tab, x) {
+# The advice for confounded candidates: per candidate, where across x it and
+# the parameter that absorbs it part (design_sentence(), from the diagnosis's
+# `separation` table); for those whose comparison across x says nothing (one
+# setting, alike at every one, or a diagnosis without the table), one sentence
+# per absorbing parameter saying what it imitates (unless `explain` is FALSE:
+# print()'s model lines say it), then once the generic design advice.
+gap_advice <- function(which_tab, separation, x, explain = TRUE) {
   conf <- which_tab[which_tab$confounded, ]
   if (nrow(conf) == 0L) return(character(0))
-  by_param <- split(conf$effect, factor(conf$absorbed_by, unique(conf$absorbed_by)))
+  computed <- lapply(conf$effect, function(e) {
+    if (!is.null(separation)) design_sentence(separation[separation$effect == e, ], x)
+  })
+  generic <- conf[vapply(computed, is.null, logical(1)), ]
+  if (nrow(generic) == 0L) return(unlist(computed))
+  by_param <- split(generic$effect, factor(generic$absorbed_by, unique(generic$absorbed_by)))
   absorbed <- vapply(names(by_param), function(p) {
     eff <- by_param[[p]]
     paste0(quoted_list(eff), if (length(eff) == 1L) " is" else " are", " confounded with ", p,
            ": at these settings a shift of ", p, " imitates ",
            if (length(eff) == 1L) "it." else "each.")
   }, character(1))
-  c(unname(absorbed), design_advice(x))
+  c(unlist(computed), if (explain) unname(absorbed), design_advice(x))
 }
 
 # Where a measurement could separate a confounded candidate from theta. At
@@ -23,6 +32,10 @@ gap_advice <- function(which_tab, x) {
 design_advice <- function(x) {
   where <- if (is.null(x)) {
     "at a second value of a condition the effect depends on (this library has one setting)"
+  } else if (nrow(x) == 1L) {
+    paste0("at a second value of ", paste(names(x), collapse = " or "), " (this library has ",
+           "one setting, ", gap_x_labels(list(x = x)), "), or at another condition the effect ",
+           "depends on")
   } else {
     ranges <- vapply(x, function(v) paste0(format(min(v), digits = 3), "-",
                                             format(max(v), digits = 3)), "")
@@ -53,7 +66,7 @@ prob_phrase <- function(p, what = "P") {
   paste0(what, ifelse(grepl("^[<>]", s), " ", " = "), s)
 }
 
-gap_verdict <- function(which_tab, screen, base, where) {
+gap_verdict <- function(which_tab, separation, base, where) {
   ok <- !which_tab$confounded
   answer <- which_tab$effect[ok][1]
   prob <- which_tab$prob[ok][1]
@@ -66,7 +79,7 @@ gap_verdict <- function(which_tab, screen, base, where) {
     prob <- which_tab$prob[which_tab$effect == "other"]
   }
   conf <- which_tab$effect[which_tab$confounded]
-  advice <- gap_advice(which_tab, lib_x(base))
+  advice <- gap_advice(which_tab, separation, lib_x(base))
   list(answer = answer, prob = prob, reason = reason, confounded = conf,
        advice = unname(advice), n_flagged = n_flagged,
        prob_none = which_tab$prob[which_tab$effect == "none"])
@@ -163,7 +176,7 @@ print.gap_diagnosis <- function(x, ...) {
   cli::cat_line(wrap_lines(c(verdict_line(x), where_line(x))))
   cli::cat_line(model_lines(x))
   # the table's notes say what absorbs each confounded candidate
-  if (any(x$which$confounded)) cli::cat_line(wrap_lines(design_advice(x$x)))
+  cli::cat_line(wrap_lines(gap_advice(x$which, x$separation, x$x, explain = FALSE)))
   invisible(x)
 }
 
@@ -214,7 +227,8 @@ summary.gap_diagnosis <- function(object, ...) {
   rownames(fl) <- NULL
   structure(list(explanation = verdict_explanation(object),
                  where = where_line(object, n_worst = 3L, scores = TRUE),
-                 advice = gap_advice(object$which, object$x), models = models, flagged = fl,
+                 advice = gap_advice(object$which, object$separation, object$x),
+                 models = models, flagged = fl,
                  settings = object$settings),
             class = "gap_diagnosis_summary")
 }

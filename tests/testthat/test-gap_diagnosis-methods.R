@@ -66,7 +66,7 @@ test_that("summary() keeps what print() leaves out", {
                     names(s$models)))
   cand <- match(gap$shrinkage$effect, s$models$effect)
   expect_identical(s$models$shrink[cand], gap$shrinkage$shrink)
-  expect_identical(s$advice, gap_advice(gap$which, gap$x))
+  expect_identical(s$advice, gap$verdict$advice)
   out <- gsub("\\s+", " ", paste(capture.output(res <- print(s)), collapse = " "))
   expect_identical(res, s)
   expect_match(out, "'scale' and 'shrink_a' are confounded with a: ")
