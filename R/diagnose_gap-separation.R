@@ -3,38 +3,39 @@
 # unexplained. See ?diagnose_gap (`separation`) and design_sentence().
 
 # The candidate's effect d_c (its run at strength `pair[1]` minus its
-# zero-strength run `pair[2]`) against the parameter's effect d_p (the base
-# library's slope along parameter `p` near the posterior mode, from a local
-# linear fit on the runs nearest the mode in scaled theta `tb`), on the
-# simulator's outputs (divided by the cells' relative sd where given). One
-# multiple beta of d_p fits d_c over every setting; per setting, `unexplained`
-# is |d_c - beta d_p| over the larger of |d_c| and |beta d_p| there (0: the
-# parameter imitates the effect at that setting; 1 or more: it does not), and
-# `ratio` is that setting's own best multiple over beta (its trend across x
-# says where the two drift apart). NULL with fewer than two x settings or no
-# slope along `p`.
-effect_separation <- function(ctx, base_Y, tb, mode_run, cand, pair, p, effect) {
+# zero-strength run `pair[2]`, which is the base model) against the
+# parameter's effect d_p (the base run `imitator$j` that imitates the first,
+# found by the confounding screen, minus that same zero-strength run: the
+# output change of shifting theta, mostly `p`, by the amount that absorbs the
+# effect), on the simulator's outputs (divided by the cells' relative sd
+# where given). As in the screen, the imitation is a multiple of d_p plus a
+# local linear correction (the differences of the base runs `imitator$nb`
+# nearest run j in theta), fitted over every setting at once, so that the
+# library's spacing is not read as a difference between the two effects.
+# Per setting, `unexplained` is |d_c - imitation| over the larger of |d_c|
+# and |imitation| there (0: the shift imitates the effect at that setting;
+# 1 or more: it does not), and `ratio` is that setting's own best multiple
+# of d_p over the multiple fitted to all settings (its drift across x says
+# where the two part further). NULL with fewer than two x settings or no
+# shift.
+effect_separation <- function(ctx, base_Y, cand, pair, imitator, p, effect) {
   if (ctx$n_x < 2L) return(NULL)
-  m <- min(nrow(tb), 3L * ncol(tb) + 3L)
-  nb <- order(colSums((t(tb) - tb[mode_run, ])^2))[seq_len(m)]
-  coef <- stats::lm.fit(cbind(1, tb[nb, , drop = FALSE]), base_Y[nb, , drop = FALSE])$coefficients
-  d_p <- coef[1L + match(p, colnames(tb)), ]
   out <- lib_outputs(cand, pair)
-  d_c <- out[1, ] - out[2, ]
   w <- if (is.null(ctx$sd)) 1 else 1 / ifelse(is.finite(ctx$sd) & ctx$sd > 0, ctx$sd,
                                                   stats::median(ctx$sd, na.rm = TRUE))
-  d_c <- d_c * w
-  d_p <- d_p * w
+  d_c <- (out[1, ] - out[2, ]) * w
+  d_p <- (base_Y[imitator$j, ] - out[2, ]) * w
   if (anyNA(d_p) || sum(d_p^2) == 0) return(NULL)
+  local <- t(sweep(base_Y[imitator$nb, , drop = FALSE], 2, base_Y[imitator$j, ], "-")) * w
+  imitation <- d_c - stats::lm.fit(cbind(d_p, local), d_c)$residuals
   beta <- sum(d_c * d_p) / sum(d_p^2)
   setting <- rep(seq_len(ctx$n_x), each = ctx$n_t)
   norm_by <- function(v) sqrt(as.vector(rowsum(v^2, setting)))
   size_c <- norm_by(d_c)
-  size_p <- norm_by(beta * d_p)
   ratio <- as.vector(rowsum(d_c * d_p, setting)) / as.vector(rowsum(d_p^2, setting)) / beta
   tab <- data.frame(effect = effect, absorbed_by = p, setting = seq_len(ctx$n_x),
                     effect_size = size_c,
-                    unexplained = norm_by(d_c - beta * d_p) / pmax(size_c, size_p),
+                    unexplained = norm_by(d_c - imitation) / pmax(size_c, norm_by(imitation)),
                     ratio = ifelse(is.finite(ratio), ratio, NA_real_),
                     stringsAsFactors = FALSE)
   if (!is.null(ctx$x)) tab <- cbind(tab[1:3], ctx$x, tab[-(1:3)])

@@ -144,13 +144,14 @@
 #'     the x setting), the x columns, `effect_size` (the candidate's effect
 #'     there: its output at the strength the confounding screen judged minus
 #'     its zero-strength output, near the posterior mode), `unexplained` (the
-#'     part of it that one multiple of the parameter's effect, fitted over
-#'     all settings, leaves there, relative to the larger of the two effects
-#'     there: 0 where a shift of the parameter imitates it) and `ratio` (the
-#'     setting's own best multiple over the overall one: its drift across x
-#'     says where the two part further). The parameter's effect is the base
-#'     library's slope along it near the posterior mode (a local linear fit);
-#'     outputs are divided by the cells' relative sd where given;
+#'     part of that effect the screen's imitation leaves there, relative to
+#'     the larger of the effect and its imitation there: 0 where a shift of
+#'     theta imitates it; the imitation is a multiple of the shift to the
+#'     imitating base run plus a local linear correction, fitted over all
+#'     settings at once) and `ratio` (the setting's own best multiple of that
+#'     shift over the multiple fitted to all settings: its drift across x
+#'     says where the two part further). Outputs are divided by the cells'
+#'     relative sd where given;
 #'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
 #'     `advice` (per confounded candidate, the settings where it and the
 #'     parameter that absorbs it act most and least alike and where to
@@ -566,7 +567,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
     dist[c(j, drop)] <- Inf
     nb <- order(dist)[seq_len(m)]
     Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
-    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j)
+    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j, nb = nb)
   }
   # the library's own resolution: how well the other runs imitate runs near the mode
   around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
@@ -578,7 +579,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
     delta <- sqrt(sum((w[1, ] - w[2, ])^2))
     im <- imitate(w[1, ])
     shift <- abs(tb[im$j, ] - tc[i0, ])
-    list(pair = c(i1, i0), separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
+    list(pair = c(i1, i0), imitator = im[c("j", "nb")], separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
          judged = delta > 3 * e_grid, detectable = im$e * sqrt(tau_hat),
          absorbed_by = base_cols[which.max(shift)], strength_size = sum(abs(strength[i1, ])))
   })
@@ -590,6 +591,6 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
   list(separable = if (any(judged)) sep[best] else NA_real_,
        confounded = any(judged) && sep[best] < threshold,
        detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
-       separation = effect_separation(ctx, base_terms$Y, tb, top[1], cand, res[[best]]$pair,
-                                      absorbed_by, effect))
+       separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
+                                      res[[best]]$imitator, absorbed_by, effect))
 }

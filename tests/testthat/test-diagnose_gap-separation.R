@@ -63,20 +63,20 @@ test_that("an effect a shift imitates alike at every setting, or one setting, ge
 })
 
 test_that("the separation table: the unexplained share per setting and the ratio's drift", {
-  # outputs over 2 settings x 3 t: the parameter's slope is (1, 1, 1 | 1, 1, 1)
-  # at every run; the candidate's effect equals it at setting 1 and has an
-  # orthogonal part at setting 2
+  # outputs over 2 settings x 3 t, p at every one: shifting p from 0.5 (the
+  # candidate's zero-strength run) to 1 (base run 9) adds 0.5 everywhere; the
+  # candidate's effect is twice that at setting 1 and has an orthogonal part
+  # at setting 2
   ctx <- list(n_x = 2L, n_t = 3L, x = data.frame(u = c(10, 20)), sd = NULL)
-  tb <- cbind(p = seq(0, 1, length.out = 9))
-  base_Y <- outer(tb[, "p"], rep(1, 6))
+  base_Y <- outer(seq(0, 1, length.out = 9), rep(1, 6))
   cand <- sim_library(data.frame(p = c(0.4, 0.5, 0.5), s = c(0, 0, 1)),
                       rbind(rep(0.4, 6), rep(0.5, 6), rep(0.5, 6) + c(1, 1, 1, 1, 2, 0)),
                       x = ctx$x, t = 1:3)
-  sep <- effect_separation(ctx, base_Y, tb, 5L, cand, c(3L, 2L), "p", "bump")
+  sep <- effect_separation(ctx, base_Y, cand, c(3L, 2L), list(j = 9L, nb = 7:8), "p", "bump")
   expect_identical(names(sep), c("effect", "absorbed_by", "setting", "u", "effect_size",
                                  "unexplained", "ratio"))
   expect_equal(sep$effect_size, c(sqrt(3), sqrt(5)))
-  # beta = 1: nothing unexplained at setting 1, the orthogonal (0, 1, -1) at setting 2
+  # beta = 2: nothing unexplained at setting 1, the orthogonal (0, 1, -1) at setting 2
   expect_equal(sep$unexplained, c(0, sqrt(2 / 5)))
   expect_equal(sep$ratio, c(1, 1))
   s <- design_sentence(sep, ctx$x)
@@ -84,6 +84,10 @@ test_that("the separation table: the unexplained share per setting and the ratio
   # the ratio does not drift, so no "or above": measure near the setting
   expect_match(s, "measure near u=20 to separate them")
   expect_null(design_sentence(sep[1, ], ctx$x))
-  expect_null(effect_separation(modifyList(ctx, list(n_x = 1L)), base_Y, tb, 5L, cand,
-                                c(3L, 2L), "p", "bump"))
+  imitator <- list(j = 9L, nb = 7:8)
+  expect_null(effect_separation(modifyList(ctx, list(n_x = 1L)), base_Y, cand, c(3L, 2L),
+                                imitator, "p", "bump"))
+  # no shift at all (the imitator is the zero-strength run's theta): no table
+  expect_null(effect_separation(ctx, base_Y, cand, c(3L, 2L), list(j = 5L, nb = 3:4), "p",
+                                "bump"))
 })
