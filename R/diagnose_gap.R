@@ -138,9 +138,35 @@
 #'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
 #'     residual / fitted noise sd, times the point's relative sd where given)
 #'     under the base posterior, `NA` at missing cells;
+#'   * `separation`: where across x each candidate parts from the theta
+#'     column that absorbs it (`NULL` with one x setting): one row per
+#'     candidate and x setting: `effect`, `absorbed_by`, `setting` (row of
+#'     the x setting), the x columns, `effect_size` (the candidate's effect
+#'     there: its output at the strength the confounding screen judged minus
+#'     its zero-strength output, near the posterior mode), `unexplained` (the
+#'     part of that effect the screen's imitation leaves there, relative to
+#'     the larger of the effect and its imitation there: 0 where a shift of
+#'     theta imitates it; the imitation is a multiple of the shift to the
+#'     imitating base run plus a local linear correction, fitted over all
+#'     settings at once) and `ratio` (the setting's own best multiple of that
+#'     shift over the multiple fitted to all settings: its drift across x
+#'     says where the two part further). Outputs are divided by the cells'
+#'     relative sd where given;
 #'   * `verdict`: a list with `answer`, `prob`, `reason`, `confounded`,
-#'     `advice`, `n_flagged` and `prob_none`.
-#' @seealso [posterior_exact()], [calibrate()]
+#'     `advice` (per confounded candidate, the settings where it and the
+#'     parameter that absorbs it act most and least alike and where to
+#'     measure to separate them, from `separation`; where that says nothing
+#'     (one x setting, or alike at every one), a sentence per absorbing
+#'     parameter and the generic advice: outside the control settings'
+#'     ranges), `n_flagged` and `prob_none`.
+#'
+#'   `print()` gives the short result: the verdict (answer, probability,
+#'   held-out shrinkage), the worst flagged block, one line per model and the
+#'   design advice (one line per confounded candidate, the generic advice
+#'   once); [summary()][summary.gap_diagnosis] explains the
+#'   verdict and gives the full tables.
+#' @seealso [summary.gap_diagnosis()], [plot.gap_diagnosis()], [posterior_exact()],
+#'   [calibrate()]
 #' @examples
 #' t <- seq(0, 1, length.out = 30)
 #' x <- data.frame(load = c(1, 2, 3))
@@ -203,7 +229,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
     screen_terms(fit)
   screen <- lapply(names(candidates), function(nm) {
     sc <- confounding_screen(plain$ctx, plain$terms, candidates[[nm]], names(lib_theta(base)),
-                             confounding_threshold)
+                             confounding_threshold, nm)
     # the data themselves separate it: the screen's local view was too pessimistic
     if (log_ev[[nm]] - log_ev[["none"]] > log(100)) sc$confounded <- FALSE
     sc
@@ -222,9 +248,10 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   where <- gap_where(ctx, base_terms, windows, fdr)
   folds <- gap_folds(ctx, base_terms, cand_terms)
   shrink <- summarise_folds(folds, names(candidates))
-  verdict <- gap_verdict(which_tab, screen, base, where)
+  separation <- do.call(rbind, unname(lapply(screen, `[[`, "separation")))
+  verdict <- gap_verdict(which_tab, separation, base, where)
   structure(list(where = where$blocks, which = which_tab, shrinkage = shrink,
-                 folds = folds, map = where$map, verdict = verdict,
+                 folds = folds, map = where$map, separation = separation, verdict = verdict,
                  settings = list(fdr = fdr, windows = where$breaks,
                                  other_scales = other_scales,
                                  confounding_threshold = confounding_threshold),
@@ -513,7 +540,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
 
 # ---- confounding with theta ---------------------------------------------------
 
-confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
+confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effect) {
   lj <- base_terms$lj
   top <- arrayInd(which.max(lj), dim(lj))
   node <- ctx$nodes[[top[2]]]
@@ -540,7 +567,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
     dist[c(j, drop)] <- Inf
     nb <- order(dist)[seq_len(m)]
     Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
-    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j)
+    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j, nb = nb)
   }
   # the library's own resolution: how well the other runs imitate runs near the mode
   around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
@@ -552,7 +579,7 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
     delta <- sqrt(sum((w[1, ] - w[2, ])^2))
     im <- imitate(w[1, ])
     shift <- abs(tb[im$j, ] - tc[i0, ])
-    list(separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
+    list(pair = c(i1, i0), imitator = im[c("j", "nb")], separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
          judged = delta > 3 * e_grid, detectable = im$e * sqrt(tau_hat),
          absorbed_by = base_cols[which.max(shift)], strength_size = sum(abs(strength[i1, ])))
   })
@@ -560,7 +587,10 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold) {
   sep <- vapply(res, `[[`, numeric(1), "separable")
   biggest <- which.max(vapply(res, `[[`, numeric(1), "strength_size"))
   best <- if (any(judged)) which(judged)[which.min(sep[judged])] else biggest
+  absorbed_by <- res[[best]]$absorbed_by
   list(separable = if (any(judged)) sep[best] else NA_real_,
        confounded = any(judged) && sep[best] < threshold,
-       detectable = res[[biggest]]$detectable, absorbed_by = res[[best]]$absorbed_by)
+       detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
+       separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
+                                      res[[best]]$imitator, absorbed_by, effect))
 }

@@ -1,15 +1,41 @@
-# The verdict of a gap diagnosis, and its print() and plot() methods.
+# The verdict of a gap diagnosis, and its print(), summary() and plot() methods.
 
-# One sentence per confounded candidate: what absorbs it, and where a
-# measurement could separate them. At the settings measured the effect acts
-# as a shift of the absorbing parameter does, so new data must lie where the
-# two differ: outside the range of the control settings measured (their
-# ranges are given), or at a condition the simulator's parameter does not
-# depend on.
-gap_advice <- function(which_tab, x) {
+# The advice for confounded candidates: per candidate, where across x it and
+# the parameter that absorbs it part (design_sentence(), from the diagnosis's
+# `separation` table); for those whose comparison across x says nothing (one
+# setting, alike at every one, or a diagnosis without the table), one sentence
+# per absorbing parameter saying what it imitates (unless `explain` is FALSE:
+# print()'s model lines say it), then once the generic design advice.
+gap_advice <- function(which_tab, separation, x, explain = TRUE) {
   conf <- which_tab[which_tab$confounded, ]
+  if (nrow(conf) == 0L) return(character(0))
+  computed <- lapply(conf$effect, function(e) {
+    if (!is.null(separation)) design_sentence(separation[separation$effect == e, ], x)
+  })
+  generic <- conf[vapply(computed, is.null, logical(1)), ]
+  if (nrow(generic) == 0L) return(unlist(computed))
+  by_param <- split(generic$effect, factor(generic$absorbed_by, unique(generic$absorbed_by)))
+  absorbed <- vapply(names(by_param), function(p) {
+    eff <- by_param[[p]]
+    paste0(quoted_list(eff), if (length(eff) == 1L) " is" else " are", " confounded with ", p,
+           ": at these settings a shift of ", p, " imitates ",
+           if (length(eff) == 1L) "it." else "each.")
+  }, character(1))
+  c(unlist(computed), if (explain) unname(absorbed), design_advice(x))
+}
+
+# Where a measurement could separate a confounded candidate from theta. At
+# the settings measured the effect acts as a shift of the absorbing
+# parameter does, so new data must lie where the two differ: outside the
+# range of the control settings measured (their ranges are given), or at a
+# condition the simulator's parameter does not depend on.
+design_advice <- function(x) {
   where <- if (is.null(x)) {
     "at a second value of a condition the effect depends on (this library has one setting)"
+  } else if (nrow(x) == 1L) {
+    paste0("at a second value of ", paste(names(x), collapse = " or "), " (this library has ",
+           "one setting, ", gap_x_labels(list(x = x)), "), or at another condition the effect ",
+           "depends on")
   } else {
     ranges <- vapply(x, function(v) paste0(format(min(v), digits = 3), "-",
                                             format(max(v), digits = 3)), "")
@@ -17,14 +43,30 @@ gap_advice <- function(which_tab, x) {
                                   collapse = ", "),
            ", or at a condition the effect depends on and the simulator does not")
   }
-  vapply(seq_len(nrow(conf)), function(i) {
-    paste0("'", conf$effect[i], "' is confounded with ", conf$absorbed_by[i], ": at these ",
-           "settings a shift of ", conf$absorbed_by[i], " imitates it (separable fraction ",
-           format(round(conf$separable[i], 3)), "). To tell them apart, measure ", where, ".")
-  }, character(1))
+  paste0("To tell a confounded candidate from a shift of theta, measure ", where, ".")
 }
 
-gap_verdict <- function(which_tab, screen, base, where) {
+# 'a', 'b' and 'c'
+quoted_list <- function(v) {
+  v <- paste0("'", v, "'")
+  if (length(v) == 1L) return(v)
+  paste0(paste(v[-length(v)], collapse = ", "), " and ", v[length(v)])
+}
+
+# A probability as a readable percentage: "42.7%", "< 0.1%", "> 99.9%"
+# (never 1.1e-08 or a rounded 100.0%).
+format_prob <- function(p) {
+  ifelse(p < 0.001, "< 0.1%",
+         ifelse(p > 0.999, "> 99.9%", paste0(formatC(100 * p, format = "f", digits = 1), "%")))
+}
+
+# "P = 42.7%", "P < 0.1%", "P(other) > 99.9%".
+prob_phrase <- function(p, what = "P") {
+  s <- format_prob(p)
+  paste0(what, ifelse(grepl("^[<>]", s), " ", " = "), s)
+}
+
+gap_verdict <- function(which_tab, separation, base, where) {
   ok <- !which_tab$confounded
   answer <- which_tab$effect[ok][1]
   prob <- which_tab$prob[ok][1]
@@ -37,74 +79,221 @@ gap_verdict <- function(which_tab, screen, base, where) {
     prob <- which_tab$prob[which_tab$effect == "other"]
   }
   conf <- which_tab$effect[which_tab$confounded]
-  advice <- gap_advice(which_tab, lib_x(base))
+  advice <- gap_advice(which_tab, separation, lib_x(base))
   list(answer = answer, prob = prob, reason = reason, confounded = conf,
        advice = unname(advice), n_flagged = n_flagged,
        prob_none = which_tab$prob[which_tab$effect == "none"])
 }
 
-#' @export
-print.gap_diagnosis <- function(x, ...) {
+# The verdict in a few words: a gap flagged by blocks but beaten in evidence
+# by no model is named as such (its "other" probability, often tiny, says
+# nothing about it).
+verdict_label <- function(v) {
+  switch(v$answer,
+         none = paste0("no gap (", prob_phrase(v$prob), ")"),
+         other = if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
+           paste0("a gap no candidate explains (", prob_phrase(v$prob, "P(other)"), ")"),
+         paste0("best explained by '", v$answer, "' (", prob_phrase(v$prob), ")"))
+}
+
+# The verdict as print() gives it: the label, then the one number that
+# qualifies it (how far the answer shrinks the held-out gap; the mass of
+# confounded candidates beside "none"; the flagged blocks behind "other").
+verdict_line <- function(x) {
   v <- x$verdict
-  wh <- x$where
-  pct <- function(p) paste0(format(round(100 * p, 1), nsmall = 1), "%")
-  cli::cat_line("<gap_diagnosis> ", nrow(x$which) - 2L, " candidate effect(s), ",
-                nrow(wh), " block(s)")
-  headline <- switch(v$answer,
-    none = {
-      conf <- x$which[x$which$confounded, ]
-      if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
-        paste0("No gap that theta cannot absorb: the base model and the confounded ",
-               "candidate(s) ", paste0("'", conf$effect, "'", collapse = ", "),
-               " fit alike once theta is recalibrated (P(none) = ", pct(v$prob),
-               ", confounded ", pct(sum(conf$prob)), ").")
-      } else {
-        paste0("No detectable gap: the base model explains the data (P(none) = ",
-               pct(v$prob), ").")
-      }
-    },
-    other = if (identical(v$reason, "blocks")) {
-      paste0("There is a gap that no candidate explains: ", v$n_flagged, " block(s) depart ",
-             "from the fitted noise, though no candidate or smooth discrepancy beats the ",
-             "base model in evidence (P(none) = ", pct(v$prob_none), "); the gap is local ",
-             "or rough.")
-    } else {
-      paste0("There is a gap that no candidate explains: a generic smooth ",
-             "discrepancy does best (P(other) = ", pct(v$prob), ").")
-    },
-    paste0("The gap is best explained by '", v$answer, "' (P = ", pct(v$prob), ")."))
   sh <- x$shrinkage[x$shrinkage$effect == v$answer, ]
-  if (nrow(sh) == 1L) {
-    headline <- paste0(headline, " Adding it cuts the RMSE of held-out settings from ",
-                       format(sh$before, digits = 3), " to ", format(sh$after, digits = 3),
-                       " (", pct(sh$shrink), " shrinkage; 90% coverage ",
-                       format(sh$cover90_before, digits = 2), " -> ",
-                       format(sh$cover90_after, digits = 2), ").")
+  conf_mass <- sum(x$which$prob[x$which$confounded])
+  extra <- if (nrow(sh) == 1L) {
+    paste0("; held-out RMSE ", format(sh$before, digits = 3), " -> ",
+           format(sh$after, digits = 3), " (", format_shrink(sh$shrink), " shrinkage)")
+  } else if (v$answer == "none" && conf_mass > v$prob) {
+    paste0("; confounded candidates, which a shift of theta imitates, hold ",
+           format_prob(conf_mass))
+  } else if (identical(v$reason, "blocks")) {
+    paste0(": ", v$n_flagged, " block", if (v$n_flagged != 1L) "s", " flagged, yet no model ",
+           "beats the base model in evidence (", prob_phrase(v$prob_none, "P(none)"), ")")
   }
-  cli::cat_line(strwrap(headline, width = 90))
+  paste0("Verdict: ", verdict_label(v), extra, ".")
+}
+
+# A shrinkage as a percentage with one decimal (no "-0.0%").
+format_shrink <- function(s) {
+  pct <- round(100 * s, 1)
+  pct[pct == 0] <- 0
+  paste0(formatC(pct, format = "f", digits = 1), "%")
+}
+
+# Where the gap is: the flagged blocks out of all, the `n_worst` worst named.
+where_line <- function(x, n_worst = 1L, scores = FALSE) {
+  wh <- x$where
+  fdr <- paste0("FDR ", format(100 * x$settings$fdr), "%")
   fl <- wh[wh$flagged, ]
-  if (nrow(fl) > 0L) {
-    fl <- fl[order(fl$score, decreasing = TRUE), ]
-    top <- utils::head(fl, 3L)
-    cli::cat_line(strwrap(paste0(
-      "Where: ", nrow(fl), " of ", nrow(wh), " block(s) depart from the fitted noise (FDR ",
-      pct(x$settings$fdr), "), worst at ",
-      paste0("x ", top$x, ", t ", format(top$from, digits = 3), "-", format(top$to, digits = 3),
-             " (score ", format(top$score, digits = 3), ")", collapse = "; "), "."),
-      width = 90))
+  out <- if (nrow(fl) == 0L) {
+    paste0("Where: no block of ", nrow(wh), " flagged (", fdr, ")")
   } else {
-    cli::cat_line("Where: no block departs from the fitted noise (FDR ", pct(x$settings$fdr), ").")
+    top <- utils::head(fl[order(fl$score, decreasing = TRUE), ], n_worst)
+    lab <- gap_x_labels(x)
+    named <- !identical(lab, as.character(seq_along(lab)))
+    ends <- matrix(format(c(top$from, top$to), digits = 3), ncol = 2L)
+    spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), ", t ",
+                    ends[, 1], "-", ends[, 2],
+                    if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
+    paste0("Where: ", nrow(fl), " of ", nrow(wh), " blocks ",
+           if (!scores) "flagged" else if (nrow(fl) == 1L) "departs from the fitted noise" else
+             "depart from the fitted noise", " (", fdr, "); worst at ",
+           paste(spots, collapse = "; "))
   }
   n_empty <- sum(wh$n == 0L)
-  if (n_empty > 0L) {
-    cli::cat_line(n_empty, " block(s) with no observed point were not checked (n = 0 in ",
-                  "$where).")
+  if (n_empty > 0L) out <- paste0(out, "; ", n_empty, " block", if (n_empty != 1L) "s",
+                                  " with no observed point not checked")
+  paste0(out, ".")
+}
+
+# One line per model: its probability, the held-out shrinkage of a
+# candidate, and what it is (base model, confounded, smooth discrepancy).
+model_lines <- function(x) {
+  w <- x$which
+  shrink <- x$shrinkage$shrink[match(w$effect, x$shrinkage$effect)]
+  note <- ifelse(w$confounded, paste0("confounded with ", w$absorbed_by), "")
+  note[w$effect == "none"] <- "the base model"
+  note[w$effect == "other"] <- "a smooth discrepancy"
+  cols <- list(c("model", w$effect), c("P", format_prob(w$prob)),
+               c("shrinkage", ifelse(is.na(shrink), "", format_shrink(shrink))),
+               c("", note))
+  lines <- do.call(paste, c(lapply(cols, format), sep = "  "))
+  paste0("  ", sub("\\s+$", "", lines))
+}
+
+wrap_lines <- function(s) {
+  unlist(lapply(s, strwrap, width = getOption("width", 80L), exdent = 2L))
+}
+
+#' @export
+print.gap_diagnosis <- function(x, ...) {
+  n_cand <- nrow(x$which) - 2L
+  cli::cat_line("<gap_diagnosis> ", n_cand, " candidate", if (n_cand != 1L) "s", ", ",
+                nrow(x$where), " blocks")
+  cli::cat_line(wrap_lines(c(verdict_line(x), where_line(x))))
+  cli::cat_line(model_lines(x))
+  # the table's notes say what absorbs each confounded candidate
+  cli::cat_line(wrap_lines(gap_advice(x$which, x$separation, x$x, explain = FALSE)))
+  invisible(x)
+}
+
+#' Summarise a gap diagnosis
+#'
+#' The verdict of [diagnose_gap()] explained in full, with every model's
+#' numbers: what `print()` shortens.
+#'
+#' `print()` of a `gap_diagnosis` is the short result: the verdict (the
+#' answer, its probability and how far it shrinks the gap on held-out
+#' settings), where the gap is (the worst flagged block), one line per model
+#' and the design advice for confounded candidates, once. `summary()` adds
+#' the explanation of the verdict, the three worst flagged blocks with their
+#' scores, and the full tables.
+#'
+#' @param object A `gap_diagnosis` from [diagnose_gap()].
+#' @param ... Unused.
+#' @return A list of class `gap_diagnosis_summary`: `explanation` (the
+#'   verdict in sentences), `where` (one sentence), `advice` (the sentences
+#'   for confounded candidates), `models` (the diagnosis's `which` table with
+#'   the columns of its `shrinkage` table for the candidates: `before` and
+#'   `after` the held-out RMSE, `shrink` = 1 - after / before, `lpd_*` the
+#'   leave-setting-out log predictive densities, `cover90_*` the coverage of
+#'   90% predictive intervals), `flagged` (the flagged blocks, worst first)
+#'   and `settings`. Its `print()` shows them and returns it invisibly.
+#' @examples
+#' t <- seq(0, 1, length.out = 30)
+#' x <- data.frame(load = c(1, 2, 3))
+#' sim <- function(a, s) unlist(lapply(x$load, function(l) a * l * sin(3 * t) + s * l^2 * t^2))
+#' base <- data.frame(a = seq(0.5, 1.5, length.out = 41))
+#' lib <- sim_library(base, t(vapply(base$a, sim, numeric(90), s = 0)), x = x, t = t)
+#' grid <- expand.grid(a = base$a, s = c(0, 0.1, 0.2, 0.3))
+#' quad <- sim_library(grid, t(mapply(sim, grid$a, grid$s)), x = x, t = t)
+#' set.seed(1)
+#' field <- field_data(matrix(sim(1, 0.2) + rnorm(90, sd = 0.05), 3, byrow = TRUE), x = x, t = t)
+#' fit <- calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1)
+#' gap <- diagnose_gap(fit, list(quadratic = quad))
+#' summary(gap)
+#' summary(gap)$models
+#' @export
+summary.gap_diagnosis <- function(object, ...) {
+  models <- object$which
+  sh <- object$shrinkage
+  models <- cbind(models, sh[match(models$effect, sh$effect), setdiff(names(sh), "effect")])
+  rownames(models) <- NULL
+  fl <- object$where[object$where$flagged, ]
+  fl <- fl[order(fl$score, decreasing = TRUE), ]
+  rownames(fl) <- NULL
+  structure(list(explanation = verdict_explanation(object),
+                 where = where_line(object, n_worst = 3L, scores = TRUE),
+                 advice = gap_advice(object$which, object$separation, object$x),
+                 models = models, flagged = fl,
+                 settings = object$settings),
+            class = "gap_diagnosis_summary")
+}
+
+# The verdict in sentences: what the answer means and the numbers behind it.
+verdict_explanation <- function(x) {
+  v <- x$verdict
+  conf <- x$which[x$which$confounded, ]
+  out <- switch(v$answer,
+    none = if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
+      paste0("No gap that theta cannot absorb: the base model and the confounded ",
+             "candidate", if (nrow(conf) > 1L) "s", " ", quoted_list(conf$effect),
+             " fit alike once theta is recalibrated (", prob_phrase(v$prob, "P(none)"),
+             ", confounded ", format_prob(sum(conf$prob)), ").")
+    } else {
+      paste0("No detectable gap: the base model explains the data (",
+             prob_phrase(v$prob, "P(none)"), ").")
+    },
+    other = if (identical(v$reason, "blocks")) {
+      paste0("There is a gap that no candidate explains: ", v$n_flagged, " block",
+             if (v$n_flagged != 1L) "s", " depart from the fitted noise, though no candidate ",
+             "or smooth discrepancy beats the base model in evidence (",
+             prob_phrase(v$prob_none, "P(none)"), "); the gap is local or rough.")
+    } else {
+      paste0("There is a gap that no candidate explains: a generic smooth discrepancy does ",
+             "best (", prob_phrase(v$prob, "P(other)"), ").")
+    },
+    paste0("The gap is best explained by '", v$answer, "' (", prob_phrase(v$prob), ")."))
+  sh <- x$shrinkage[x$shrinkage$effect == v$answer, ]
+  if (nrow(sh) == 1L) {
+    out <- paste0(out, " Adding it cuts the RMSE of held-out settings from ",
+                  format(sh$before, digits = 3), " to ", format(sh$after, digits = 3), " (",
+                  format_shrink(sh$shrink), " shrinkage; 90% coverage ",
+                  format(sh$cover90_before, digits = 2), " -> ",
+                  format(sh$cover90_after, digits = 2), ").")
   }
-  for (a in gap_advice(x$which, x$x)) cli::cat_line(strwrap(a, width = 90))
-  p <- ifelse(x$which$prob < 0.001, "<0.001", sprintf("%.3f", x$which$prob))
-  cli::cat_line("Models (posterior probability): ",
-                paste0(x$which$effect, ifelse(x$which$confounded, " [confounded]", ""), " ",
-                       p, collapse = ", "))
+  out
+}
+
+#' @export
+print.gap_diagnosis_summary <- function(x, digits = 3, ...) {
+  s <- x$settings
+  n_cand <- nrow(x$models) - 2L
+  cli::cat_line(wrap_lines(paste0(
+    "Gap diagnosis: ", n_cand, " candidate", if (n_cand != 1L) "s",
+    " against the base model ('none') ",
+    "and a smooth discrepancy ('other'); blocks flagged at FDR ", format(100 * s$fdr),
+    "%; confounded below a separable fraction of ", format(s$confounding_threshold), ".")))
+  cli::cat_line(wrap_lines(c(x$explanation, x$where, x$advice)))
+  m <- x$models
+  # each number to `digits` significant digits on its own (a column of
+  # print.data.frame gives them all the digits its smallest entry needs)
+  m[] <- lapply(m, function(v) {
+    if (is.numeric(v)) vapply(v, format, "", digits = digits) else v
+  })
+  m$prob <- format_prob(x$models$prob)
+  cli::cat_line("Models:")
+  print(m[c("effect", "prob", "log_evidence", "confounded", "separable", "detectable",
+            "absorbed_by")], row.names = FALSE)
+  cand <- m[!is.na(x$models$shrink), ]
+  if (nrow(cand) > 0L) {
+    cli::cat_line("Held-out settings (each x setting left out in turn):")
+    print(cand[c("effect", "before", "after", "shrink", "lpd_before", "lpd_after",
+                 "cover90_before", "cover90_after")], row.names = FALSE)
+  }
   invisible(x)
 }
 
@@ -139,7 +328,7 @@ plot.gap_diagnosis <- function(x, ...) {
   wh$setting <- factor(lab[wh$x], levels = lab)
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
   title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),
-                  " block(s) flagged; ", verdict_label(x$verdict))
+                  " blocks flagged; ", verdict_label(x$verdict))
   if (length(x$t) == 1L) {
     map$flagged <- wh$flagged[match(map$x, wh$x)]
     return(ggplot2::ggplot(map, ggplot2::aes(.data$setting, .data$z, fill = .data$flagged)) +
@@ -167,18 +356,6 @@ plot.gap_diagnosis <- function(x, ...) {
   p + ggplot2::labs(x = "t", y = "x setting", title = title,
                     subtitle = "Outlined: blocks the fitted noise does not explain") +
     ggplot2::theme_bw()
-}
-
-# The verdict in a few words: a gap flagged by blocks but beaten in evidence
-# by no model is named as such (its "other" probability, often tiny, says
-# nothing about it).
-verdict_label <- function(v) {
-  pct <- function(p) if (p < 0.001) "< 0.1%" else paste0(format(100 * p, digits = 3), "%")
-  switch(v$answer,
-         none = paste0("no gap (P = ", pct(v$prob), ")"),
-         other = if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
-           paste0("a gap no candidate explains (P(other) = ", pct(v$prob), ")"),
-         paste0("best explained by '", v$answer, "' (P = ", pct(v$prob), ")"))
 }
 
 gap_x_labels <- function(x) {

@@ -91,5 +91,5 @@ test_that("a block with no observed cell is reported unchecked, not dropped", {
   expect_false(wh$flagged[empty])
   expect_false(anyNA(wh$score[!empty]))
   expect_equal(sum(wh$n), 80)
-  expect_output(print(gap), "1 block\\(s\\) with no observed point")
+  expect_output(print(gap), "1 block with no observed point")
 })

@@ -1,14 +1,87 @@
+# What print() or the summary's print() shows, as one line of single spaces.
+printed <- function(x) gsub("\\s+", " ", paste(capture.output(print(x)), collapse = " "))
+
 test_that("print reads as a verdict with the numbers", {
   toy <- toy_gap(0.2)
   gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad))
-  out <- paste(capture.output(print(gap)), collapse = " ")
-  expect_match(out, "best explained by 'quadratic'")
-  expect_match(out, "held-out settings from")
-  expect_match(out, "'scale' is confounded with a: ")
+  out <- printed(gap)
+  expect_match(out, "Verdict: best explained by 'quadratic' \\(P [=>]")
+  expect_match(out, "held-out RMSE [0-9.]+ -> [0-9.]+ \\([0-9.]+% shrinkage\\)")
+  expect_match(out, "scale < 0.1% -?[0-9.]+% confounded with a")
+  expect_match(out, "To tell a confounded candidate from a shift of theta, measure outside")
   null <- diagnose_gap(toy_gap(0)$fit, list(quadratic = toy$quad))
-  expect_match(paste(capture.output(print(null)), collapse = " "), "No detectable gap")
+  expect_match(printed(null), "Verdict: no gap \\(P = [0-9.]+%\\)")
   other <- diagnose_gap(toy_gap(0.3)$fit, list(scale = toy$scale))
-  expect_match(paste(capture.output(print(other)), collapse = " "), "no candidate explains")
+  expect_match(printed(other), "no candidate explains")
+})
+
+# Two effects a shift of `a` imitates (a rescaling up and one down) and one it
+# does not: a 3-candidate diagnosis with two confounded.
+three_candidate_gap <- function() {
+  toy <- toy_gap(0.2)
+  g <- expand.grid(a = lib_theta(toy$lib)$a, s = c(0, 0.1, 0.2))
+  shrink_a <- sim_library(g, t(mapply(function(a, s) toy$sim(a * (1 - s), 0), g$a, g$s)),
+                          x = toy$x, t = toy$t)
+  diagnose_gap(toy$fit, list(scale = toy$scale, shrink_a = shrink_a, quadratic = toy$quad))
+}
+
+sentences <- function(lines) {
+  text <- gsub("\\s+", " ", paste(trimws(lines), collapse = " "))
+  trimws(strsplit(text, "(?<=[.])\\s+(?=[A-Z'])", perl = TRUE)[[1]])
+}
+
+test_that("print is short: one line per model, the advice once, within the width", {
+  # print repeated the design advice for every confounded candidate, in
+  # lines wider than the console
+  withr::local_options(width = 80)
+  gap <- three_candidate_gap()
+  expect_identical(sum(gap$which$confounded), 2L)
+  lines <- capture.output(print(gap))
+  expect_lte(length(lines), 13L)
+  expect_true(all(nchar(lines) <= 80L))
+  expect_false(anyDuplicated(sentences(lines)) > 0L)
+  expect_identical(sum(grepl("To tell a confounded candidate", lines)), 1L)
+  for (m in gap$which$effect) expect_identical(sum(grepl(paste0("^  ", m, " "), lines)), 1L)
+  expect_identical(sum(grepl("confounded with a$", lines)), 2L)
+  expect_no_match(paste(lines, collapse = " "), "[0-9]e-[0-9]")
+})
+
+test_that("the shipped validation examples print short", {
+  ex <- readRDS(system.file("extdata", "gap_validation_examples.rds", package = "griddy"))
+  withr::local_options(width = 80)
+  # five candidates, four confounded with k: 17 lines of which 12 repeated advice
+  lines <- capture.output(print(ex$examples[["T0 null"]]))
+  expect_lte(length(lines), 14L)
+  expect_false(anyDuplicated(sentences(lines)) > 0L)
+  expect_identical(sum(grepl("To tell a confounded candidate", lines)), 1L)
+})
+
+test_that("summary() keeps what print() leaves out", {
+  gap <- three_candidate_gap()
+  s <- summary(gap)
+  expect_s3_class(s, "gap_diagnosis_summary")
+  expect_identical(s$models$effect, gap$which$effect)
+  expect_identical(s$models$prob, gap$which$prob)
+  expect_true(all(c(names(gap$which), setdiff(names(gap$shrinkage), "effect")) %in%
+                    names(s$models)))
+  cand <- match(gap$shrinkage$effect, s$models$effect)
+  expect_identical(s$models$shrink[cand], gap$shrinkage$shrink)
+  expect_identical(s$advice, gap$verdict$advice)
+  out <- gsub("\\s+", " ", paste(capture.output(res <- print(s)), collapse = " "))
+  expect_identical(res, s)
+  expect_match(out, "'scale' and 'shrink_a' are confounded with a: ")
+  expect_match(out, "score [0-9.]+")
+  expect_match(out, "Adding it cuts the RMSE of held-out settings")
+  expect_match(out, "separable")
+  expect_match(out, "cover90_after")
+})
+
+test_that("probabilities print as readable percentages", {
+  expect_identical(format_prob(c(1.1e-8, 0.42749, 0.9999, 0.001)),
+                   c("< 0.1%", "42.7%", "> 99.9%", "0.1%"))
+  expect_identical(prob_phrase(c(1.1e-8, 0.5)), c("P < 0.1%", "P = 50.0%"))
+  expect_identical(prob_phrase(0.99999, "P(other)"), "P(other) > 99.9%")
+  expect_identical(format_shrink(c(-0.0004, 0.254)), c("0.0%", "25.4%"))
 })
 
 test_that("plot draws a map of the gap with flagged blocks outlined", {
@@ -38,7 +111,8 @@ test_that("a gap the base model's block check flags is 'other' even when evidenc
   if (top == "none") {
     expect_identical(gap$verdict$answer, "other")
     expect_identical(gap$verdict$reason, "blocks")
-    expect_match(paste(capture.output(print(gap)), collapse = " "), "local or rough")
+    expect_match(printed(gap), "Verdict: a local gap no candidate explains")
+    expect_match(printed(summary(gap)), "the gap is local or rough")
   } else {
     expect_identical(gap$verdict$reason, "evidence")
   }
@@ -52,5 +126,5 @@ test_that("the verdict label names a gap the blocks flag without a tiny probabil
   expect_identical(verdict_label(list(answer = "quadratic", reason = "evidence", prob = 0.976)),
                    "best explained by 'quadratic' (P = 97.6%)")
   expect_identical(verdict_label(list(answer = "none", reason = "evidence", prob = 2e-4)),
-                   "no gap (P = < 0.1%)")
+                   "no gap (P < 0.1%)")
 })
