@@ -64,7 +64,7 @@ fit_rhat <- function(fit) {
 run_effective_draws <- function(fit, exact_run) {
   n <- nrow(fit$draws)
   cols <- c(list(log_p = log(exact_run[fit$draws$run])),
-            as.list(lib_theta(fit$library)[fit$draws$run, , drop = FALSE]))
+            lapply(lib_theta(fit$library), `[`, fit$draws$run))
   ess <- vapply(cols, function(v) {
     m <- chain_matrix(v, fit$draws$chain)
     if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else quiet_cap(posterior::ess_bulk(m))

@@ -78,7 +78,7 @@ plot_pairs <- function(fit, truth) {
                  length(names_), ".")
   }
   pairs <- utils::combn(names_, 2L, simplify = FALSE)
-  drawn <- theta[fit$draws$run, , drop = FALSE]
+  drawn <- rows_at(theta, fit$draws$run)
   panel <- vapply(pairs, pair_label, "")
   long <- do.call(rbind, Map(function(pr, label) {
     data.frame(pair = factor(label, levels = panel), x = drawn[[pr[1]]], y = drawn[[pr[2]]])
