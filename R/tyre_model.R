@@ -195,7 +195,7 @@ tyre_default_contact <- function(model) if (model == "fiala") "patch" else "disc
 #' vertical motion of the wheel centre is integrated with a fixed-step
 #' fourth-order Runge-Kutta scheme in C++ (`m z'' = Fz - load`, start in
 #' static equilibrium); the output is the vertical force Fz at `n_samples`
-#' (500) samples, 1 ms apart.
+#' (500) samples, 1 ms apart, for each cleat height.
 #'
 #' **Force laws.** Fiala: `Fn = k rho + c rho'` for tyre deflection
 #' `rho > 0`, clipped at 0 (no tension), camber and pressure have no effect.
@@ -286,12 +286,12 @@ tyre_default_contact <- function(model) if (model == "fiala") "patch" else "disc
 #' deflection would make the force a nonlinear function of the road even for
 #' the linear Fiala spring, and a chord of a circle is not what the tyre
 #' wraps round on a cleat anyway.  With a fixed `a` the contact is a moving
-#' average of the road profile over the patch (the "cheap alternative" to
-#' elliptical-cam enveloping in the package's physics notes).  Measured
+#' average of the road profile over the patch, a simpler relative of the
+#' elliptical-cam enveloping of Adams's "3D Enveloping" contact.  Measured
 #' footprints are shorter than the chord: the MF 6.1 contact-length law
-#' `a = R0 (qRa2 rho / R0 + qRa1 sqrt(rho / R0))` with the public file's
-#' qRa1 = 0.601, qRa2 = 0.820 gives 66 mm at 450 N/mm, about half.  Set
-#' `patch_length` to use another length.
+#' `a = R0 (qRa2 rho / R0 + qRa1 sqrt(rho / R0))` with qRa1 = 0.601,
+#' qRa2 = 0.820 (the public MF 6.1 .tir file) gives 66 mm at 450 N/mm,
+#' about half.  Set `patch_length` to use another length.
 #'
 #' @param k Vertical stiffness in N/mm: a numeric vector (one value per run),
 #'   or a matrix / data.frame with columns `k` and `c` (then `c` must be
@@ -299,8 +299,9 @@ tyre_default_contact <- function(model) if (model == "fiala") "patch" else "disc
 #' @param c Vertical damping in N s/mm, recycled with `k`.
 #' @param height Cleat heights in mm (one or more); see [tyre_cleat_heights()].
 #' @param model `"fiala"` or `"pac2002"`.
-#' @param contact `"point"` or `"disc"`; `NULL` picks point for Fiala and disc
-#'   for PAC2002.
+#' @param contact `"patch"` (rectangular patch of uniform pressure),
+#'   `"point"` (point follower) or `"disc"` (rigid disc); `NULL` picks patch
+#'   for Fiala and disc for PAC2002, as in the thesis.
 #' @param speed Rolling speed, m/s.
 #' @param camber Camber angle, rad (PAC2002 only, via `qFz3`).
 #' @param pressure Inflation pressure, Pa (PAC2002 only, via `qpFz1`).
