@@ -41,3 +41,7 @@ tyre_static_deflection_cpp <- function(k, settings) {
     .Call(`_griddy_tyre_static_deflection_cpp`, k, settings)
 }
 
+tyre_patch_length_cpp <- function(k, settings) {
+    .Call(`_griddy_tyre_patch_length_cpp`, k, settings)
+}
+

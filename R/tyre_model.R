@@ -72,6 +72,10 @@ tyre_param_ranges <- function() {
 #'   `bottom_stiffness` once the deflection exceeds the section height
 #'   `R0 - rim_radius`.
 #' @param bottom_stiffness Rim-bottoming stiffness, N/m.
+#' @param patch_length Length of the rectangular contact patch of
+#'   `contact = "patch"`, mm (> 0); `NULL` (default) takes, for each run, the
+#'   chord that the flat road cuts from the unloaded tyre at its static
+#'   deflection (see [tyre_patch_length()]).
 #' @return A list of class `tyre_rig` or `tyre_pac2002`.
 #' @seealso [tyre_cleat_model()]
 #' @family tyre stand-in
@@ -83,7 +87,7 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
                      cleat_length = 100, edge_length = 10, t_cleat = 0.02,
                      n_samples = 500, sample_interval = 1e-3, steps_per_sample = 100,
                      sample = c("mean", "instant"), bottoming = FALSE,
-                     bottom_stiffness = 2e6) {
+                     bottom_stiffness = 2e6, patch_length = NULL) {
   sample <- assert_choice(sample, "sample", c("mean", "instant"), vector_default = TRUE)
   out <- list(load = assert_number(load, "load", lower = 0, lower_open = TRUE),
               mass = assert_number(mass, "mass", lower = 0, lower_open = TRUE),
@@ -99,7 +103,10 @@ tyre_rig <- function(load = 3000, mass = 25, R0 = 0.3135, rim_radius = 0.1905,
                                               upper = 1e5),
               sample = sample,
               bottoming = assert_flag(bottoming, "bottoming"),
-              bottom_stiffness = assert_number(bottom_stiffness, "bottom_stiffness", lower = 0))
+              bottom_stiffness = assert_number(bottom_stiffness, "bottom_stiffness", lower = 0),
+              patch_length = if (!is.null(patch_length)) {
+                assert_number(patch_length, "patch_length", lower = 0, lower_open = TRUE)
+              })
   if (out$rim_radius >= out$R0) {
     griddy_abort("`rim_radius` must be smaller than `R0`; received ", out$rim_radius, " >= ",
                  out$R0, ".")
@@ -160,7 +167,7 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
                  format(1 + pac$qpFz1 * dpi), "; received pressure = ", pressure, ".")
   }
   list(model = if (model == "fiala") 0L else 1L,
-       contact = if (contact == "point") 0L else 1L,
+       contact = match(contact, tyre_contacts) - 1L,
        load = rig$load, speed = speed, mass = rig$mass, r0 = rig$R0, fz0 = pac$Fz0,
        qfz2 = pac$qFz2, qfz3 = pac$qFz3, qpfz1 = pac$qpFz1, qv2 = pac$qV2, v0 = pac$V0,
        camber = camber, dpi = dpi,
@@ -169,8 +176,16 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
        steps_per_sample = rig$steps_per_sample, sample_interval = rig$sample_interval,
        sample_mean = rig$sample == "mean",
        bottom_stiffness = if (rig$bottoming) rig$bottom_stiffness else 0,
-       bottom_deflection = rig$R0 - rig$rim_radius)
+       bottom_deflection = rig$R0 - rig$rim_radius,
+       patch_length = if (is.null(rig$patch_length)) 0 else rig$patch_length / 1000)
 }
+
+# The contact models, in the order of their codes in src/tyre_model.cpp.
+tyre_contacts <- c("point", "disc", "patch")
+
+# Fiala's contact is a rectangular patch of uniform pressure (thesis, sec.
+# 5.1); PAC2002's a rigid disc (same place).
+tyre_default_contact <- function(model) if (model == "fiala") "patch" else "disc"
 
 #' Tyre normal force on a constant-load rig rolling over a cleat
 #'
@@ -180,7 +195,7 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' vertical motion of the wheel centre is integrated with a fixed-step
 #' fourth-order Runge-Kutta scheme in C++ (`m z'' = Fz - load`, start in
 #' static equilibrium); the output is the vertical force Fz at `n_samples`
-#' (500) samples, 1 ms apart.
+#' (500) samples, 1 ms apart, for each cleat height.
 #'
 #' **Force laws.** Fiala: `Fn = k rho + c rho'` for tyre deflection
 #' `rho > 0`, clipped at 0 (no tension), camber and pressure have no effect.
@@ -192,13 +207,17 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' `qFz2 = 0`, `qV2 = 0`, `camber = 0` (or `qFz3 = 0`), `pressure = p0` and
 #' point contact the PAC2002-style model equals Fiala with the same `k`.
 #'
-#' **Contact.** `"point"`: a point follower under the wheel centre,
-#' `rho = R0 - (z - h(x))`.  `"disc"`: the tyre is a rigid disc; `rho` is
-#' `R0` minus the distance from the wheel centre to the nearest road point,
-#' the force acts along the normal through that point and Fz is its vertical
-#' component (the rig absorbs the longitudinal part).  Defaults: point for
-#' Fiala, disc for PAC2002 (the thesis's PAC2002 model treats the tyre as a
-#' rigid disc).
+#' **Contact.** `"patch"` (default for Fiala): a rectangular contact patch
+#' of uniform pressure, the thesis's Fiala assumption; see the section below.
+#' `"point"`: a point follower under the wheel centre,
+#' `rho = R0 - (z - h(x))`.  `"disc"` (default for PAC2002): the tyre is a
+#' rigid disc; `rho` is `R0` minus the distance from the wheel centre to the
+#' nearest road point, the force acts along the normal through that point
+#' and Fz is its vertical component (the rig absorbs the longitudinal part).
+#' The defaults follow the thesis (section 5.1): its Fiala model "assumes the
+#' contact patch is rectangular and pressure is uniform across it", and its
+#' PAC2002 model finds the contact patch "by assuming the tire acts as a
+#' rigid disc".
 #'
 #' **Cleat edges and the damping spike.**  Under point contact the damping
 #' term sees `rho' = V h'(x)`; on a sharp edge that is an impulse of about
@@ -208,8 +227,10 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' the profile has a continuous slope) and, by default, report each sample as
 #' the mean force over its 1 ms interval (`tyre_rig(sample = "mean")`), which
 #' integrates the spike instead of sampling it.  The spike is real for a
-#' point follower with large damping (tens to hundreds of kN at
-#' c = 5 N s/mm); disc contact has no such spike.
+#' point follower with damping: at k = 450 N/mm, c = 1.5 N s/mm the mean
+#' force over the 1 ms that holds the edge of the 41.2 mm cleat is about
+#' 75 kN, 25 times the static load (about 200 kN at c = 5 N s/mm).  Disc and
+#' patch contact have no such spike.
 #'
 #' **Defaults and sources**: R0 = 0.3135 m
 #' (205/60 R15: rim 0.1905 m + 0.6 x 0.205 m sidewall); wheel + tyre mass
@@ -222,14 +243,65 @@ tyre_settings <- function(model, contact, speed, camber, pressure, pac, rig) {
 #' ranges k 50-800 N/mm, c 0-5 N s/mm come from the thesis.  Cleat heights:
 #' see [tyre_cleat_heights()].
 #'
+#' @section Contact patch of uniform pressure (`contact = "patch"`):
+#' The patch is a rectangle of length `2a` (and some width `w`) centred under
+#' the wheel, and the pressure `p` is the same everywhere on it, so
+#' `Fz = 2 a w p`.  A uniform pressure carries one number for the whole
+#' patch: the force cannot depend on the road point by point, only on one
+#' measure of how far the patch is pressed in.  We take the patch mean: the
+#' tyre's "elastic foundation" (the thesis's beam-on-an-elastic-foundation
+#' picture) spreads the stiffness `k` evenly over the patch, each element
+#' `dx` carrying `k dx / (2a)`, and the resultant is
+#' `Fz = k rhobar + c rhobar'` with
+#' `rhobar = R0 - (z - hbar(x))`, `hbar(x)` the mean road height over
+#' `[x - a, x + a]`, and `rhobar' = -z' + V (h(x + a) - h(x - a)) / (2a)`.
+#' This choice gives the static solution on a flat road (`hbar = 0`),
+#' treats every point of the patch alike, and tends to the point follower
+#' as `a -> 0` (`hbar -> h`, `hbar' -> h'`).  For the PAC2002-style law the
+#' same `rhobar` enters its polynomial.
+#'
+#' What that means for the normal force over a cleat of height `h` and
+#' length `L`:
+#' * the cleat is felt from when the patch's front edge reaches it, `a`
+#'   before the wheel centre does, until its rear edge leaves it;
+#' * the spring force rises in proportion to the part of the cleat inside
+#'   the patch, to at most `k h min(L, 2a) / (2a)`: a cleat shorter than the
+#'   patch is enveloped and never felt at its full height (at k = 450 N/mm,
+#'   `2a` = 129 mm and the 100 mm cleat is felt at 78% of its height);
+#' * the road's rate seen by the damper is at most `V h / (2a)`, whatever the
+#'   edge's shape, so the damping force over the cleat is bounded by
+#'   `c V h / (2a)` (9.6 kN at k = 450 N/mm, c = 1.5 N s/mm on the 41.2 mm
+#'   cleat) instead of the point follower's `c V h'(x)`, which grows without
+#'   bound as the edge sharpens.
+#'
+#' **Patch length.** By default (`tyre_rig(patch_length = NULL)`) `2a` is the
+#' chord that the flat road cuts from the unloaded tyre at its static
+#' deflection `rho0`, `2a = 2 sqrt(2 R0 rho0 - rho0^2)`
+#' ([tyre_patch_length()]): 97 mm at 800 N/mm, 129 mm at 450 N/mm, 369 mm at
+#' 50 N/mm.  Altair MotionSolve's Fiala model takes the contact length of a
+#' rigid disc of the unloaded radius when the tyre file gives no
+#' contact-length coefficients (PA1, PA2; its "Tire Contact Methods" help
+#' page); the thesis gives none.
+#' It is fixed during a run: letting `a` follow the instantaneous
+#' deflection would make the force a nonlinear function of the road even for
+#' the linear Fiala spring, and a chord of a circle is not what the tyre
+#' wraps round on a cleat anyway.  With a fixed `a` the contact is a moving
+#' average of the road profile over the patch, a simpler relative of the
+#' elliptical-cam enveloping of Adams's "3D Enveloping" contact.  Measured
+#' footprints are shorter than the chord: the MF 6.1 contact-length law
+#' `a = R0 (qRa2 rho / R0 + qRa1 sqrt(rho / R0))` with qRa1 = 0.601,
+#' qRa2 = 0.820 (the public MF 6.1 .tir file) gives 66 mm at 450 N/mm,
+#' about half.  Set `patch_length` to use another length.
+#'
 #' @param k Vertical stiffness in N/mm: a numeric vector (one value per run),
 #'   or a matrix / data.frame with columns `k` and `c` (then `c` must be
 #'   missing).
 #' @param c Vertical damping in N s/mm, recycled with `k`.
 #' @param height Cleat heights in mm (one or more); see [tyre_cleat_heights()].
 #' @param model `"fiala"` or `"pac2002"`.
-#' @param contact `"point"` or `"disc"`; `NULL` picks point for Fiala and disc
-#'   for PAC2002.
+#' @param contact `"patch"` (rectangular patch of uniform pressure),
+#'   `"point"` (point follower) or `"disc"` (rigid disc); `NULL` picks patch
+#'   for Fiala and disc for PAC2002, as in the thesis.
 #' @param speed Rolling speed, m/s.
 #' @param camber Camber angle, rad (PAC2002 only, via `qFz3`).
 #' @param pressure Inflation pressure, Pa (PAC2002 only, via `qpFz1`).
@@ -286,8 +358,8 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
   kk <- rep_len(kk, n)
   cc <- rep_len(cc, n)
   height <- assert_number(height, "height", len = NULL, lower = 0, lower_open = TRUE)
-  if (is.null(contact)) contact <- if (model == "fiala") "point" else "disc"
-  contact <- assert_choice(contact, "contact", c("point", "disc"))
+  if (is.null(contact)) contact <- tyre_default_contact(model)
+  contact <- assert_choice(contact, "contact", tyre_contacts)
   op <- tyre_operating(speed, camber, pressure, pac, rig)
   rig <- op$rig
   if (max(height) / 1000 >= rig$R0) {
@@ -308,9 +380,29 @@ tyre_cleat_model <- function(k = 210, c = 0.5, height = tyre_cleat_heights(),
 tyre_static_deflection <- function(k = 210, model = c("fiala", "pac2002"), speed = 20,
                                    camber = 0, pressure = NULL, pac = tyre_pac2002(),
                                    rig = tyre_rig()) {
+  st <- tyre_static_settings(k, model, speed, camber, pressure, pac, rig)
+  as.numeric(tyre_static_deflection_cpp(st$k, st$settings)) * 1000
+}
+
+#' @rdname tyre_cleat_model
+#' @return `tyre_patch_length()`: the length in mm of the rectangular contact
+#'   patch of `contact = "patch"` for each `k`: `rig$patch_length` when set,
+#'   otherwise `2 sqrt(2 R0 rho0 - rho0^2)` with `rho0` the static deflection.
+#' @export
+tyre_patch_length <- function(k = 210, model = c("fiala", "pac2002"), speed = 20,
+                              camber = 0, pressure = NULL, pac = tyre_pac2002(),
+                              rig = tyre_rig()) {
+  st <- tyre_static_settings(k, model, speed, camber, pressure, pac, rig)
+  as.numeric(tyre_patch_length_cpp(st$k, st$settings)) * 1000
+}
+
+# Checked stiffnesses (N/m) and the C++ settings of the tyre standing on the
+# flat road, for the static quantities above.
+tyre_static_settings <- function(k, model, speed, camber, pressure, pac, rig) {
   model <- assert_choice(model, "model", c("fiala", "pac2002"), vector_default = TRUE)
   k <- assert_number(k, "k", len = NULL, lower = 0, lower_open = TRUE)
   op <- tyre_operating(speed, camber, pressure, pac, rig)
-  s <- tyre_settings(model, "point", op$speed, op$camber, op$pressure, op$pac, op$rig)
-  as.numeric(tyre_static_deflection_cpp(k * 1000, s)) * 1000
+  list(k = k * 1000,
+       settings = tyre_settings(model, "patch", op$speed, op$camber, op$pressure, op$pac,
+                                op$rig))
 }

@@ -1,10 +1,12 @@
 # Chapter 5 of Stewart (2023): tyre calibration on the stand-in rig.
 #
-# Builds the 2,000 x 3 = 6,000-run Fiala library, the held-out "measured"
-# data (Fiala and PAC2002-style at k = 450 N/mm, c = 1.5 N s/mm plus noise),
-# runs the thesis's independent-error calibrations (and Fiala-to-PAC2002
-# again with a rigid-disc Fiala library) and the same with an AR(1)
-# correlation over time (rho_t sampled, Appendix B), and stores small
+# Builds the 2,000 x 3 = 6,000-run Fiala library (rectangular contact patch
+# of uniform pressure, the thesis's Fiala assumption), the held-out
+# "measured" data (Fiala and PAC2002-style, rigid-disc contact as in the
+# thesis, at k = 450 N/mm, c = 1.5 N s/mm plus noise), runs the thesis's
+# independent-error calibrations (and Fiala-to-PAC2002 again with a
+# rigid-disc Fiala library, to isolate the force law) and the same with an
+# AR(1) correlation over time (rho_t sampled, Appendix B), and stores small
 # summaries in inst/extdata/ch5.rds for vignettes/chapter5.Rmd. Then
 # (issue 12) refines every fit whose intervals the library's resolution
 # limits, with refine(): once with the tyre stand-in as the simulator, once
@@ -13,8 +15,10 @@
 #
 # Run from the package root, single-threaded, after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/ch5.R
-# Takes about 7 minutes on one core: 2 for the two libraries and the plain
-# fits, 5 for the twelve refine() calls.
+# Took 23 minutes (1,354 s) on one core of a shared 2-core machine under load
+# (load average about 6): 3.4 for the two libraries (the rigid-disc one is
+# 4.6 times as costly per run), under 1 for the plain fits, 17 for the twelve
+# refine() calls.
 
 library(griddy)
 data.table::setDTthreads(1)
@@ -42,7 +46,7 @@ steps <- 0:10 / 10
 rng <- tyre_param_ranges()
 sens_k <- rng$min[1] + steps * (rng$max[1] - rng$min[1])
 sens_c <- rng$min[2] + steps * (rng$max[2] - rng$min[2])
-fz_k <- tyre_cleat_model(sens_k, truth[["c"]], height = sens_height)
+fz_k <- tyre_cleat_model(sens_k, truth[["c"]], height = sens_height)   # patch contact
 fz_c <- tyre_cleat_model(truth[["k"]], sens_c, height = sens_height)
 time <- attr(fz_k, "time")
 sensitivity <- data.table::rbindlist(list(
@@ -53,10 +57,27 @@ sensitivity <- data.table::rbindlist(list(
                          k = truth[["k"]], c = rep(sens_c, each = length(time)),
                          time = time, fz = round(as.vector(t(fz_c)), 1))))
 
+# ---- The contact models at the truth ---------------------------------------
+# Fz of the Fiala tyre at (450, 1.5) on the three cleats with each contact
+# (point follower: the default before the contact patch), and of the
+# PAC2002-style tyre with its rigid disc, noise-free.
+contact_runs <- data.table::rbindlist(lapply(c("patch", "point", "disc", "pac2002"), function(ct) {
+  fz <- if (ct == "pac2002") {
+    tyre_cleat_model(truth[["k"]], truth[["c"]], model = "pac2002")
+  } else {
+    tyre_cleat_model(truth[["k"]], truth[["c"]], contact = ct)
+  }
+  data.table::data.table(contact = ct, height = rep(attr(fz, "height"), each = length(time)),
+                         time = time, fz = round(as.vector(fz), 1))
+}))
+# the patch length (mm) at the truth and at the ends of the k range
+patch_length <- stats::setNames(tyre_patch_length(c(truth[["k"]], rng$min[1], rng$max[1])),
+                                c("truth", "k_min", "k_max"))
+
 # ---- Library (2,000 LHS combinations x 3 heights) ---------------------------
 t0 <- proc.time()[["elapsed"]]
 set.seed(seeds[["library"]])
-lib <- tyre_library(2000)
+lib <- tyre_library(2000)             # Fiala, rectangular-patch contact
 t_library <- proc.time()[["elapsed"]] - t0
 # the truth is held out: a Latin hypercube never hits it exactly
 stopifnot(!any(lib$theta$k == truth[["k"]] & lib$theta$c == truth[["c"]]))
@@ -136,8 +157,8 @@ list_field <- function(fit) {
 
 fits <- list()
 plain <- list()   # the fit objects, for refine() below (not stored)
-cases <- list(fiala = list(lib = lib, data = "fiala", contact = "point"),
-              pac2002 = list(lib = lib, data = "pac2002", contact = "point"),
+cases <- list(fiala = list(lib = lib, data = "fiala", contact = "patch"),
+              pac2002 = list(lib = lib, data = "pac2002", contact = "patch"),
               pac2002_disc = list(lib = lib_disc, data = "pac2002", contact = "disc"))
 for (case in names(cases)) {
   data_model <- cases[[case]]$data
@@ -170,13 +191,13 @@ tyre_simulator <- function(theta, contact) {
 }
 # it reproduces the libraries' rows exactly
 check_rows <- c(1, 2, 1000, 1999, 2000)
-stopifnot(identical(tyre_simulator(lib$theta[check_rows, ], "point"), lib$y[check_rows, ]),
+stopifnot(identical(tyre_simulator(lib$theta[check_rows, ], "patch"), lib$y[check_rows, ]),
           identical(tyre_simulator(lib_disc$theta[check_rows, ], "disc"),
                     lib_disc$y[check_rows, ]))
 # Cost of one (k, c) run (3 heights x 500 samples of RK4), from the libraries.
-sim_cost <- c(point = t_library, disc = t_library_disc) / nrow(lib$theta)
+sim_cost <- c(patch = t_library, disc = t_library_disc) / nrow(lib$theta)
 # At most as many new runs as the library has: at most 2,000 x sim_cost of
-# simulation per call (about 25 s with point contact, 80 s with disc), and
+# simulation per call (about 35 s with patch contact, 130 s with disc), and
 # 10 rounds of refine()'s default 200 runs.
 max_runs <- 2000
 
@@ -262,7 +283,7 @@ for (key in names(plain)) {
 }
 
 # How smooth is the simulator's misfit at the scale refine() reaches? The
-# mean squared misfit (N^2) along k at 0.05 N/mm steps, c fixed: point
+# mean squared misfit (N^2) along k at 0.05 N/mm steps, c fixed: patch
 # contact to the Fiala data around the truth, disc contact to the PAC2002
 # data around the simulator-refined median; each with the library's RK4 step
 # and with a step 4 times smaller (not used anywhere else).
@@ -279,7 +300,7 @@ misfit_line <- function(contact, data_model, k0, c0, steps_per_sample) {
 disc_med <- refined$pac2002_disc_independent$simulator$summary
 rk4_steps <- tyre_rig()$steps_per_sample * c(1, 4)
 misfit_lines <- data.table::rbindlist(c(
-  lapply(rk4_steps, function(s) misfit_line("point", "fiala", truth[["k"]], truth[["c"]], s)),
+  lapply(rk4_steps, function(s) misfit_line("patch", "fiala", truth[["k"]], truth[["c"]], s)),
   lapply(rk4_steps, function(s) {
     misfit_line("disc", "pac2002", round(disc_med$median[disc_med$parameter == "k"], 1),
                 round(disc_med$median[disc_med$parameter == "c"], 3), s)
@@ -292,8 +313,9 @@ ch5 <- list(
                   burn_in = burn_in, chains = chains, phi = phi, rho_t_grid = rho_t_grid,
                   sens_height = sens_height, heights = lib$x$height,
                   step_k = step_k, step_c = step_c, max_runs = max_runs,
-                  sim_cost = sim_cost),
+                  sim_cost = sim_cost, patch_length = patch_length),
   sensitivity = sensitivity,
+  contact_runs = contact_runs,
   design = data.table::data.table(k = round(lib$theta$k, 3), c = round(lib$theta$c, 5)),
   fits = fits,
   refined = refined,

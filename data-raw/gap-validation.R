@@ -42,13 +42,16 @@ tyre_conditions <- function(speeds = 20, cambers = camber_meas) {
 
 # Outputs of one effect for every base theta, at every condition x height
 # (blocks by condition, then height). `effect` NULL is the Fiala base model,
-# which ignores camber.
+# which ignores camber. Base and candidates use point-follower contact (the
+# Fiala default was point when the shipped results were made; it is now the
+# contact patch), so "disc" is the only contact effect.
 tyre_runs <- function(theta, effect = NULL, strength = 0, conditions = tyre_conditions()) {
   blocks <- lapply(seq_len(nrow(conditions)), function(j) {
     v <- conditions$speed[j]
     g <- conditions$camber[j]
     if (is.null(effect) || strength == 0) {
-      return(tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig))
+      return(tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig,
+                              contact = "point"))
     }
     switch(effect,
       quadratic = tyre_cleat_model(as.matrix(theta), height = heights, speed = v, rig = rig,

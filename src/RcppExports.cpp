@@ -154,6 +154,18 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// tyre_patch_length_cpp
+arma::vec tyre_patch_length_cpp(const arma::vec& k, const Rcpp::List& settings);
+RcppExport SEXP _griddy_tyre_patch_length_cpp(SEXP kSEXP, SEXP settingsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::vec& >::type k(kSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type settings(settingsSEXP);
+    rcpp_result_gen = Rcpp::wrap(tyre_patch_length_cpp(k, settings));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 1},
@@ -166,6 +178,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 4},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
+    {"_griddy_tyre_patch_length_cpp", (DL_FUNC) &_griddy_tyre_patch_length_cpp, 2},
     {NULL, NULL, 0}
 };
 

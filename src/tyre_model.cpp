@@ -1,6 +1,7 @@
 // Vertical dynamics of one wheel on a constant-load tyre rig rolling over a
 // cleat (Stewart 2023, chapter 5 stand-in).  Fixed-step RK4 on the wheel-centre
-// height; Fiala or PAC2002-style vertical force; point or rigid-disc contact.
+// height; Fiala or PAC2002-style vertical force; point-follower, rigid-disc or
+// rectangular-patch (uniform pressure) contact.
 //
 // All inputs are SI and validated on the R side (R/tyre_model.R).
 
@@ -14,7 +15,7 @@ const double kPi = 3.14159265358979323846;
 
 struct TyreSettings {
   int model;             // 0 = Fiala, 1 = PAC2002-style
-  int contact;           // 0 = point follower, 1 = rigid disc
+  int contact;           // 0 = point follower, 1 = rigid disc, 2 = rectangular patch
   double load, speed, mass, r0, fz0;
   double qfz2, qfz3, qpfz1, qv2, v0, camber, dpi;
   double cleat_length, edge_length, t_cleat;
@@ -22,6 +23,7 @@ struct TyreSettings {
   double sample_interval;
   bool sample_mean;
   double bottom_stiffness, bottom_deflection;
+  double patch_length;   // m; 0 = the chord of the unloaded tyre at its static deflection
 };
 
 // Cleat: flat road with a plank of height h and length L whose edges rise
@@ -41,6 +43,18 @@ struct Cleat {
     if (s < b) return 0.5 * h * kPi / b * std::sin(kPi * s / b);
     if (s > len - b) return -0.5 * h * kPi / b * std::sin(kPi * (len - s) / b);
     return 0.0;
+  }
+  // Area under the profile from the cleat's start to x (the antiderivative of
+  // height(); each half-cosine ramp holds h b / 2).
+  double area(double x) const {
+    const double s = x - xc;
+    if (s <= 0.0) return 0.0;
+    const double total = h * (len - b);
+    if (s >= len) return total;
+    if (s < b) return 0.5 * h * (s - b / kPi * std::sin(kPi * s / b));
+    const double r = len - s;
+    if (r < b) return total - 0.5 * h * (r - b / kPi * std::sin(kPi * r / b));
+    return 0.5 * h * b + h * (s - b);
   }
 };
 
@@ -157,14 +171,22 @@ inline double spring_force(const TyreSettings& s, double k, double rho) {
   return f;
 }
 
-// Vertical force on the wheel at time t for centre height z, velocity w.
+// Vertical force on the wheel at time t for centre height z, velocity w;
+// `half_patch` is the half-length of the contact patch (patch contact only).
 inline double vertical_force(const TyreSettings& s, const Cleat& cl, double k, double c,
-                             double t, double z, double w) {
+                             double half_patch, double t, double z, double w) {
   const double x = s.speed * t;
   double rho, rhodot, nz = 1.0;
   if (s.contact == 0) {
     rho = s.r0 - (z - cl.height(x));
     rhodot = -w + s.speed * cl.slope(x);
+  } else if (s.contact == 2) {
+    // uniform pressure over [x - a, x + a]: the road height the tyre feels is
+    // the patch mean, and its rate the difference of the two patch ends
+    const double a = half_patch;
+    const double mean_height = (cl.area(x + a) - cl.area(x - a)) / (2.0 * a);
+    rho = s.r0 - (z - mean_height);
+    rhodot = -w + s.speed * (cl.height(x + a) - cl.height(x - a)) / (2.0 * a);
   } else {
     double nx;
     const double d = disc_contact(cl, x, z, &nx, &nz);
@@ -187,25 +209,35 @@ double static_deflection(const TyreSettings& s, double k) {
   return 0.5 * (lo + hi);
 }
 
+// Half-length of the contact patch: half the given patch length, or half the
+// chord that the flat road cuts from the unloaded tyre (radius R0) at its
+// static deflection rho0, sqrt(2 R0 rho0 - rho0^2).
+double patch_half_length(const TyreSettings& s, double k) {
+  if (s.patch_length > 0.0) return 0.5 * s.patch_length;
+  const double rho0 = static_deflection(s, k);
+  return std::sqrt(rho0 * (2.0 * s.r0 - rho0));
+}
+
 void simulate(const TyreSettings& s, const Cleat& cl, double k, double c, double* out) {
   const double dt = s.sample_interval / s.steps_per_sample;
   const double m = s.mass;
+  const double a = s.contact == 2 ? patch_half_length(s, k) : 0.0;
   double z = s.r0 - static_deflection(s, k), w = 0.0, t = 0.0;
-  double f_now = vertical_force(s, cl, k, c, t, z, w);
+  double f_now = vertical_force(s, cl, k, c, a, t, z, w);
   for (int j = 0; j < s.n_samples; ++j) {
     double acc = 0.0;
     for (int i = 0; i < s.steps_per_sample; ++i) {
       const double k1z = w, k1w = (f_now - s.load) / m;
       const double z2 = z + 0.5 * dt * k1z, w2 = w + 0.5 * dt * k1w;
-      const double k2z = w2, k2w = (vertical_force(s, cl, k, c, t + 0.5 * dt, z2, w2) - s.load) / m;
+      const double k2z = w2, k2w = (vertical_force(s, cl, k, c, a, t + 0.5 * dt, z2, w2) - s.load) / m;
       const double z3 = z + 0.5 * dt * k2z, w3 = w + 0.5 * dt * k2w;
-      const double k3z = w3, k3w = (vertical_force(s, cl, k, c, t + 0.5 * dt, z3, w3) - s.load) / m;
+      const double k3z = w3, k3w = (vertical_force(s, cl, k, c, a, t + 0.5 * dt, z3, w3) - s.load) / m;
       const double z4 = z + dt * k3z, w4 = w + dt * k3w;
-      const double k4z = w4, k4w = (vertical_force(s, cl, k, c, t + dt, z4, w4) - s.load) / m;
+      const double k4z = w4, k4w = (vertical_force(s, cl, k, c, a, t + dt, z4, w4) - s.load) / m;
       z += dt / 6.0 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z);
       w += dt / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
       t = (static_cast<double>(j) * s.steps_per_sample + i + 1) * dt;
-      const double f_next = vertical_force(s, cl, k, c, t, z, w);
+      const double f_next = vertical_force(s, cl, k, c, a, t, z, w);
       acc += 0.5 * (f_now + f_next);   // trapezoid over the step
       f_now = f_next;
     }
@@ -247,6 +279,7 @@ static TyreSettings read_settings(const Rcpp::List& settings) {
   s.sample_mean = Rcpp::as<bool>(settings["sample_mean"]);
   s.bottom_stiffness = get_num(settings, "bottom_stiffness");
   s.bottom_deflection = get_num(settings, "bottom_deflection");
+  s.patch_length = get_num(settings, "patch_length");
   return s;
 }
 
@@ -280,5 +313,14 @@ arma::vec tyre_static_deflection_cpp(const arma::vec& k, const Rcpp::List& setti
   const TyreSettings s = read_settings(settings);
   arma::vec out(k.n_elem);
   for (arma::uword i = 0; i < k.n_elem; ++i) out(i) = static_deflection(s, k(i));
+  return out;
+}
+
+// Contact-patch length [m] for each stiffness k [N/m] (patch contact).
+// [[Rcpp::export]]
+arma::vec tyre_patch_length_cpp(const arma::vec& k, const Rcpp::List& settings) {
+  const TyreSettings s = read_settings(settings);
+  arma::vec out(k.n_elem);
+  for (arma::uword i = 0; i < k.n_elem; ++i) out(i) = 2.0 * patch_half_length(s, k(i));
   return out;
 }
