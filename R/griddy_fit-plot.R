@@ -194,7 +194,7 @@ plot_ppc <- function(fit, level = 0.95, ...) {
       ggplot2::geom_pointrange(ggplot2::aes(y = .data$mean, ymin = .data$lower,
                                             ymax = .data$upper), colour = "steelblue") +
       ggplot2::geom_point(ggplot2::aes(y = .data$observed), colour = "black", shape = 4,
-                          size = 2.5) +
+                          size = 2.5, na.rm = TRUE) +
       ggplot2::labs(x = "x setting (row of the library's x)")
   } else {
     p <- p +
@@ -203,14 +203,15 @@ plot_ppc <- function(fit, level = 0.95, ...) {
       ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper),
                            fill = "steelblue", alpha = 0.5) +
       ggplot2::geom_line(ggplot2::aes(y = .data$mean), colour = "steelblue") +
-      ggplot2::geom_point(ggplot2::aes(y = .data$observed), size = 0.6) +
+      ggplot2::geom_point(ggplot2::aes(y = .data$observed), size = 0.6, na.rm = TRUE) +
       ggplot2::facet_wrap(ggplot2::vars(.data$setting), scales = "free_y") +
       ggplot2::labs(x = "t")
   }
   p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
-                    subtitle = paste0("Black: field data. Blue: simulator at the drawn runs ",
-                                      "(mean, ", format(100 * level), "% band). Grey: with ",
-                                      "fitted noise.")) +
+                    # two lines: one does not fit a vignette-width figure
+                    subtitle = paste0("Black: field data (missing cells left out). Blue: ",
+                                      "simulator at the drawn runs\n(mean, ",
+                                      format(100 * level), "% band). Grey: with fitted noise.")) +
     ggplot2::theme_bw()
 }
 

@@ -22,6 +22,15 @@ test_that("each plot type returns a ggplot built from the fit", {
   expect_error(plot(fit, "density"), class = "griddy_error_input", regexp = "`type` must be one of")
 })
 
+test_that("the ppc plot leaves missing field cells out without a warning", {
+  toy <- toy_missing()
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 50, seed = 1))
+  pp <- plot(fit, "ppc", ndraws = 50, seed = 1)
+  expect_equal(sum(is.na(pp$data$observed)), 4)
+  expect_no_warning(ggplot2::ggplotGrob(pp))
+  expect_match(pp$labels$subtitle, "\n", fixed = TRUE)
+})
+
 test_that("the ppc plot handles one output per setting", {
   lib <- sim_library(data.frame(k = 1:5), outer(1:5, 1:4), x = data.frame(pos = 1:4))
   fit <- suppressWarnings(calibrate(lib, field_data(c(2.1, 3.9, 6.2, 7.8)), n_iter = 300,
