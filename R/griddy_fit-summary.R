@@ -190,6 +190,17 @@ cat_wrapped <- function(lines, width) {
 # A summary's table as print() shows it, within `width` characters: the
 # estimate (or, in a table without it, the mean and median), the interval
 # and the diagnostics, then a line saying which estimate is reported.
+#' @export
+`[.griddy_summary` <- function(x, ...) keep_level(NextMethod(), x)
+
+# A subset of a summary keeps its level, so the bound columns and the
+# estimate note still name it (`[.data.frame` keeps the class but drops the
+# other attributes).
+keep_level <- function(subset, x) {
+  if (is.data.frame(subset)) attr(subset, "level") <- attr(x, "level")
+  subset
+}
+
 print_summary_table <- function(x, digits, width, level) {
   tab <- format_summary_table(x, digits, level)
   old <- options(width = width)

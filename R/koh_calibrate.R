@@ -270,6 +270,9 @@ print.griddy_koh_summary <- function(x, digits = 4, width = getOption("width"), 
 }
 
 #' @export
+`[.griddy_koh_summary` <- function(x, ...) keep_level(NextMethod(), x)
+
+#' @export
 print.griddy_koh <- function(x, digits = 4, ...) {
   cli::cat_line("<griddy_koh> Kennedy-O'Hagan calibration (RobustCalibration), ",
                 x$discrepancy, " discrepancy")

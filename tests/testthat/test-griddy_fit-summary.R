@@ -24,6 +24,9 @@ test_that("summary has one row per sampled parameter with rank-normalised diagno
   expect_equal(s$mcse[1], posterior::mcse_mean(m))
   narrow <- summary(fit, level = 0.5)
   expect_gte(narrow$lower[1], s$lower[1])
+  # a subset keeps its level (it printed the 95% bounds' names)
+  expect_identical(attr(narrow[1:2, ], "level"), 0.5)
+  expect_match(paste(utils::capture.output(print(narrow[1, ])), collapse = "\n"), "25 %")
   expect_error(summary(fit, level = 1), "`level` must be a single number in \\(0, 1\\)")
   a <- attr(s, "adequacy")
   exact <- posterior_exact(toy$library, toy$field, rho_t = c(0, 1e-3, 0.1))$run

@@ -138,4 +138,7 @@ test_that("a KOH summary prints each parameter on its own scale, within width", 
   expect_match(out, "^estimate: posterior mean\\.$", all = FALSE)
   narrow <- utils::capture.output(print(s, width = 40))
   expect_lte(max(nchar(narrow)), 40)
+  # a subset keeps its level: it printed "% equal-tailed intervals"
+  sub <- utils::capture.output(print(summary(koh, level = 0.9)[1, ], width = 200))
+  expect_match(sub[1], "90% equal-tailed intervals")
 })
