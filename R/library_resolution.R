@@ -137,15 +137,21 @@ format_values <- function(v) vapply(v, format, "", digits = 2, nsmall = 1, USE.N
 
 # summary()'s printed checks: one line for the runs, one per limited
 # parameter and one per parameter with mass at the edge of its range.
+# A total-variation distance to 2 significant digits, or "< 0.0001": on one
+# run both distances are rounding noise (it printed 7.1e-289).
+format_distance <- function(d) {
+  if (is.finite(d) && d < 1e-4) "< 0.0001" else format(d, digits = 2)
+}
+
 format_adequacy <- function(adequacy) {
   tab <- adequacy$parameters
   lines <- c(
     paste0("Library: effective number of runs ", format(adequacy$effective_runs, digits = 3),
            " (sampled ", format(adequacy$effective_runs_sampled, digits = 3), ")."),
     paste0("Draws vs exact posterior over runs: total-variation distance ",
-           format(adequacy$tv_distance, digits = 2),
+           format_distance(adequacy$tv_distance),
            if (!is.null(adequacy$tv_reference)) {
-             paste0(" (Monte Carlo error alone: ", format(adequacy$tv_reference, digits = 2),
+             paste0(" (Monte Carlo error alone: ", format_distance(adequacy$tv_reference),
                     " at ", format(round(adequacy$effective_draws)), " effective draws)")
            }, "."),
     if (!is.null(adequacy$emulation_error)) {

@@ -98,6 +98,11 @@ test_that("format_adequacy has one line per limited parameter and per edge", {
   lines <- format_adequacy(list(parameters = spread, effective_runs = 20,
                                 effective_runs_sampled = 20, tv_distance = 0))
   expect_length(lines, 2L)
+  # on one run both distances are rounding noise (printed as 7.1e-289)
+  one <- format_adequacy(list(parameters = spread, effective_runs = 1, effective_runs_sampled = 1,
+                              tv_distance = 7.1e-289, tv_reference = 1.4e-288,
+                              effective_draws = 80000))
+  expect_match(one[2], "distance < 0.0001 (Monte Carlo error alone: < 0.0001 at 80000", fixed = TRUE)
 })
 
 test_that("a posterior pressed against the edge of a scattered design is at its minimum", {
