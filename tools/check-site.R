@@ -209,6 +209,9 @@ open_browser <- function() {
   if (!nzchar(Sys.getenv("CHROMOTE_CHROME")) && file.exists("/usr/bin/chromium")) {
     Sys.setenv(CHROMOTE_CHROME = "/usr/bin/chromium")
   }
+  # chromote waits 10 s for the browser's debugging port by default; on a
+  # loaded machine Chromium takes longer to start
+  options(chromote.timeout = 60)
   session <- chromote::ChromoteSession$new(width = 1280, height = 1000)
   session$Runtime$enable()
   session
