@@ -15,10 +15,10 @@
 #
 # Run from the package root, single-threaded, after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/ch5.R
-# Took 23 minutes (1,354 s) on one core of a shared 2-core machine under load
-# (load average about 6): 3.4 for the two libraries (the rigid-disc one is
-# 4.6 times as costly per run), under 1 for the plain fits, 17 for the twelve
-# refine() calls.
+# Took 9.4 minutes (564 s) on a shared 2-core machine at load average about
+# 2 (23 minutes at load 6): most of it the twelve refine() calls; the two
+# libraries take about half a minute (the rigid-disc one is 4.6 times as
+# costly per run).
 
 library(griddy)
 data.table::setDTthreads(1)
@@ -112,7 +112,6 @@ keep_warnings <- function(expr) {
 fit_record <- function(fit, warnings, rho_t) {
   s <- summary(fit)
   ad <- attr(s, "adequacy")
-  printed <- utils::capture.output(print(s))
   exact <- posterior_exact(fit$library, list_field(fit), rho_t = rho_t)
   sampled <- tabulate(fit$draws$run, nbins = nrow(fit$library$y)) / nrow(fit$draws)
   runs <- which(sampled > 0 | exact$run > 1e-12)
@@ -141,7 +140,8 @@ fit_record <- function(fit, warnings, rho_t) {
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
                                                "upper", "ess_bulk", "ess_tail", "rhat", "mcse",
                                                "resolution")],
-       printed = printed, warnings = warnings,
+       # the summary itself, printed by the installed griddy when the vignette knits
+       summary_object = s, warnings = warnings,
        adequacy = list(effective_runs = ad$effective_runs,
                        effective_runs_sampled = ad$effective_runs_sampled,
                        top_share = max(exact$run), top_share_sampled = max(sampled),
@@ -221,7 +221,7 @@ refined_record <- function(fit, warnings, elapsed) {
   list(summary = as.data.frame(unclass(s))[, c("parameter", "mean", "median", "lower",
                                                "upper", "ess_bulk", "ess_tail", "rhat", "mcse",
                                                "resolution")],
-       printed = utils::capture.output(print(s)), warnings = unique(warnings),
+       summary_object = s, warnings = unique(warnings),
        resolution = ad$parameters,
        adequacy = list(effective_runs = ad$effective_runs,
                        effective_runs_sampled = ad$effective_runs_sampled,
