@@ -156,18 +156,12 @@ shown <- results[, .(method, `seconds` = signif(seconds, 3), `sampling (s)` = si
                      `CPU / elapsed` = round(cpu_per_elapsed, 2), `load (1 min)` = load_1min)]
 ess_wide <- data.table::dcast(parameters, parameter ~ method, value.var = "ess_bulk",
                               fun.aggregate = function(v) round(v[1]))
-loads <- range(results$load_1min)
 md <- c(
-  "# Effective samples per second: griddy against RobustCalibration (chapter 4, 54 points)",
+  md_header("Effective samples per second: griddy against RobustCalibration (chapter 4, 54 points)",
+            "bench/ess-per-second.R", start_note, results$load_1min),
   "",
-  paste0("Written by `bench/ess-per-second.R` on ", format(Sys.Date()), ". ", start_note, "."),
-  if (any(results$shared_machine)) paste0(
-    "**The machine was shared**: the one-minute load average before a run was between ",
-    loads[1], " and ", loads[2], " (above 1 means other work ran beside the benchmark), ",
-    "so absolute times are noisy.") else
-    "The machine was otherwise idle (load average at most 1 before every run).",
-  "",
-  paste0("griddy: ", format(n_runs, big.mark = ","), "-run library, rho fixed, ", format(griddy_iter, big.mark = ","),
+  paste0("griddy: ", format(n_runs, big.mark = ","), "-run library, rho fixed, ",
+         format(griddy_iter, big.mark = ","),
          " iterations (burn-in ", format(griddy_burn, big.mark = ","), "), median of 5 calls. ",
          "KOH: koh_calibrate() on the 343-run library, ", format(koh_iter, big.mark = ","),
          " iterations (burn-in ", format(koh_burn, big.mark = ","), ") after 3 x 1,000 tuning ",

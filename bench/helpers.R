@@ -283,6 +283,21 @@ max_mean_z <- function(a, b) {
   max(ifelse(se > 0, diff / se, ifelse(diff == 0, 0, Inf)))
 }
 
+# The opening lines of a results page: title, script, date, machine, and
+# whether other work shared the machine (a load average above 1 before a run).
+md_header <- function(title, script, machine, loads) {
+  c(paste("#", title), "",
+    paste0("Written by `", script, "` on ", format(Sys.Date()), ". ", machine, "."),
+    if (max(loads) > 1) {
+      paste0("**The machine was shared**: the one-minute load average before a run was ",
+             "between ", min(loads), " and ", max(loads), " (above 1 means other work ran ",
+             "beside the benchmark), so absolute times are noisy; ratios within one run ",
+             "count more.")
+    } else {
+      "The machine was otherwise idle (load average at most 1 before every run)."
+    })
+}
+
 # Numbers to 3 significant digits with thousands separators, for tables.
 fmt3 <- function(x) ifelse(is.na(x), "-", formatC(signif(x, 3), format = "fg", digits = 3,
                                                   big.mark = ","))

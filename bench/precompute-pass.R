@@ -103,16 +103,9 @@ shown <- results[, .(
   `goal <= 1.5` = within_goal, `sampling (s)` = signif(sampling_s, 2),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
   threads = paste0(threads_option, " (", os_threads, " OS)"), `load (1 min)` = load_1min)]
-loads <- range(results$load_1min)
 md <- c(
-  "# The precompute at 10^6 runs, rho fixed, against one pass over memory",
-  "",
-  paste0("Written by `bench/precompute-pass.R` on ", format(Sys.Date()), ". ", start_note, "."),
-  if (any(results$shared_machine)) paste0(
-    "**The machine was shared**: the one-minute load average before a run was between ",
-    loads[1], " and ", loads[2], " (above 1 means other work ran beside the benchmark), ",
-    "so absolute times are noisy.") else
-    "The machine was otherwise idle (load average at most 1 before every run).",
+  md_header("The precompute at 10^6 runs, rho fixed, against one pass over memory",
+            "bench/precompute-pass.R", start_note, results$load_1min),
   "",
   paste0(format(n_runs, big.mark = ",", scientific = FALSE), " runs x ", n_points,
          " outputs (", round(8 * n_runs * n_points / 2^20), " MB), rho fixed, 35,000 ",

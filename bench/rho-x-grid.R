@@ -17,7 +17,8 @@
 #           (bench/helpers.R: plain_quad_forms_x(), then thesis_plain_r()).
 #           PLAIN_MAX_ITER (default 35,000) caps its iterations; its sampling
 #           time is then scaled linearly to 35,000 (its cost per iteration is
-#           constant) and the column plain_iterations says what ran.
+#           constant), its burn-in is shortened in proportion, and the column
+#           plain_iterations says what ran.
 # Timed: calibrate() as a whole (precompute = C and the sampler's tables;
 # sampling = the chain), for the plain loop C and the loop. Per process: peak
 # resident memory during the call above the memory before it (the library
@@ -73,7 +74,7 @@ if (length(args) == 5 && args[1] == "--one") {
     m <- measure_call({
       t_pre <- time_it(pq <- plain_quad_forms_x(inputs$y, inputs$field_y, inputs$x, grids))
       draws <- thesis_plain_r(pq$C, pq$logdet, length(inputs$field_y), plain_iter,
-                              min(burn_in, plain_iter - 1L))
+                              round(burn_in * plain_iter / n_iter))
     })
     precompute <- t_pre
     sampling <- (m$elapsed_s - t_pre) * n_iter / plain_iter
@@ -120,8 +121,8 @@ if (length(args) == 5 && args[1] == "--one") {
     info, calibrate_s = total, precompute_s = precompute,
     sampling_s = sampling, iterations = n_iter, plain_iterations = iterations_run,
     C_mb = C_mb, rss_before_mb = m$rss_before_mb, peak_extra_mb = m$peak_extra_mb,
-    peak_mb = m$peak_mb, cpu_s = m$cpu_s * total / m$elapsed_s, cpu_per_elapsed = m$cpu_s / m$elapsed_s, os_threads = m$os_threads,
-    load_1min = load_before, warnings = warnings), paste0(base, ".csv"))
+    peak_mb = m$peak_mb, cpu_s = m$cpu_s * total / m$elapsed_s,
+    cpu_per_elapsed = m$cpu_s / m$elapsed_s, os_threads = m$os_threads, load_1min = load_before, warnings = warnings), paste0(base, ".csv"))
   quit(save = "no")
 }
 
@@ -151,29 +152,29 @@ rm(inputs)
 rows <- list()
 posteriors <- list()
 for (k in sizes) {
+  # what the child of `label` wrote at this size
+  out <- function(label, suffix) file.path(dir, paste0(label, "-", k, suffix))
   for (label in names(runs)) {
     r <- runs[[label]]
     cat(sprintf("%s, %d values per coordinate ...\n", label, k))
     run_child("bench/rho-x-grid.R", c("--one", r$impl, label, k, dir), lib = r$lib, env = r$env)
-    row <- data.table::fread(file.path(dir, paste0(label, "-", k, ".csv")))
-    post <- data.table::fread(file.path(dir, paste0(label, "-", k, "-posterior.csv")))
+    row <- data.table::fread(out(label, ".csv"))
+    post <- data.table::fread(out(label, "-posterior.csv"))
     posteriors[[length(posteriors) + 1]] <- cbind(implementation = label,
                                                  rho_values_per_coordinate = k, post)
     if (label != "old" && "old" %in% names(runs)) {
-      ref <- file.path(dir, paste0("old-", k))
-      row[, C_max_rel_diff_vs_old := max_rel_diff_bin(file.path(dir, paste0(label, "-", k, "-C.bin")),
-                                                      paste0(ref, "-C.bin"))]
-      row[, draws_identical_to_old := identical(readRDS(file.path(dir, paste0(label, "-", k, "-draws.rds"))),
-                                                readRDS(paste0(ref, "-draws.rds")))]
-      row[, max_mean_z_vs_old := max_mean_z(as.data.frame(post),
-                                            as.data.frame(data.table::fread(paste0(ref, "-posterior.csv"))))]
+      row[, C_max_rel_diff_vs_old := max_rel_diff_bin(out(label, "-C.bin"), out("old", "-C.bin"))]
+      row[, draws_identical_to_old := identical(readRDS(out(label, "-draws.rds")),
+                                                readRDS(out("old", "-draws.rds")))]
+      row[, max_mean_z_vs_old := max_mean_z(as.data.frame(post), as.data.frame(
+        data.table::fread(out("old", "-posterior.csv"))))]
     }
-    if (label != "old") unlink(file.path(dir, paste0(label, "-", k, "-C.bin")))
+    if (label != "old") unlink(out(label, "-C.bin"))
     print(row[, .(implementation, grid_points, calibrate_s, precompute_s, sampling_s,
                   peak_extra_mb, cpu_per_elapsed, load_1min)])
     rows[[length(rows) + 1]] <- row
   }
-  unlink(file.path(dir, paste0("old-", k, "-C.bin")))
+  unlink(out("old", "-C.bin"))
 }
 unlink(dir, recursive = TRUE)
 results <- data.table::rbindlist(rows, fill = TRUE)
@@ -205,7 +206,8 @@ data.table::fwrite(data.table::rbindlist(posteriors, fill = TRUE),
 shown <- results[, .(
   implementation, `rho grid` = paste(rho_values_per_coordinate, "per coordinate"),
   `grid points` = format(grid_points, big.mark = ","),
-  `calibrate() total (s)` = signif(calibrate_s, 3), `of which precompute (s)` = signif(precompute_s, 3),
+  `calibrate() total (s)` = signif(calibrate_s, 3),
+  `of which precompute (s)` = signif(precompute_s, 3),
   `sampling (s)` = signif(sampling_s, 3), `CPU (s)` = signif(cpu_s, 3), `C (MB)` = round(C_mb),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
   threads = paste0(threads_option, " (", os_threads, " OS)"),
@@ -213,7 +215,8 @@ shown <- results[, .(
   `vs old` = signif(speedup_vs_old, 3), `vs plain` = signif(speedup_vs_plain, 3),
   `C max rel. diff vs old` = ifelse(is.na(C_max_rel_diff_vs_old), "-",
                                     formatC(C_max_rel_diff_vs_old, format = "g", digits = 2)),
-  `draws = old` = draws_identical_to_old, `max |z| of means vs old` = signif(max_mean_z_vs_old, 2),
+  `draws = old` = draws_identical_to_old,
+  `max |z| of means vs old` = signif(max_mean_z_vs_old, 2),
   `< 40 s (thesis)` = faster_than_thesis_40s, `< 10 s (goal)` = under_goal_10s)]
 post <- data.table::rbindlist(posteriors, fill = TRUE)
 post[, shown := ifelse(is.na(mcse), format(signif(mean, 5)),
@@ -223,16 +226,9 @@ post_wide <- data.table::dcast(post, rho_values_per_coordinate + parameter ~ imp
 data.table::setcolorder(post_wide, c("rho_values_per_coordinate", "parameter",
                                      intersect(names(runs), names(post_wide))))
 data.table::setnames(post_wide, "rho_values_per_coordinate", "rho values per coordinate")
-loads <- range(results$load_1min)
 md <- c(
-  "# The rho_x-grid case of issue 15, side by side",
-  "",
-  paste0("Written by `bench/rho-x-grid.R` on ", format(Sys.Date()), ". ", start_note, "."),
-  if (any(results$shared_machine)) paste0(
-    "**The machine was shared**: the one-minute load average before a run was between ",
-    loads[1], " and ", loads[2], " (above 1 means other work ran beside the benchmark), ",
-    "so absolute times are noisy; ratios within one run count.") else
-    "The machine was otherwise idle (load average at most 1 before every run).",
+  md_header("The rho_x-grid case of issue 15, side by side",
+            "bench/rho-x-grid.R", start_note, results$load_1min),
   "",
   paste0(format(n_runs, big.mark = ","), " runs x 54 data points (the piston library, ",
          round(n_runs^(1 / 3)), " values per coefficient; ",
@@ -250,7 +246,8 @@ md <- c(
   "- threads: option `griddy.threads` as set (\"default\" if unset) and the process's OS threads after the call.",
   "- C max rel. diff: largest elementwise |C - C_old| / C_old. max |z|: largest difference of posterior means (theta and rho_x) in Monte Carlo standard errors; a parameter whose draws sit on one value in both fits counts as 0 when the values agree.",
   if (any(results$plain_iterations < n_iter)) paste0(
-    "- The plain loop ran ", paste(unique(results$plain_iterations[results$implementation == "plain"]), collapse = "/"),
+    "- The plain loop ran ",
+    paste(unique(results[implementation == "plain", plain_iterations]), collapse = "/"),
     " iterations; its sampling time is scaled linearly to ", n_iter, " (PLAIN_MAX_ITER)."),
   "",
   "Posterior means ± Monte Carlo standard error (no ± where every kept draw sits on one value):",
