@@ -205,14 +205,23 @@ run_child <- function(script, args, lib = "", env = character()) {
 }
 
 # In a child: set option griddy.threads from GRIDDY_THREADS, and describe the
-# griddy loaded (version, library, thread option).
+# griddy loaded: version, library, the thread option and the threads it
+# gives (griddy_threads(); NA for a griddy without it, which runs on one).
 griddy_child_setup <- function() {
   threads <- Sys.getenv("GRIDDY_THREADS", "")
   if (nzchar(threads)) options(griddy.threads = as.integer(threads))
+  threads_fn <- get0("griddy_threads", envir = asNamespace("griddy"), inherits = FALSE)
   data.frame(griddy_version = format(utils::packageVersion("griddy")),
              griddy_lib = dirname(find.package("griddy")),
              threads_option = if (is.null(getOption("griddy.threads"))) "default" else
-               format(getOption("griddy.threads")))
+               format(getOption("griddy.threads")),
+             griddy_threads = if (is.null(threads_fn)) NA_integer_ else threads_fn())
+}
+
+# The threads column of a results page: the option as set, the threads
+# griddy_threads() gives, and the OS threads of the process after the call.
+threads_label <- function(option, used, os) {
+  paste0(option, " -> ", ifelse(is.na(used), "-", used), " (", os, " OS)")
 }
 
 # One-minute load average, and whether other work shared the machine (load

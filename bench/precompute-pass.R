@@ -102,7 +102,7 @@ shown <- results[, .(
   `precompute (s)` = signif(precompute_s, 3), `precompute / pass` = round(passes, 2),
   `goal <= 1.5` = within_goal, `sampling (s)` = signif(sampling_s, 2),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
-  threads = paste0(threads_option, " (", os_threads, " OS)"), `load (1 min)` = load_1min)]
+  threads = threads_label(threads_option, griddy_threads, os_threads), `load (1 min)` = load_1min)]
 md <- c(
   md_header("The precompute at 10^6 runs, rho fixed, against one pass over memory",
             "bench/precompute-pass.R", start_note, results$load_1min),

@@ -86,7 +86,8 @@ if (length(args) == 5 && args[1] == "--one") {
                        mcse = vapply(kept, function(v) {
                          if (all(v == v[1])) NA_real_ else posterior::mcse_mean(v)
                        }, 0))
-    info <- data.frame(griddy_version = "-", griddy_lib = "-", threads_option = "-")
+    info <- data.frame(griddy_version = "-", griddy_lib = "-", threads_option = "-",
+                       griddy_threads = NA_integer_)
     draws_out <- list(run = as.vector(draws), grid_point = attr(draws, "grid_point"))
     C <- pq$C
     C_mb <- as.numeric(object.size(C)) / 2^20
@@ -210,7 +211,7 @@ shown <- results[, .(
   `of which precompute (s)` = signif(precompute_s, 3),
   `sampling (s)` = signif(sampling_s, 3), `CPU (s)` = signif(cpu_s, 3), `C (MB)` = round(C_mb),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
-  threads = paste0(threads_option, " (", os_threads, " OS)"),
+  threads = threads_label(threads_option, griddy_threads, os_threads),
   `load (1 min)` = load_1min,
   `vs old` = signif(speedup_vs_old, 3), `vs plain` = signif(speedup_vs_plain, 3),
   `C max rel. diff vs old` = ifelse(is.na(C_max_rel_diff_vs_old), "-",
@@ -243,7 +244,7 @@ md <- c(
          " s at 54 data points). Goal: 1,000 grid points in under ", goal_seconds, " s."),
   "- `old`: griddy at c18971b (main before issue 15); `new`: the library in GRIDDY_NEW_LIB; `plain`: the thesis's Appendix A loop in plain R (C by `plain_quad_forms_x()`, then `thesis_plain_r()`; uniform prior over grid points, which here equals griddy's prior over distinct structures: every R_x of these grids differs).",
   "- CPU: CPU seconds of the process (all its threads) during the call (for the plain loop scaled as its time); CPU / elapsed: about 1 is one core busy throughout, below 1 means the process waited for a core (a shared machine), about 2 is both cores.",
-  "- threads: option `griddy.threads` as set (\"default\" if unset) and the process's OS threads after the call.",
+  "- threads: option `griddy.threads` as set (\"default\" if unset) -> the threads `griddy_threads()` gives (- where the code has no such function: one), and the process's OS threads after the call.",
   "- C max rel. diff: largest elementwise |C - C_old| / C_old. max |z|: largest difference of posterior means (theta and rho_x) in Monte Carlo standard errors; a parameter whose draws sit on one value in both fits counts as 0 when the values agree.",
   if (any(results$plain_iterations < n_iter)) paste0(
     "- The plain loop ran ",
