@@ -65,6 +65,7 @@ if (length(args) == 5 && args[1] == "--one") {
   dir <- args[5]
   inputs <- readRDS(file.path(dir, "inputs.rds"))
   grids <- case_grids(inputs$x, k)
+  n_runs_case <- nrow(inputs$y)
   load_before <- load_1min()
   base <- file.path(dir, paste0(label, "-", k))
   if (impl == "plain") {
@@ -116,7 +117,10 @@ if (length(args) == 5 && args[1] == "--one") {
   }
   data.table::fwrite(post, paste0(base, "-posterior.csv"))
   saveRDS(draws_out, paste0(base, "-draws.rds"))
-  if (!is.null(C)) writeBin(as.double(C), paste0(base, "-C.bin"))
+  # a C that is not a numeric matrix (stored otherwise) is not compared
+  C_values <- tryCatch(as.double(C), error = function(e) NULL)
+  if (length(C_values) == n_runs_case * k^3) writeBin(C_values, paste0(base, "-C.bin"))
+  rm(C_values)
   data.table::fwrite(data.frame(
     implementation = label, rho_values_per_coordinate = k, grid_points = k^3,
     info, calibrate_s = total, precompute_s = precompute,
