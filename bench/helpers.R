@@ -50,6 +50,19 @@ thesis_theta <- function(n_per_dim = NULL, n_runs = NULL, seed = 1) {
              h3 = runif(n_runs, 35.33, 12002.49))
 }
 
+# `n_runs` random runs (thesis_theta()) and their outputs at `n_points`
+# locations on [0, 1], built in blocks of 10^5 runs (no full-size temporaries).
+thesis_runs <- function(n_runs, n_points) {
+  theta <- thesis_theta(n_runs = n_runs)
+  locations <- seq(0, 1, length.out = n_points)
+  y <- matrix(0, n_runs, n_points)
+  for (from in seq(1, n_runs, by = 1e5)) {
+    rows <- from:min(n_runs, from + 1e5 - 1)
+    y[rows, ] <- thesis_response(as.matrix(theta[rows, ]), locations)
+  }
+  list(theta = theta, y = y, t = locations)
+}
+
 thesis_field <- function(n_points, seed = 1) {
   locations <- seq(0, 1, length.out = n_points)
   set.seed(seed)
@@ -59,13 +72,15 @@ thesis_field <- function(n_points, seed = 1) {
 # The thesis's Appendix A loop in plain R, vectorised over runs with a loop
 # over iterations: given the quadratic forms C (runs x grid points) and the
 # log-determinants, draw theta | tau, rho by inverse CDF over all runs, then
-# tau | theta, rho, then rho | theta, tau. Returns the kept runs.
+# tau | theta, rho, then rho | theta, tau. Returns the kept runs, with the
+# kept grid points as attribute `grid_point`.
 thesis_plain_r <- function(C, logdet, n, n_iter, burn_in, a = 1e-9, b = 1e-9) {
   C <- as.matrix(C)
   G <- ncol(C)
   tau <- 1
   g <- 1L
   keep <- integer(n_iter - burn_in)
+  keep_grid <- integer(n_iter - burn_in)
   for (it in seq_len(n_iter)) {
     lp <- -tau / 2 * C[, g]
     p <- exp(lp - max(lp))
@@ -77,8 +92,12 @@ thesis_plain_r <- function(C, logdet, n, n_iter, burn_in, a = 1e-9, b = 1e-9) {
       pw <- exp(lw - max(lw))
       g <- which(cumsum(pw) / sum(pw) > runif(1))[1]
     }
-    if (it > burn_in) keep[it - burn_in] <- run
+    if (it > burn_in) {
+      keep[it - burn_in] <- run
+      keep_grid[it - burn_in] <- g
+    }
   }
+  attr(keep, "grid_point") <- keep_grid
   keep
 }
 
@@ -102,3 +121,195 @@ plain_quad_forms <- function(Y, y, n_x, t, rho_t) {
   }
   list(C = out, logdet = logdet)
 }
+
+# Plain-R quadratic forms over a grid of one rho per x column (thesis
+# Appendix A): every combination of the columns' grids (as its lines 114-118
+# assemble them; the first column varies fastest, as in rho_grid()),
+# R_x[k, l] = prod_j rho_j^|x_kj - x_lj| (eq. 5 as a product, which is
+# calibrate()'s `x_power = 1`; x scaled to [0, 1] per column as griddy does),
+# then C = (y - g)' R_x^-1 (y - g) for every run, vectorised over runs, and
+# log|R_x|.
+plain_quad_forms_x <- function(Y, y, x, rho_x) {
+  E <- matrix(y, nrow(Y), ncol(Y), byrow = TRUE) - Y
+  dist <- lapply(x, function(v) {
+    span <- max(v) - min(v)
+    s <- if (span > 0) (v - min(v)) / span else v * 0
+    abs(outer(s, s, "-"))
+  })
+  combos <- expand.grid(rho_x, KEEP.OUT.ATTRS = FALSE)
+  C <- matrix(0, nrow(Y), nrow(combos))
+  logdet <- numeric(nrow(combos))
+  for (g in seq_len(nrow(combos))) {
+    R <- Reduce(`*`, Map(function(rho, d) rho^d, unlist(combos[g, ]), dist))  # 0^0 = 1
+    C[, g] <- rowSums((E %*% solve(R)) * E)
+    logdet[g] <- determinant(R)$modulus
+  }
+  list(C = C, logdet = logdet)
+}
+
+# ---- implementations side by side, each in its own R process ------------------
+
+# The 54-point piston case of chapters 3-4 as plain data, so that every griddy
+# version reads the same: the library with `per_dim` values per coefficient
+# (27 locations x 2 operating conditions; x = r, z, condition) and the field
+# piston_field_data(54, discrepancy = TRUE, seed = 2023). Needs griddy.
+piston_case_inputs <- function(per_dim) {
+  secs <- time_it(lib <- griddy::piston_library(per_dim, locations = 1:27,
+                                                condition = c("full", "part")))
+  field <- griddy::piston_field_data(54, discrepancy = TRUE, seed = 2023)
+  stopifnot(isTRUE(all.equal(field$x, lib$x)))
+  list(theta = lib$theta, y = lib$y, x = lib$x, field_y = drop(field$y), build_s = secs)
+}
+
+# The library and field of piston_case_inputs() for the griddy loaded.
+case_library <- function(inputs) griddy::sim_library(inputs$theta, inputs$y, x = inputs$x)
+case_field <- function(inputs) griddy::field_data(inputs$field_y, x = inputs$x)
+
+# The library holding griddy as on main before issue 15 (commit c18971b),
+# installed from this git repository on first use (about 1-3 minutes).
+old_griddy_lib <- function(lib = Sys.getenv("GRIDDY_OLD_LIB", "/tmp/lib-griddy-old"),
+                           commit = "c18971b") {
+  if (!file.exists(file.path(lib, "griddy", "DESCRIPTION"))) {
+    message("Installing griddy at ", commit, " into ", lib)
+    src <- tempfile("griddy-src-")
+    dir.create(src)
+    dir.create(lib, showWarnings = FALSE, recursive = TRUE)
+    if (system(paste("git archive", commit, "| tar -x -C", shQuote(src))) != 0 ||
+        system2(file.path(R.home("bin"), "R"),
+                c("CMD", "INSTALL", "--preclean", "-l", shQuote(lib), shQuote(src))) != 0) {
+      stop("Could not install griddy ", commit, " into ", lib)
+    }
+    unlink(src, recursive = TRUE)
+  }
+  lib
+}
+
+# The library of the code under test: GRIDDY_NEW_LIB, or "" for the griddy
+# the default library paths (and R_LIBS) give.
+new_griddy_lib <- function() Sys.getenv("GRIDDY_NEW_LIB", "")
+
+# Thread counts to run the new code with (GRIDDY_NEW_THREADS, e.g. "1,2"; set
+# as option griddy.threads); NA alone: the package's default.
+new_griddy_threads <- function() {
+  v <- Sys.getenv("GRIDDY_NEW_THREADS", "")
+  if (nzchar(v)) as.integer(strsplit(v, ",")[[1]]) else NA_integer_
+}
+
+# Run an R script in a fresh process whose griddy comes from `lib` ("": the
+# default library paths), with extra environment variables `env`
+# ("NAME=value"); stop if it fails.
+run_child <- function(script, args, lib = "", env = character()) {
+  env <- c(if (nzchar(lib)) paste0("R_LIBS=", lib), env)
+  status <- system2(file.path(R.home("bin"), "Rscript"), c(script, args), env = env)
+  if (status != 0) stop(script, " ", paste(args, collapse = " "), " failed (status ", status, ")")
+}
+
+# In a child: set option griddy.threads from GRIDDY_THREADS, and describe the
+# griddy loaded: version, library, the thread option and the threads it
+# gives (griddy_threads(); NA for a griddy without it, which runs on one).
+griddy_child_setup <- function() {
+  threads <- Sys.getenv("GRIDDY_THREADS", "")
+  if (nzchar(threads)) options(griddy.threads = as.integer(threads))
+  threads_fn <- get0("griddy_threads", envir = asNamespace("griddy"), inherits = FALSE)
+  data.frame(griddy_version = format(utils::packageVersion("griddy")),
+             griddy_lib = dirname(find.package("griddy")),
+             threads_option = if (is.null(getOption("griddy.threads"))) "default" else
+               format(getOption("griddy.threads")),
+             griddy_threads = if (is.null(threads_fn)) NA_integer_ else threads_fn())
+}
+
+# The threads column of a results page: the option as set, the threads
+# griddy_threads() gives, and the OS threads of the process after the call.
+threads_label <- function(option, used, os) {
+  paste0(option, " -> ", ifelse(is.na(used), "-", used), " (", os, " OS)")
+}
+
+# One-minute load average, and whether other work shared the machine (load
+# above 1 before a single-process benchmark starts).
+load_1min <- function() as.numeric(strsplit(readLines("/proc/loadavg"), " ")[[1]][1])
+
+# Threads of this process now (OpenMP keeps its pool after a parallel region).
+os_threads <- function() {
+  s <- readLines("/proc/self/status")
+  as.integer(sub("[^0-9]*([0-9]+).*", "\\1", grep("^Threads", s, value = TRUE)))
+}
+
+# Evaluate `expr`, measuring elapsed and CPU seconds (all threads of this
+# process), the peak resident memory during it above the memory before it
+# (peak reset first), the absolute peak and the threads afterwards.
+measure_call <- function(expr) {
+  gc()
+  reset_peak()
+  before <- rss_mb()
+  t0 <- proc.time()
+  value <- force(expr)
+  t <- proc.time() - t0
+  list(value = value, elapsed_s = t[["elapsed"]],
+       cpu_s = t[["user.self"]] + t[["sys.self"]], rss_before_mb = before,
+       peak_extra_mb = peak_mb() - before, peak_mb = peak_mb(), os_threads = os_threads())
+}
+
+# Evaluate `expr`, muffling warnings and returning their classes (first
+# class of each, unique) as attribute "warnings" of the value.
+with_warning_classes <- function(expr) {
+  classes <- character()
+  value <- withCallingHandlers(expr, warning = function(w) {
+    classes <<- union(classes, class(w)[1])
+    invokeRestart("muffleWarning")
+  })
+  attr(value, "warnings") <- paste(classes, collapse = " ")
+  value
+}
+
+# Largest elementwise relative difference between two tables written with
+# writeBin() (same shape, doubles), read in blocks; NA if the sizes differ.
+max_rel_diff_bin <- function(a, b, block = 1e7) {
+  if (!file.exists(a) || !file.exists(b) || file.size(a) != file.size(b)) return(NA_real_)
+  ca <- file(a, "rb")
+  cb <- file(b, "rb")
+  on.exit({
+    close(ca)
+    close(cb)
+  })
+  worst <- 0
+  repeat {
+    va <- readBin(ca, "double", block)
+    vb <- readBin(cb, "double", block)
+    if (length(va) == 0L) break
+    worst <- max(worst, abs(va - vb) / pmax(abs(vb), .Machine$double.xmin))
+  }
+  worst
+}
+
+# Largest |z| of the difference of two posterior means over parameters,
+# z = (mean_a - mean_b) / sqrt(mcse_a^2 + mcse_b^2) (tables with parameter,
+# mean, mcse; the mcse of a parameter whose draws sit on one value is NA and
+# counts as 0); Inf for different means when both sit on one value.
+max_mean_z <- function(a, b) {
+  m <- merge(a, b, by = "parameter")
+  se <- sqrt(pmax(0, m$mcse.x, na.rm = TRUE)^2 + pmax(0, m$mcse.y, na.rm = TRUE)^2)
+  diff <- abs(m$mean.x - m$mean.y)
+  max(ifelse(se > 0, diff / se, ifelse(diff == 0, 0, Inf)))
+}
+
+# The opening lines of a results page: title, script, date, machine, and
+# whether other work shared the machine (a load average above 1 before a run).
+md_header <- function(title, script, machine, loads) {
+  c(paste("#", title), "",
+    paste0("Written by `", script, "` on ", format(Sys.Date()), ". ", machine, "."),
+    if (max(loads) > 1) {
+      paste0("**The machine was shared**: the one-minute load average before a run was ",
+             "between ", min(loads), " and ", max(loads), " (above 1 means other work ran ",
+             "beside the benchmark), so absolute times are noisy; ratios within one run ",
+             "count more.")
+    } else {
+      "The machine was otherwise idle (load average at most 1 before every run)."
+    })
+}
+
+# Numbers to 3 significant digits with thousands separators, for tables.
+fmt3 <- function(x) ifelse(is.na(x), "-", formatC(signif(x, 3), format = "fg", digits = 3,
+                                                  big.mark = ","))
+
+# A data.frame as a Markdown table.
+md_table <- function(df) paste(knitr::kable(df, format = "pipe", row.names = FALSE), collapse = "\n")

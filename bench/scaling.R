@@ -20,15 +20,9 @@ args <- commandArgs(TRUE)
 if (length(args) == 4 && args[1] == "--one") {
   suppressPackageStartupMessages(library(griddy))
   N <- as.numeric(args[2]); n <- as.numeric(args[3]); G <- as.numeric(args[4])
-  theta <- thesis_theta(n_runs = N)
-  locations <- seq(0, 1, length.out = n)
-  y <- matrix(0, N, n)
-  for (from in seq(1, N, by = 1e5)) {  # in blocks: no full-size temporaries
-    rows <- from:min(N, from + 1e5 - 1)
-    y[rows, ] <- thesis_response(as.matrix(theta[rows, ]), locations)
-  }
-  lib <- sim_library(theta, y, t = locations)
-  rm(y)
+  runs <- thesis_runs(N, n)
+  lib <- sim_library(runs$theta, runs$y, t = runs$t)
+  rm(runs)
   field <- field_data(thesis_field(n))
   reps <- max(3, ceiling(1e8 / (N * n)))  # enough passes to time well
   pass <- time_it(for (r in seq_len(reps)) sum(lib$y)) / reps
