@@ -177,7 +177,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                                  noise_groups)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
-  exact_run <- exact_from_problem(fit)$run
+  exact_run <- exact_from_problem(fit, joint = FALSE)$run
   warn_resolution(fit, exact_run)
   warn_convergence(fit, exact_run)
   fit
@@ -235,9 +235,9 @@ sampler_tables <- function(problem, update, tol = draw_tolerance()) {
   if (update == "collapsed") {
     list(heads = collapsed_heads_cpp(problem$C, problem$log_prior_run,
                                      problem$prior$shape + problem$n_obs / 2,
-                                     problem$prior$rate, tol))
+                                     problem$prior$rate, tol, griddy_threads()))
   } else {
-    list(order = run_order_cpp(problem$C))
+    list(order = run_order_cpp(problem$C, griddy_threads()))
   }
 }
 
