@@ -9,8 +9,18 @@
 #' The quadratic forms \eqn{C_{ig} = (y - g_i)' R_g^{-1} (y - g_i)} are
 #' computed once for every run \eqn{i} and correlation grid point \eqn{g},
 #' using the Kronecker structure and the tridiagonal inverse of \eqn{R_t}
-#' (see [rho_grid()] for the correlation functions). Each iteration then draws
-#' by inverse CDF over the library and over the grid:
+#' (see [rho_grid()] for the correlation functions): for each run, the upper
+#' triangle of \eqn{W'W} (\eqn{W} the AR(1) innovations over t) times the
+#' upper triangles of every \eqn{R_x^{-1}} of the grid, a matrix product that
+#' griddy computes itself, blocked for the caches and in AVX2/FMA
+#' instructions where the processor has them (no optimised BLAS needed), on
+#' [griddy_threads()] threads. \eqn{C} does not depend on the number of
+#' threads. It is held in double precision, once: \eqn{8 N G} bytes for
+#' \eqn{N} runs and \eqn{G} grid points (8 GB at \eqn{10^6 \times 1000}),
+#' plus \eqn{4 N G} for the run order of `update = "thesis"`; `print()` of
+#' the fit states it, and a precompute whose \eqn{C} needs 1 GB or more says
+#' so first (a message of class `griddy_message_memory`). Each iteration
+#' then draws by inverse CDF over the library and over the grid:
 #'
 #' * `update = "collapsed"` (default): \eqn{\theta \mid \rho} and
 #'   \eqn{\rho \mid \theta} with \eqn{\tau} integrated out, weights

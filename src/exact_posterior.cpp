@@ -114,7 +114,9 @@ Rcpp::List grid_posterior_cpp(const arma::mat& C, double shape_post, double rate
   // per grid point; the joint written as it goes
   Rcpp::NumericVector run(N);
   double* run_sum = run.begin();
-  Rcpp::NumericMatrix joint_out = joint ? Rcpp::NumericMatrix(N, G) : Rcpp::NumericMatrix(0, 0);
+  // every entry is written below: no zero-filling pass first
+  Rcpp::NumericMatrix joint_out = joint ? Rcpp::NumericMatrix(Rcpp::no_init(N, G))
+                                        : Rcpp::NumericMatrix(0, 0);
   double* J = joint_out.begin();
   std::vector<double> block_grid(static_cast<std::size_t>(n_blocks) * G, 0.0);
   griddy::parallel_waves(n_blocks, wave, threads, [&](long long b, int) {

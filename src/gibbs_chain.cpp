@@ -16,6 +16,7 @@
 #include <RcppArmadillo.h>
 #include <algorithm>
 #include <numeric>
+#include <unordered_map>
 #include <vector>
 #include "grid_posterior.h"
 #include "inverse_cdf.h"
@@ -110,17 +111,62 @@ void draw_theta_given_tau(const arma::mat& C, const SortedRuns& sorted,
   st.head_total += len;
 }
 
+// Rows of G numbers per run, kept for the runs a chain revisits (they are
+// few: the posterior's): the collapsed update's CDF over grid points, which
+// depends on the run only, or the thesis update's row of C, whose G entries
+// lie N apart in memory. At most `max_doubles` are kept; a run that does not
+// fit is computed each time.
+class RunRows {
+ public:
+  RunRows(arma::uword n_grid, std::size_t max_doubles)
+      : n_grid_(n_grid), max_rows_(max_doubles / std::max<arma::uword>(n_grid, 1)) {}
+  const double* find(arma::uword run) const {
+    const auto it = at_.find(run);
+    return it == at_.end() ? nullptr : &rows_[it->second];
+  }
+  // room for a new row (valid until the next add()), or null when full
+  double* add(arma::uword run) {
+    if (at_.size() >= max_rows_) return nullptr;
+    at_[run] = rows_.size();
+    rows_.resize(rows_.size() + n_grid_);
+    return &rows_[rows_.size() - n_grid_];
+  }
+
+ private:
+  arma::uword n_grid_;
+  std::size_t max_rows_;
+  std::unordered_map<arma::uword, std::size_t> at_;
+  std::vector<double> rows_;
+};
+
+constexpr std::size_t kRunRowsMax = std::size_t{1} << 22;  // 32 MB
+
 // grid point | theta (tau integrated out when collapsed, else given tau).
-void draw_grid(const arma::mat& C, const SamplerOptions& o, std::vector<double>& log_w,
-               std::vector<double>& work, ChainState& st) {
+// The draw is the same with or without the rows kept: the same weights, in
+// the same order.
+void draw_grid(const arma::mat& C, const SamplerOptions& o, RunRows& rows,
+               std::vector<double>& log_w, std::vector<double>& work, ChainState& st) {
   const arma::uword n_grid = C.n_cols;
   if (n_grid < 2) return;
+  const double* kept = rows.find(st.run);
+  if (o.collapsed && kept) {
+    st.grid = draw_from_cdf(kept, n_grid);
+    return;
+  }
+  double* row = kept ? nullptr : rows.add(st.run);
+  if (!o.collapsed && row) {
+    for (arma::uword g = 0; g < n_grid; ++g) row[g] = C(st.run, g);
+    kept = row;
+  }
   for (arma::uword g = 0; g < n_grid; ++g) {
-    const double fit = o.collapsed ? collapsed_log_fit(C(st.run, g), o.shape_post, o.rate)
-                                   : given_tau_log_fit(C(st.run, g), st.tau);
+    const double c = kept ? kept[g] : C(st.run, g);
+    const double fit = o.collapsed ? collapsed_log_fit(c, o.shape_post, o.rate)
+                                   : given_tau_log_fit(c, st.tau);
     log_w[g] = grid_log_prior(o.log_prior_grid[g], o.logdet[g]) + fit;
   }
-  st.grid = draw_from_log_weights(log_w.data(), n_grid, work.data());
+  double* cdf = (o.collapsed && row) ? row : work.data();
+  cumulative_weights(log_w.data(), n_grid, cdf);
+  st.grid = draw_from_cdf(cdf, n_grid);
 }
 
 // tau | theta, grid point ~ Gamma(a + n/2, rate b + C/2).
@@ -139,7 +185,7 @@ bool column_finite(const double* c, arma::uword n) {
 // exp(-tau C_ig / 2) change with tau: the head is found per draw. Columns
 // are sorted on `threads` threads (parallel_waves.h).
 Rcpp::IntegerMatrix run_order(const arma::mat& C, int threads) {
-  Rcpp::IntegerMatrix order(C.n_rows, C.n_cols);
+  Rcpp::IntegerMatrix order = Rcpp::no_init(C.n_rows, C.n_cols);  // every entry written
   int* out = order.begin();
   threads = usable_threads(threads);
   std::vector<RadixOrder> sorters(threads);
@@ -280,6 +326,9 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
   // log weights over the head of the runs (thesis update) or over the grid
   const arma::uword n_weights = o.collapsed ? n_grid : std::max(n_runs, n_grid);
   std::vector<double> log_w(n_weights), work(n_weights);
+  // options$keep_rows (doubles) for tests: 0 keeps none
+  RunRows rows(n_grid, options.containsElementNamed("keep_rows") ?
+                         Rcpp::as<std::size_t>(options["keep_rows"]) : kRunRowsMax);
   ChainState st;
   st.grid = static_cast<arma::uword>(grid_start);
   st.tau = tau_start;
@@ -288,12 +337,12 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
     if ((it - o.first_iter) % 256 == 0) Rcpp::checkUserInterrupt();
     if (o.collapsed) {
       draw_theta_collapsed(heads, st);
-      draw_grid(C, o, log_w, work, st);
+      draw_grid(C, o, rows, log_w, work, st);
       draw_tau(C, o, st);
     } else {
       draw_theta_given_tau(C, sorted, o, flat_runs, log_w, work, st);
       draw_tau(C, o, st);
-      draw_grid(C, o, log_w, work, st);
+      draw_grid(C, o, rows, log_w, work, st);
     }
     if (it > o.burn_in && (it - o.burn_in) % o.thin == 0) {
       run_out[k] = static_cast<int>(st.run) + 1;

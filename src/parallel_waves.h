@@ -14,6 +14,14 @@
 #include <omp.h>
 #endif
 
+// A loop over the runs of a block in vector instructions (an OpenMP simd
+// loop); without OpenMP, left to the compiler.
+#ifdef _OPENMP
+#define GRIDDY_SIMD _Pragma("omp simd")
+#else
+#define GRIDDY_SIMD
+#endif
+
 namespace griddy {
 
 // The threads a parallel region may use: at least 1, and 1 without OpenMP.
@@ -33,14 +41,12 @@ void parallel_waves(long long n, long long wave, int threads, Body body) {
   for (long long first = 0; first < n; first += wave) {
     Rcpp::checkUserInterrupt();
     const long long last = std::min(n, first + wave);
-#pragma omp parallel for num_threads(threads) schedule(dynamic)
-    for (long long item = first; item < last; ++item) {
 #ifdef _OPENMP
-      body(item, omp_get_thread_num());
+#pragma omp parallel for num_threads(threads) schedule(dynamic)
+    for (long long item = first; item < last; ++item) body(item, omp_get_thread_num());
 #else
-      body(item, 0);
+    for (long long item = first; item < last; ++item) body(item, 0);
 #endif
-    }
   }
 }
 

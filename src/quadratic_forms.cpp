@@ -147,7 +147,7 @@ void block_innovations(const Plan& p, const arma::mat& Y, const arma::vec& y_fie
     double* w = W ? W + j * p.block : nullptr;
     const arma::uword t = j % p.n_t;
     if (t == 0) {
-#pragma omp simd
+      GRIDDY_SIMD
       for (int r = 0; r < rows; ++r) {
         const double v = fj - yj[r];
         ss[r] += v * v;
@@ -160,14 +160,14 @@ void block_innovations(const Plan& p, const arma::mat& Y, const arma::vec& y_fie
     const double phi = p.phi(t - 1, gt);
     const double inv_sd = p.inv_sd(t - 1, gt);
     if (w) {
-#pragma omp simd
+      GRIDDY_SIMD
       for (int r = 0; r < rows; ++r) {
         const double v = ((fj - yj[r]) - phi * (f_prev - y_prev[r])) * inv_sd;
         w[r] = v;
         ss[r] += v * v;
       }
     } else {
-#pragma omp simd
+      GRIDDY_SIMD
       for (int r = 0; r < rows; ++r) {
         const double v = ((fj - yj[r]) - phi * (f_prev - y_prev[r])) * inv_sd;
         ss[r] += v * v;
@@ -212,7 +212,8 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
                                    int threads = 1, bool portable = false) {
   check_quad_form_inputs(Y, y_field, Rx_inv, phi);
   const Plan plan = make_plan(Y, Rx_inv, phi);
-  Rcpp::NumericMatrix C_out(plan.n_runs, plan.G_x * plan.G_t);
+  // every entry is written below: no zero-filling pass first
+  Rcpp::NumericMatrix C_out = Rcpp::no_init(plan.n_runs, plan.G_x * plan.G_t);
   double* C = C_out.begin();
   threads = griddy::usable_threads(threads);
   const griddy::TileKernel kernel = griddy::tile_kernel(portable);

@@ -367,3 +367,20 @@ test_that("the collapsed heads do not depend on the number of threads", {
   one <- collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 1L)
   expect_identical(collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 2L), one)
 })
+
+test_that("the grid draws are the same with the runs' rows kept or computed each time", {
+  toy <- toy_xt(n_per_dim = 6, n_t = 5)
+  problem <- calibration_problem(toy$library, toy$field, list(load = c(0, 0.4, 0.8), speed = 0.3),
+                                 c(0, 0.3, 0.6), NULL, 2, NULL)
+  control <- sampler_control(3000, 100, 1, 1, FALSE)
+  for (update in c("collapsed", "thesis")) {
+    tables <- sampler_tables(problem, update)
+    options <- c(sampler_options(problem, update, control), n_iter = 3000, first_iter = 1)
+    chain <- function(keep_rows) {
+      set.seed(4)
+      gibbs_chain_cpp(problem$C, tables, c(options, keep_rows = keep_rows), 0L, 1)
+    }
+    expect_identical(chain(2^22), chain(0))
+    expect_identical(chain(50), chain(0))  # room for a few runs only
+  }
+})
