@@ -9,12 +9,12 @@
 #' The quadratic forms \eqn{C_{ig} = (y - g_i)' R_g^{-1} (y - g_i)} are
 #' computed once for every run \eqn{i} and correlation grid point \eqn{g},
 #' using the Kronecker structure and the tridiagonal inverse of \eqn{R_t}
-#' (see [rho_grid()] for the correlation functions): for each run, the upper
-#' triangle of \eqn{W'W} (\eqn{W} the AR(1) innovations over t) times the
-#' upper triangles of every \eqn{R_x^{-1}} of the grid, a matrix product that
-#' griddy computes itself, blocked for the caches and in AVX2/FMA
-#' instructions where the processor has them (no optimised BLAS needed), on
-#' [griddy_threads()] threads. \eqn{C} does not depend on the number of
+#' (see [rho_grid()] for the correlation functions). Over a grid of
+#' \eqn{R_x} they are matrix products: \eqn{|e' L|^2} with \eqn{R_x^{-1} =
+#' L L'} for one output per x setting, \eqn{trace(R_x^{-1} W'W)} (\eqn{W}
+#' the AR(1) innovations over t) for several, which griddy computes itself,
+#' blocked for the caches and in AVX2/FMA instructions where the processor
+#' has them (no optimised BLAS needed), on [griddy_threads()] threads. \eqn{C} does not depend on the number of
 #' threads. It is held in double precision, once: \eqn{8 N G} bytes for
 #' \eqn{N} runs and \eqn{G} grid points (8 GB at \eqn{10^6 \times 1000}),
 #' plus \eqn{4 N G} for the run order of `update = "thesis"`; `print()` of

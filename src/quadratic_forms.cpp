@@ -2,15 +2,26 @@
 // grid point g, with R_g = kron(R_x, R_t) (thesis Appendix B). The n x n matrix is
 // never formed: R_t is the correlation of an AR(1)/Ornstein-Uhlenbeck process,
 // whose inverse factors into a bidiagonal "innovation" transform W = L_t^{-1} E
-// (grid_posterior.h), and then C = trace(R_x^{-1} W'W) = sum over k <= l of
-// M_kl (2 - [k = l]) R_x^{-1}_kl with M = W'W symmetric.
+// (grid_posterior.h), and then C = trace(R_x^{-1} W'W).
 //
-// So for every run and rho_t, the upper triangle of M (one row of Q, K =
-// n_x (n_x + 1) / 2 entries) times the matching entries of every R_x^{-1}
-// (the columns of B, one per x grid point) gives that run's C over the whole x
-// grid: C = Q B, a matrix product done by tiled_product(), at the processor's
-// floating-point limit. R_x^{-1} = I (rho_x = 0, or n_x = 1) needs only the
-// sum of squared innovations, sum_kk M_kk.
+// R_x^{-1} = I (rho_x = 0, or n_x = 1) needs only the sum of squared
+// innovations. For the other x grid points, C over the whole x grid is a
+// matrix product (tiled_product.h), at the processor's floating-point limit:
+// * one output per x setting (n_t = 1): W is a row e', and with the lower
+//   Cholesky factor R_x^{-1} = L L', C = |e' L|^2 (whitened_sums()):
+//   n_x (n_x + 1) / 2 multiply-adds per run and grid point;
+// * several (n_t > 1): each run's M = W'W (n_x x n_x, one row of Q) times
+//   every R_x^{-1} (a column of B): C = Q B (tiled_product()), n_x^2 per run
+//   and grid point, once M is formed. The sum runs over whole columns of M
+//   (passes of n_x), as trace(R_x^{-1} M) always has: a column's terms,
+//   large for a near-singular R_x, cancel within it. (The upper triangle
+//   alone, with off-diagonal terms doubled, would halve the work, but its
+//   partial sums do not cancel: 2 to 10 times the rounding error when
+//   cond(R_x) is 1e10.)
+// Against the exact forms of the rounded inputs, at cond(R_x) = 2e10
+// (test-grid_posterior.R), |e' L|^2 is off by 1.8e-10 at worst where the
+// full trace is off by 8.7e-10, and whole columns of W'W by what the full
+// trace is (1.2e-10).
 //
 // Runs are processed in blocks (fixed sizes, independent of the thread count)
 // on `threads` OpenMP threads; every C_ig is computed the same way, in the
@@ -50,18 +61,45 @@ constexpr int kRows = griddy::kTileRows;
 constexpr int kCols = griddy::kTileCols;
 
 // What every block of runs shares: the shapes, which x grid points are the
-// identity, and B: the upper triangles of the other R_x^{-1} (off-diagonal
-// entries doubled), packed for tiled_product().
+// identity, and B: the other grid points' R_x^{-1} packed for
+// tiled_product(), or their factors L packed for whitened_sums().
 struct Plan {
   arma::uword n_runs, n, n_x, n_t, G_x, G_t;
-  int K;                              // entries of an upper triangle of n_x x n_x
   std::vector<arma::uword> identity;  // x grid points with R_x^{-1} = I
   std::vector<arma::uword> dense;     // the others
-  int col_panels;
+  bool whiten;                        // n_t = 1: C = |e' L|^2
+  int K;                              // entries of a run's row of Q: n_x or n_x^2
+  int col_panels;                     // of B in tiled_product()
+  std::size_t factor_size;            // of one packed L in whitened_sums()
   griddy::AlignedBuffer b_packed;
   arma::mat phi, inv_sd;
   int block;                          // runs per block, a multiple of kRows
 };
+
+// B for tiled_product(): each grid point's R_x^{-1}, column by column.
+void pack_inverses(const arma::cube& Rx_inv, Plan& p) {
+  p.col_panels = static_cast<int>((p.dense.size() + kCols - 1) / kCols);
+  p.b_packed.resize(static_cast<std::size_t>(p.col_panels) * p.K * kCols);
+  for (std::size_t d = 0; d < p.dense.size(); ++d) {
+    const double* R = Rx_inv.slice(p.dense[d]).memptr();
+    double* b = p.b_packed.data() + (d / kCols) * p.K * kCols + d % kCols;
+    for (int k = 0; k < p.K; ++k) b[static_cast<std::size_t>(k) * kCols] = R[k];
+  }
+}
+
+// The factors L (R_x^{-1} = L L') for whitened_sums(); false when some
+// R_x^{-1} has no Cholesky factor in double precision.
+bool pack_factors(const arma::cube& Rx_inv, Plan& p) {
+  const int n_x = static_cast<int>(p.n_x);
+  p.factor_size = griddy::lower_panels_size(n_x);
+  p.b_packed.resize(p.factor_size * p.dense.size());
+  arma::mat L;
+  for (std::size_t d = 0; d < p.dense.size(); ++d) {
+    if (!arma::chol(L, Rx_inv.slice(p.dense[d]), "lower")) return false;
+    griddy::lower_panels(L.memptr(), n_x, p.b_packed.data() + d * p.factor_size);
+  }
+  return true;
+}
 
 Plan make_plan(const arma::mat& Y, const arma::cube& Rx_inv, const arma::mat& phi) {
   Plan p;
@@ -71,7 +109,6 @@ Plan make_plan(const arma::mat& Y, const arma::cube& Rx_inv, const arma::mat& ph
   p.n_t = p.n / p.n_x;
   p.G_x = Rx_inv.n_slices;
   p.G_t = phi.n_cols;
-  p.K = static_cast<int>(p.n_x * (p.n_x + 1) / 2);
   p.phi = phi;
   p.inv_sd = 1.0 / arma::sqrt(1.0 - arma::square(phi));
   for (arma::uword gx = 0; gx < p.G_x; ++gx) {
@@ -79,25 +116,23 @@ Plan make_plan(const arma::mat& Y, const arma::cube& Rx_inv, const arma::mat& ph
                                         "absdiff", 0.0);
     (eye ? p.identity : p.dense).push_back(gx);
   }
-  const int n_dense = static_cast<int>(p.dense.size());
-  p.col_panels = (n_dense + kCols - 1) / kCols;
-  p.b_packed.resize(static_cast<std::size_t>(p.col_panels) * p.K * kCols);
-  for (int d = 0; d < n_dense; ++d) {
-    const arma::mat& R = Rx_inv.slice(p.dense[d]);
-    double* b = p.b_packed.data() + static_cast<std::size_t>(d / kCols) * p.K * kCols + d % kCols;
-    int k_pair = 0;
-    for (arma::uword l = 0; l < p.n_x; ++l) {
-      for (arma::uword k = 0; k <= l; ++k, ++k_pair) {
-        b[static_cast<std::size_t>(k_pair) * kCols] = (k < l ? 2.0 : 1.0) * R(k, l);
-      }
-    }
+  p.col_panels = 0;
+  p.factor_size = 0;
+  p.whiten = p.n_t == 1 && !p.dense.empty();
+  if (p.whiten) {
+    p.K = static_cast<int>(p.n_x);
+    p.whiten = pack_factors(Rx_inv, p);
+  }
+  if (!p.whiten && !p.dense.empty()) {
+    p.K = static_cast<int>(p.n_x * p.n_x);
+    pack_inverses(Rx_inv, p);
   }
   // A block's residuals (and, with a product, its Q) stay in cache: up to
   // 2^19 doubles (4 MB), at most 256 runs (512 without a product). Larger
-  // blocks read B, the packed R_x^{-1}, fewer times; 128 to 512 runs time the
-  // same on the thesis's case (54 x settings, 1,000 x grid points).
-  const int per_run = static_cast<int>(p.n) + (n_dense > 0 ? p.K : 0);
-  const int cap = n_dense > 0 ? 256 : 512;
+  // blocks read B fewer times; 128 to 512 runs time the same on the
+  // thesis's case (54 x settings, 1,000 x grid points).
+  const int per_run = static_cast<int>(p.n) + (p.dense.empty() ? 0 : p.K);
+  const int cap = p.dense.empty() ? 512 : 256;
   p.block = std::max(kRows, std::min(cap, ((1 << 19) / std::max(per_run, 1)) / kRows * kRows));
   return p;
 }
@@ -109,26 +144,40 @@ struct Workspace {
   explicit Workspace(const Plan& p)
       : W(p.dense.empty() ? 0 : p.n * p.block), sum_sq(p.block),
         Q(p.dense.empty() ? 0 : static_cast<std::size_t>(p.K) * p.block),
-        C_tile(static_cast<std::size_t>(p.block) * p.col_panels * kCols) {}
+        C_tile(static_cast<std::size_t>(p.block) *
+               (p.whiten ? p.dense.size() : static_cast<std::size_t>(p.col_panels) * kCols)) {}
 };
 
-// Q of a block (its panels of kRows runs, K x kRows each): the upper triangle
-// of each run's W'W, runs contiguous so the loops run over them in vectors.
-void pack_gram(const Plan& p, const double* W, int block, double* Q) {
-  const arma::uword n_t = p.n_t;
+// Q of a block, in panels of kRows runs (K x kRows each, runs contiguous so
+// the loops run over them in vectors): each run's W'W, column by column.
+void pack_gram(const Plan& p, const double* W, double* Q) {
+  const arma::uword n_t = p.n_t, n_x = p.n_x;
+  const int block = p.block;
   for (int ip = 0; ip < block / kRows; ++ip) {
     double* q = Q + static_cast<std::size_t>(ip) * p.K * kRows;
     const double* w = W + ip * kRows;
-    for (arma::uword l = 0; l < p.n_x; ++l) {
-      for (arma::uword k = 0; k <= l; ++k, q += kRows) {
+    for (arma::uword l = 0; l < n_x; ++l) {
+      for (arma::uword k = 0; k <= l; ++k) {
         const double* wk = w + k * n_t * block;
         const double* wl = w + l * n_t * block;
         double acc[kRows] = {0.0};
         for (arma::uword t = 0; t < n_t; ++t) {
           for (int r = 0; r < kRows; ++r) acc[r] += wk[t * block + r] * wl[t * block + r];
         }
-        for (int r = 0; r < kRows; ++r) q[r] = acc[r];
+        double* q_kl = q + (l * n_x + k) * kRows;
+        double* q_lk = q + (k * n_x + l) * kRows;
+        for (int r = 0; r < kRows; ++r) q_kl[r] = q_lk[r] = acc[r];
       }
+    }
+  }
+}
+
+// The residuals of a block (n_t = 1) in the same panels, for whitened_sums().
+void pack_residuals(const Plan& p, const double* W, double* Q) {
+  for (int ip = 0; ip < p.block / kRows; ++ip) {
+    double* q = Q + static_cast<std::size_t>(ip) * p.K * kRows;
+    for (arma::uword k = 0; k < p.n_x; ++k, q += kRows) {
+      std::copy(W + k * p.block + ip * kRows, W + k * p.block + (ip + 1) * kRows, q);
     }
   }
 }
@@ -179,8 +228,8 @@ void block_innovations(const Plan& p, const arma::mat& Y, const arma::vec& y_fie
 // Runs first .. first + rows - 1 (rows <= p.block; the rest of the block is
 // padding): their columns of C.
 void block_quad_forms(const Plan& p, const arma::mat& Y, const arma::vec& y_field,
-                      arma::uword first, int rows, griddy::TileKernel kernel, Workspace& ws,
-                      double* C) {
+                      arma::uword first, int rows, const griddy::Kernels& kernels,
+                      Workspace& ws, double* C) {
   double* ss = ws.sum_sq.data();
   double* W = p.dense.empty() ? nullptr : ws.W.data();
   for (arma::uword gt = 0; gt < p.G_t; ++gt) {
@@ -190,9 +239,18 @@ void block_quad_forms(const Plan& p, const arma::mat& Y, const arma::vec& y_fiel
       std::copy(ss, ss + rows, C + (gx + p.G_x * gt) * p.n_runs + first);
     }
     if (!W) continue;
-    pack_gram(p, W, p.block, ws.Q.data());
-    griddy::tiled_product(ws.Q.data(), p.block / kRows, p.b_packed.data(), p.col_panels, p.K,
-                          ws.C_tile.data(), p.block, kernel);
+    const int row_panels = p.block / kRows;
+    if (p.whiten) {
+      pack_residuals(p, W, ws.Q.data());
+      for (std::size_t d = 0; d < p.dense.size(); ++d) {
+        griddy::whitened_sums(ws.Q.data(), row_panels, p.K, p.b_packed.data() + d * p.factor_size,
+                              ws.C_tile.data() + d * p.block, kernels.square);
+      }
+    } else {
+      pack_gram(p, W, ws.Q.data());
+      griddy::tiled_product(ws.Q.data(), row_panels, p.b_packed.data(), p.col_panels, p.K,
+                            static_cast<int>(p.n_x), ws.C_tile.data(), p.block, kernels.tile);
+    }
     for (std::size_t d = 0; d < p.dense.size(); ++d) {
       const double* c = ws.C_tile.data() + d * p.block;
       for (int r = 0; r < rows; ++r) ws.finite = ws.finite && std::isfinite(c[r]);
@@ -205,7 +263,7 @@ void block_quad_forms(const Plan& p, const arma::mat& Y, const arma::vec& y_fiel
 
 // `threads` OpenMP threads share the blocks of runs (parallel_waves.h). C is
 // written straight into R's memory (no copy on return). `portable = true`
-// uses the plain C++ tile (for tests) instead of the processor's fastest.
+// uses the plain C++ tiles (for tests) instead of the processor's fastest.
 // [[Rcpp::export]]
 Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
                                    const arma::cube& Rx_inv, const arma::mat& phi,
@@ -216,7 +274,7 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
   Rcpp::NumericMatrix C_out = Rcpp::no_init(plan.n_runs, plan.G_x * plan.G_t);
   double* C = C_out.begin();
   threads = griddy::usable_threads(threads);
-  const griddy::TileKernel kernel = griddy::tile_kernel(portable);
+  const griddy::Kernels kernels = griddy::kernels(portable);
   std::vector<Workspace> work;
   work.reserve(threads);
   for (int k = 0; k < threads; ++k) work.emplace_back(plan);
@@ -225,13 +283,14 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
   // waves of about 10^10 floating-point operations per thread (a quarter of a
   // second): a thread that the system deschedules holds up the others only at
   // the end of a wave
+  const double per_run_and_point = plan.whiten ? plan.n_x * (plan.n_x + 6.0) : 2.0 * plan.K;
   const double block_cost = static_cast<double>(plan.block) * plan.G_t *
-    (plan.n + (plan.dense.empty() ? 0.0 : plan.K * (plan.n_t + 2.0 * plan.dense.size())));
+    (plan.n + plan.dense.size() * per_run_and_point + (plan.whiten ? 0.0 : plan.K * plan.n_t));
   const long long wave = threads * std::max(1LL, static_cast<long long>(1e10 / block_cost));
   griddy::parallel_waves(n_blocks, wave, threads, [&](long long b, int thread) {
     const arma::uword first = static_cast<arma::uword>(b) * plan.block;
     const int rows = static_cast<int>(std::min<arma::uword>(plan.block, plan.n_runs - first));
-    block_quad_forms(plan, Y, y_field, first, rows, kernel, work[thread], C);
+    block_quad_forms(plan, Y, y_field, first, rows, kernels, work[thread], C);
   });
   // An NA, NaN or Inf output, or a squared difference that overflows, makes
   // its misfit non-finite: checked as each block is written, rather than in
@@ -245,9 +304,9 @@ Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field,
   return C_out;
 }
 
-// Whether the product uses the AVX2/FMA tile on this processor (for tests
+// Whether the products use the AVX2/FMA tiles on this processor (for tests
 // and benchmarks).
 // [[Rcpp::export]]
 bool quad_forms_avx2_cpp() {
-  return griddy::tile_kernel_is_avx2();
+  return griddy::kernels_use_avx2();
 }

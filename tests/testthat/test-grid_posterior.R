@@ -272,13 +272,15 @@ test_that("the tiled quadratic forms are the dense ones to 1e-10, on every path"
   # pass of depth 256; 13 x slices more than two panels of 6; slices equal to
   # the identity take the shortcut; n_x = 1 and 6 outputs is R_x = I alone
   shapes <- list(c(301, 30, 1, 13, 1), c(150, 4, 3, 7, 2), c(37, 5, 1, 1, 1),
-                 c(9, 1, 6, 1, 3), c(260, 3, 5, 8, 1))
+                 c(9, 1, 6, 1, 3), c(260, 3, 5, 8, 1), c(50, 7, 1, 3, 1))
   for (s in shapes) {
     p <- random_quad_form_problem(s[1], s[2], s[3], s[4], s[5])
+    # a symmetric slice with no Cholesky factor takes the path for n_t > 1
+    if (s[1] == 50) p$Rx_inv[, , 3] <- diag(c(1, -0.5, 1, 1, 2, 1, 1))
     want <- dense_quad_forms(p$Y, p$y, p$Rx_inv, p$phi)
     for (portable in c(FALSE, TRUE)) {
       C <- quad_forms_cpp(p$Y, p$y, p$Rx_inv, p$phi, 2L, portable)
-      expect_lt(max(abs(C - want) / want), 1e-10)
+      expect_lt(max(abs(C - want) / abs(want)), 1e-10)
     }
   }
 })
@@ -345,4 +347,70 @@ test_that("grid points share a correlation class when their R_x agree to 1e-10",
   stack[2, 2, 8] <- stack[2, 2, 8] + 1e-9    # not within 1e-10 of slice 7
   expect_identical(same_matrix_class(stack), every_pair(stack))
   expect_identical(same_matrix_class(stack), c(1L, 2L, 1L, 4L, 2L, 6L, 7L, 8L, 1L, 4L))
+})
+
+# e' R e with every product error-free (Dekker's split, up to eps^2) and the
+# sum in long double: about 1e-13 relative on the cases below, where double
+# precision sums lose 1e-10.
+exact_quad_form <- function(e, R) {
+  two_prod <- function(a, b) {
+    split <- function(v) {
+      big <- 134217729 * v
+      hi <- big - (big - v)
+      list(hi = hi, lo = v - hi)
+    }
+    p <- a * b
+    A <- split(a)
+    B <- split(b)
+    list(p = p, err = ((A$hi * B$hi - p) + A$hi * B$lo + A$lo * B$hi) + A$lo * B$lo)
+  }
+  ee <- two_prod(rep(e, length(e)), rep(e, each = length(e)))
+  hi <- two_prod(ee$p, as.vector(R))
+  sum(c(hi$p, hi$err, ee$err * as.vector(R)))
+}
+
+# 54 x settings in 3-D at rho_x up to 0.9 (cond(R_x) up to 2e10, as on the
+# thesis's piston locations) and smooth residuals: the terms of e' R_x^-1 e
+# are large and cancel.
+near_singular_case <- function(n_t) {
+  set.seed(20)
+  x <- data.frame(a = stats::runif(54), b = stats::runif(54), c = stats::runif(54))
+  smooth <- list(sin(3 * x$a) + x$b^2, cos(2 * x$c), cos(3 * x$a) + x$c, sin(2 * x$b))
+  Y <- y <- NULL
+  for (t in seq_len(n_t)) {
+    f <- smooth[2 * t - 1:0]
+    Y <- cbind(Y, outer(stats::runif(300, 0.5, 2), f[[1]]) + outer(stats::runif(300), f[[2]]))
+    y <- cbind(y, 1.2 * f[[1]] + 0.5 * f[[2]] + stats::rnorm(54, sd = 0.001))
+  }
+  # library order: the n_t outputs of each x setting together
+  order_t <- as.vector(matrix(seq_len(54 * n_t), n_t, byrow = TRUE))
+  lib <- sim_library(data.frame(k = 1:300), Y[, order_t], x = x, t = seq_len(n_t))
+  setup <- correlation_setup(lib, list(a = c(0.5, 0.9), b = c(0.7, 0.9), c = 0.9), 0)
+  exact <- vapply(seq_len(4), function(g) vapply(seq_len(300), function(i) {
+    sum(vapply(seq_len(n_t), function(t) {
+      exact_quad_form(y[, t] - Y[i, 54 * (t - 1) + 1:54], setup$Rx_inv[, , g])
+    }, 0))
+  }, 0), numeric(300))
+  list(Y = Y[, order_t], y = as.vector(t(y)), setup = setup, exact = exact)
+}
+
+test_that("near-singular R_x, one output per x setting: whitening beats the full trace", {
+  # here the full trace of R_x^-1 e e' (the code before) is 8.7e-10 off at
+  # worst, the upper triangle of each with off-diagonal terms doubled 1.6e-9,
+  # |e' L|^2 1.8e-10
+  case <- near_singular_case(1)
+  for (portable in c(FALSE, TRUE)) {
+    C <- quad_forms_cpp(case$Y, case$y, case$setup$Rx_inv, case$setup$phi, 2L, portable)
+    expect_lt(max(abs(C - case$exact) / case$exact), 3e-10)
+  }
+})
+
+test_that("near-singular R_x, several outputs per x setting: as accurate as the full trace", {
+  # the code before: 1.27e-10 off at worst; the upper triangles: 3.6e-10;
+  # whole columns of W'W against R_x^-1: 1.2e-10
+  case <- near_singular_case(2)
+  for (portable in c(FALSE, TRUE)) {
+    C <- quad_forms_cpp(case$Y, case$y, case$setup$Rx_inv, case$setup$phi, 2L, portable)
+    expect_lt(max(abs(C - case$exact) / case$exact), 2e-10)
+  }
 })
