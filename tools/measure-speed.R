@@ -5,7 +5,8 @@
 #                                                    # coordinate (K^3 grid points)
 #   Rscript tools/measure-speed.R fixed [threads]    # 10^6 runs x 54 outputs, rho fixed,
 #                                                    # against one pass over the outputs
-#   Rscript tools/measure-speed.R big [threads]      # 10^6 runs x 1,000 grid points: peak memory
+#   Rscript tools/measure-speed.R big [threads] [update]  # 10^6 runs x 1,000 grid points:
+#                                                    # peak memory (update "collapsed" or "thesis")
 # Load with R_LIBS pointing at the griddy to measure.
 suppressPackageStartupMessages(library(griddy))
 source("bench/helpers.R")
@@ -64,9 +65,11 @@ if (args[1] == "rhox") {
   gc()
   reset_peak()
   before <- rss_mb()
+  update <- if (length(args) >= 3) args[3] else "collapsed"
   secs <- time_it(fit <- suppressWarnings(calibrate(case$lib, case$field,
                                                     rho_x = seq(0.1, 0.9, length.out = 10),
-                                                    seed = 1)))
-  cat(sprintf("10^6 runs x 1,000 grid points: calibrate %.1f s (precompute %.1f s), resident before %.0f MB, peak %.0f MB\n",
-              secs, fit$runtime[["precompute"]], before, peak_mb()))
+                                                    update = update, seed = 1)))
+  cat(sprintf("10^6 runs x 1,000 grid points, %s update: calibrate %.1f s (precompute %.1f s), resident before %.0f MB, peak %.0f MB\n",
+              update, secs, fit$runtime[["precompute"]], before, peak_mb()))
+  print(fit)
 }
