@@ -9,8 +9,18 @@
 #' The quadratic forms \eqn{C_{ig} = (y - g_i)' R_g^{-1} (y - g_i)} are
 #' computed once for every run \eqn{i} and correlation grid point \eqn{g},
 #' using the Kronecker structure and the tridiagonal inverse of \eqn{R_t}
-#' (see [rho_grid()] for the correlation functions). Each iteration then draws
-#' by inverse CDF over the library and over the grid:
+#' (see [rho_grid()] for the correlation functions). Over a grid of
+#' \eqn{R_x} they are matrix products: \eqn{|e' L|^2} with \eqn{R_x^{-1} =
+#' L L'} for one output per x setting, \eqn{trace(R_x^{-1} W'W)} (\eqn{W}
+#' the AR(1) innovations over t) for several, which griddy computes itself,
+#' blocked for the caches and in AVX2/FMA instructions where the processor
+#' has them (no optimised BLAS needed), on [griddy_threads()] threads. \eqn{C} does not depend on the number of
+#' threads. It is held in double precision, once: \eqn{8 N G} bytes for
+#' \eqn{N} runs and \eqn{G} grid points (8 GB at \eqn{10^6 \times 1000}),
+#' plus \eqn{4 N G} for the run order of `update = "thesis"`; `print()` of
+#' the fit states it, and a precompute whose \eqn{C} needs 1 GB or more says
+#' so first (a message of class `griddy_message_memory`). Each iteration
+#' then draws by inverse CDF over the library and over the grid:
 #'
 #' * `update = "collapsed"` (default): \eqn{\theta \mid \rho} and
 #'   \eqn{\rho \mid \theta} with \eqn{\tau} integrated out, weights
@@ -177,7 +187,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                                  noise_groups)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
-  exact_run <- exact_from_problem(fit)$run
+  exact_run <- exact_from_problem(fit, joint = FALSE)$run
   warn_resolution(fit, exact_run)
   warn_convergence(fit, exact_run)
   fit
@@ -235,9 +245,9 @@ sampler_tables <- function(problem, update, tol = draw_tolerance()) {
   if (update == "collapsed") {
     list(heads = collapsed_heads_cpp(problem$C, problem$log_prior_run,
                                      problem$prior$shape + problem$n_obs / 2,
-                                     problem$prior$rate, tol))
+                                     problem$prior$rate, tol, griddy_threads()))
   } else {
-    list(order = run_order_cpp(problem$C))
+    list(order = run_order_cpp(problem$C, griddy_threads()))
   }
 }
 

@@ -12,6 +12,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   log_prior_run <- log_run_weights(run_weights, library)
   pattern <- noise_pattern(library, layout, noise_groups, prior)
   setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
+  inform_memory(library, n_grid_points(setup))
   problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)
   problem
@@ -20,12 +21,12 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
 # The problem from validated parts; refine() builds its problems here too.
 problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
                                C = misfit_table(library, y_field, setup, prior)) {
-  if (prior$rate == 0 && any(C == 0)) {
+  if (prior$rate == 0 && min(C) <= 0) {  # min(): no temporary as large as C
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
   emulation_error <- attr(C, "emulation_error")
-  attr(C, "emulation_error") <- NULL
+  if (!is.null(emulation_error)) attr(C, "emulation_error") <- NULL
   # every measurement: the observed cells and the replicates' pure-error
   # degrees of freedom (see noise_pattern())
   list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),

@@ -89,18 +89,39 @@ scale_unit <- function(v) {
   if (span > 0) (v - min(v)) / span else v * 0
 }
 
-# R_x at one combination of per-column correlations `rho` (one per x column).
+# R_x at one combination of per-column correlations `rho` (one per x column):
+# the product of the columns' factors (corr_x_factor()), in column order.
 corr_x <- function(x, rho, power = 2) {
   n_x <- if (is.null(x)) 1L else nrow(x)
   R <- matrix(1, n_x, n_x)
   if (n_x == 1L) {
     return(R)
   }
-  for (j in seq_along(rho)) {
-    d <- 4^(power - 1) * abs(outer(scale_unit(x[[j]]), scale_unit(x[[j]]), "-"))^power
-    R <- R * if (rho[j] == 0) (d == 0) * 1 else rho[j]^d
-  }
+  for (j in seq_along(rho)) R <- R * corr_x_factor(x[[j]], rho[j], power)
   R
+}
+
+# The factor of R_x from one x column `v` at correlation `rho`.
+corr_x_factor <- function(v, rho, power) {
+  d <- 4^(power - 1) * abs(outer(scale_unit(v), scale_unit(v), "-"))^power
+  if (rho == 0) (d == 0) * 1 else rho^d
+}
+
+# R_x at every combination of the x grids (a list, one grid per x column),
+# in the order of expand.grid(): each column's factors computed once per
+# value, not once per combination. The same matrices as corr_x().
+corr_x_grid <- function(x, grids, power = 2) {
+  combos <- as.matrix(expand.grid(lapply(grids, seq_along), KEEP.OUT.ATTRS = FALSE))
+  if (is.null(x) || nrow(x) == 1L) {
+    return(lapply(seq_len(nrow(combos)), function(k) matrix(1)))
+  }
+  factors <- Map(function(v, grid) lapply(grid, corr_x_factor, v = v, power = power),
+                 x, grids)
+  lapply(seq_len(nrow(combos)), function(k) {
+    R <- matrix(1, nrow(x), nrow(x))
+    for (j in seq_along(factors)) R <- R * factors[[j]][[combos[k, j]]]
+    R
+  })
 }
 
 # Lag coefficients of the AR(1) correlation over t: phi_j = rho^(s_{j+1} - s_j).

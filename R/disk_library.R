@@ -211,6 +211,9 @@ lib_quad_forms.disk_library <- function(library, y_field, setup) {
 }
 
 #' @exportS3Method
+lib_on_disk.disk_library <- function(library) TRUE
+
+#' @exportS3Method
 lib_check_integrity.disk_library <- function(library) {
   files <- library$files
   rows <- library$rows

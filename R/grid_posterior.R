@@ -43,13 +43,14 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
   combos <- expand.grid(grids$x, KEEP.OUT.ATTRS = FALSE)
+  R_x <- corr_x_grid(lib_x(library), grids$x, x_power)
   Rx_chol <- array(0, c(n_x, n_x, nrow(combos)))
   Rx_inv <- Rx_chol
   logdet_x <- numeric(nrow(combos))
   for (gx in seq_len(nrow(combos))) {
-    rho <- unlist(combos[gx, , drop = FALSE])
-    U <- tryCatch(chol(corr_x(lib_x(library), rho, x_power)), error = function(e) NULL)
+    U <- tryCatch(chol(R_x[[gx]]), error = function(e) NULL)
     if (is.null(U) || any(diag(U) < 1e-7)) {
+      rho <- unlist(combos[gx, , drop = FALSE])
       griddy_abort("R_x is numerically singular at ", paste0(names(rho), " = ", rho,
                    collapse = ", "), ": the x settings are too close for this ",
                    "correlation. Use smaller values in `rho_x`.", class = "numeric")
@@ -89,12 +90,24 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
 
 # For each slice of a stack of matrices, the first slice equal to it (to
 # 1e-10): grid points whose R_x coincide share a correlation structure.
+# Slices that are equal have sums within `window` of each other, so each
+# slice is compared only with the earlier ones whose sums are that close
+# (found in the sorted sums), not with all of them: 1,000 slices take
+# milliseconds rather than a minute.
 same_matrix_class <- function(stack) {
-  n <- dim(stack)[3]
+  flat <- matrix(stack, ncol = dim(stack)[3])  # one column per slice
+  n <- ncol(flat)
   cls <- seq_len(n)
+  if (n < 2L) return(cls)
+  key <- colSums(flat)
+  window <- nrow(flat) * (1e-10 + 64 * .Machine$double.eps * max(abs(flat)))
+  o <- order(key)
+  sorted <- key[o]
   for (j in seq_len(n)[-1]) {
-    for (i in seq_len(j - 1L)) {
-      if (cls[i] == i && max(abs(stack[, , i] - stack[, , j])) <= 1e-10) {
+    near <- o[seq(findInterval(key[j] - window, sorted, left.open = TRUE) + 1L,
+                  findInterval(key[j] + window, sorted))]
+    for (i in sort(near[near < j & cls[near] == near])) {
+      if (max(abs(flat[, i] - flat[, j])) <= 1e-10) {
         cls[j] <- i
         break
       }
@@ -221,15 +234,18 @@ misfit_table <- function(library, y_field, setup, prior) {
   # summary() (see library_emulated.R)
   error <- attr(C, "emulation_error")
   C <- fold_extra_logdet(C, prior, sum(setup$group_sizes))  # every measurement
-  attr(C, "emulation_error") <- error
+  if (!is.null(error)) attr(C, "emulation_error") <- error
   C
 }
 
 # The quadratic forms of outputs Y (runs in rows) held in memory, each run's
 # covariance R_g: for runs that are not (or not yet) a library's. With noise
-# groups, the effective C (fold_groups()).
-plain_quad_forms <- function(Y, y_field, setup) {
-  if (is.null(setup$dense)) return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi))
+# groups, the effective C (fold_groups()). The Kronecker case runs on
+# `threads` threads (see ?griddy_threads).
+plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
+  if (is.null(setup$dense)) {
+    return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi, threads))
+  }
   C <- matrix(0, nrow(Y), n_grid_points(setup))
   for (g in seq_len(ncol(C))) {
     C[, g] <- fold_groups(group_quad_forms(Y, y_field, setup, g), setup)
@@ -269,10 +285,13 @@ fold_groups <- function(Ck, setup) {
   2 * exp(log(b + Ck / 2) %*% w)[, 1] - 2 * b
 }
 
+# (Attributes are set or removed only when there are some: C may be most of
+# memory, and changing an attribute of a shared object copies it.)
 fold_extra_logdet <- function(C, prior, n_obs) {
   extra <- attr(C, "extra_logdet")
+  if (is.null(extra)) return(C)
   attr(C, "extra_logdet") <- NULL
-  if (is.null(extra) || all(extra == 0)) return(C)
+  if (all(extra == 0)) return(C)
   (2 * prior$rate + C) * exp(extra / (2 * prior$shape + n_obs)) - 2 * prior$rate
 }
 
@@ -329,12 +348,17 @@ normalise_log <- function(lj) {
 }
 
 # The posterior of a calibration problem (see calibration_problem()): the
-# joint probabilities over (run, grid point) and the log evidence.
-grid_posterior <- function(problem) {
-  lj <- collapsed_log_joint(problem$C, problem$setup$group_sizes, problem$setup$logdet,
-                            problem$prior,
-                            problem$log_prior_run, problem$log_prior_grid)
-  log_norm <- log_sum_exp(lj)
-  list(joint = exp(lj - log_norm),
+# posterior over runs (`run`) and over grid points (`grid`), the log
+# evidence and, with `joint = TRUE`, the joint probabilities over (run, grid
+# point): the log joint of collapsed_log_joint(), computed in
+# src/exact_posterior.cpp in passes over C without temporaries as large as
+# C, on griddy_threads() threads.
+grid_posterior <- function(problem, joint = TRUE) {
+  sizes <- problem$setup$group_sizes
+  post <- grid_posterior_cpp(problem$C, problem$prior$shape + sum(sizes) / 2,
+                             problem$prior$rate, problem$setup$logdet, problem$log_prior_run,
+                             problem$log_prior_grid, joint, griddy_threads())
+  log_norm <- post$log_norm + log_evidence_constant(problem$prior, sizes)
+  list(joint = post$joint, run = post$run, grid = post$grid,
        log_evidence = if (problem$prior$rate > 0) log_norm else NA_real_)
 }

@@ -189,7 +189,7 @@ logLik.griddy_fit <- function(object, ...) {
                  "improper (`prior$rate` = 0). Fit with a positive rate to compare models.",
                  class = "improper_prior")
   }
-  structure(exact_from_problem(object)$log_evidence,
+  structure(exact_from_problem(object, joint = FALSE)$log_evidence,
             df = ncol(parameter_draws(object)), nobs = nobs(object),
             class = "logLik")
 }
@@ -225,7 +225,7 @@ draws_tidy <- function(draws, conf.int, conf.level, point, type) {
 #' @method glance griddy_fit
 #' @export
 glance.griddy_fit <- function(x, ...) {
-  exact <- exact_from_problem(x)
+  exact <- exact_from_problem(x, joint = FALSE)
   sampled <- tabulate(x$draws$run, nbins = length(exact$run)) / nrow(x$draws)
   data.frame(n_obs = nobs(x), n_missing = sum(is.na(x$y_field)),
              n_runs = lib_n_runs(x$library), n_grid = nrow(x$grid),

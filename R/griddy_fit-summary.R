@@ -138,7 +138,9 @@ fit_description <- function(fit) {
          " runs x ", nrow(fit$grid), " correlation grid point(s); ", fit$n_obs,
          " data points", missing_description(fit), "; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",
-         format(sum(fit$runtime), digits = 3), " s", refinement_description(fit$refinement))
+         format(sum(fit$runtime), digits = 3), " s\nMemory: ",
+         memory_statement(fit$library, nrow(fit$grid), fit$update),
+         refinement_description(fit$refinement))
 }
 
 missing_description <- function(fit) {

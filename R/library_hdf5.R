@@ -413,6 +413,9 @@ h5_read_runs <- function(h5, piece, runs) {
 }
 
 #' @exportS3Method
+lib_on_disk.hdf5_library <- function(library) TRUE
+
+#' @exportS3Method
 lib_quad_forms.hdf5_library <- function(library, y_field, setup) {
   p <- h5_pieces(library)
   chunked_quad_forms(p$pieces, p$rows, y_field, setup)

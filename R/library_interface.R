@@ -43,6 +43,13 @@ lib_outputs <- function(library, rows = NULL) UseMethod("lib_outputs")
 # grid_posterior.R.
 lib_quad_forms <- function(library, y_field, setup) UseMethod("lib_quad_forms")
 
+# Whether the outputs stay on disk (read in chunks when C is computed)
+# rather than in memory.
+lib_on_disk <- function(library) UseMethod("lib_on_disk")
+
+#' @exportS3Method
+lib_on_disk.default <- function(library) FALSE
+
 # Checks that an object, perhaps edited after construction, still fits
 # together, so that no inconsistent library reaches C++.
 lib_check_integrity <- function(library) UseMethod("lib_check_integrity")
@@ -65,10 +72,11 @@ lib_check_rows <- function(library, rows) {
 # over the future plan's workers in waves of one piece per worker, each wave's
 # results copied into C at once, so memory holds C and one wave of pieces.
 # `pieces` is a list of read specifications (see read_piece()), `rows` the
-# number of runs in each, in library order. Workers need griddy installed.
+# number of runs in each, in library order. Workers need griddy installed,
+# and share griddy_threads() between them.
 chunked_quad_forms <- function(pieces, rows, y_field, setup) {
-  piece_C <- function(piece, y_field, setup) {
-    plain_quad_forms(read_piece(piece), y_field, setup)
+  piece_C <- function(piece, y_field, setup, threads) {
+    plain_quad_forms(read_piece(piece), y_field, setup, threads)
   }
   environment(piece_C) <- asNamespace("griddy")
   parallel <- requireNamespace("future.apply", quietly = TRUE)
@@ -82,7 +90,8 @@ chunked_quad_forms <- function(pieces, rows, y_field, setup) {
   ends <- cumsum(rows)
   C <- matrix(0, sum(rows), n_grid_points(setup))
   for (wave in split(seq_along(pieces), (seq_along(pieces) - 1L) %/% per_wave)) {
-    out <- map(pieces[wave], piece_C, y_field = y_field, setup = setup)
+    out <- map(pieces[wave], piece_C, y_field = y_field, setup = setup,
+               threads = threads_per_worker(per_wave))
     for (j in seq_along(wave)) {
       k <- wave[j]
       C[ends[k] - rows[k] + seq_len(rows[k]), ] <- out[[j]]

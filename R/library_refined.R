@@ -80,6 +80,9 @@ lib_outputs.refined_library <- function(library, rows = NULL) {
   out
 }
 
+#' @exportS3Method
+lib_on_disk.refined_library <- function(library) lib_on_disk(library$base)
+
 # C of the base runs, then of the added ones, with the added runs' extra
 # log-determinant (see emulated_quad_forms()) as attribute "extra_logdet",
 # which misfit_table() folds into C.

@@ -47,14 +47,14 @@ posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
 }
 
 # The exact posterior of a calibration problem, or of a fit (which holds its
-# problem).
-exact_from_problem <- function(problem) {
-  post <- grid_posterior(problem)
+# problem). `joint = FALSE` leaves out the joint probabilities (NULL), a
+# table as large as C, for callers that need only the margins.
+exact_from_problem <- function(problem, joint = TRUE) {
+  post <- grid_posterior(problem, joint)
   grid <- problem$grid
-  grid$prob <- colSums(post$joint)
+  grid$prob <- post$grid
   structure(
-    list(run = rowSums(post$joint), rho = grid, joint = post$joint,
-         log_evidence = post$log_evidence),
+    list(run = post$run, rho = grid, joint = post$joint, log_evidence = post$log_evidence),
     class = "griddy_exact"
   )
 }

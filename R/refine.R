@@ -280,9 +280,9 @@ noise_var_pooled <- function(problem, s2) {
 
 # The exact posterior over runs of a problem and its resolution table.
 refine_state <- function(problem) {
-  joint <- grid_posterior(problem)$joint
-  p <- rowSums(joint)
-  list(problem = problem, joint = joint, p = p,
+  post <- grid_posterior(problem)
+  p <- post$run
+  list(problem = problem, joint = post$joint, p = p,
        table = resolution_table(p, lib_theta(problem$library)))
 }
 

@@ -11,20 +11,39 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
-// run_order_cpp
-Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C);
-RcppExport SEXP _griddy_run_order_cpp(SEXP CSEXP) {
+// grid_posterior_cpp
+Rcpp::List grid_posterior_cpp(const arma::mat& C, double shape_post, double rate, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid, bool joint, int threads);
+RcppExport SEXP _griddy_grid_posterior_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP, SEXP jointSEXP, SEXP threadsSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
-    rcpp_result_gen = Rcpp::wrap(run_order_cpp(C));
+    Rcpp::traits::input_parameter< double >::type shape_post(shape_postSEXP);
+    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type logdet(logdetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_grid(log_prior_gridSEXP);
+    Rcpp::traits::input_parameter< bool >::type joint(jointSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(grid_posterior_cpp(C, shape_post, rate, logdet, log_prior_run, log_prior_grid, joint, threads));
+    return rcpp_result_gen;
+END_RCPP
+}
+// run_order_cpp
+Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C, int threads);
+RcppExport SEXP _griddy_run_order_cpp(SEXP CSEXP, SEXP threadsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(run_order_cpp(C, threads));
     return rcpp_result_gen;
 END_RCPP
 }
 // collapsed_heads_cpp
-Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run, double shape_post, double rate, double tol);
-RcppExport SEXP _griddy_collapsed_heads_cpp(SEXP CSEXP, SEXP log_prior_runSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP tolSEXP) {
+Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run, double shape_post, double rate, double tol, int threads);
+RcppExport SEXP _griddy_collapsed_heads_cpp(SEXP CSEXP, SEXP log_prior_runSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP tolSEXP, SEXP threadsSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -33,7 +52,8 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< double >::type shape_post(shape_postSEXP);
     Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
     Rcpp::traits::input_parameter< double >::type tol(tolSEXP);
-    rcpp_result_gen = Rcpp::wrap(collapsed_heads_cpp(C, log_prior_run, shape_post, rate, tol));
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(collapsed_heads_cpp(C, log_prior_run, shape_post, rate, tol, threads));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -116,8 +136,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // quad_forms_cpp
-Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi);
-RcppExport SEXP _griddy_quad_forms_cpp(SEXP YSEXP, SEXP y_fieldSEXP, SEXP Rx_invSEXP, SEXP phiSEXP) {
+Rcpp::NumericMatrix quad_forms_cpp(const arma::mat& Y, const arma::vec& y_field, const arma::cube& Rx_inv, const arma::mat& phi, int threads, bool portable);
+RcppExport SEXP _griddy_quad_forms_cpp(SEXP YSEXP, SEXP y_fieldSEXP, SEXP Rx_invSEXP, SEXP phiSEXP, SEXP threadsSEXP, SEXP portableSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -125,7 +145,29 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const arma::vec& >::type y_field(y_fieldSEXP);
     Rcpp::traits::input_parameter< const arma::cube& >::type Rx_inv(Rx_invSEXP);
     Rcpp::traits::input_parameter< const arma::mat& >::type phi(phiSEXP);
-    rcpp_result_gen = Rcpp::wrap(quad_forms_cpp(Y, y_field, Rx_inv, phi));
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    Rcpp::traits::input_parameter< bool >::type portable(portableSEXP);
+    rcpp_result_gen = Rcpp::wrap(quad_forms_cpp(Y, y_field, Rx_inv, phi, threads, portable));
+    return rcpp_result_gen;
+END_RCPP
+}
+// quad_forms_avx2_cpp
+bool quad_forms_avx2_cpp();
+RcppExport SEXP _griddy_quad_forms_avx2_cpp() {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    rcpp_result_gen = Rcpp::wrap(quad_forms_avx2_cpp());
+    return rcpp_result_gen;
+END_RCPP
+}
+// omp_limits_cpp
+Rcpp::IntegerVector omp_limits_cpp();
+RcppExport SEXP _griddy_omp_limits_cpp() {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    rcpp_result_gen = Rcpp::wrap(omp_limits_cpp());
     return rcpp_result_gen;
 END_RCPP
 }
@@ -168,14 +210,17 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
-    {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 1},
-    {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 5},
+    {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
+    {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 2},
+    {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 6},
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
-    {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 4},
+    {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
+    {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
+    {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
     {"_griddy_tyre_patch_length_cpp", (DL_FUNC) &_griddy_tyre_patch_length_cpp, 2},

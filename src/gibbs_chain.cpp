@@ -16,9 +16,12 @@
 #include <RcppArmadillo.h>
 #include <algorithm>
 #include <numeric>
+#include <unordered_map>
 #include <vector>
 #include "grid_posterior.h"
 #include "inverse_cdf.h"
+#include "parallel_waves.h"
+#include "radix_order.h"
 
 namespace griddy {
 
@@ -108,17 +111,62 @@ void draw_theta_given_tau(const arma::mat& C, const SortedRuns& sorted,
   st.head_total += len;
 }
 
+// Rows of G numbers per run, kept for the runs a chain revisits (they are
+// few: the posterior's): the collapsed update's CDF over grid points, which
+// depends on the run only, or the thesis update's row of C, whose G entries
+// lie N apart in memory. At most `max_doubles` are kept; a run that does not
+// fit is computed each time.
+class RunRows {
+ public:
+  RunRows(arma::uword n_grid, std::size_t max_doubles)
+      : n_grid_(n_grid), max_rows_(max_doubles / std::max<arma::uword>(n_grid, 1)) {}
+  const double* find(arma::uword run) const {
+    const auto it = at_.find(run);
+    return it == at_.end() ? nullptr : &rows_[it->second];
+  }
+  // room for a new row (valid until the next add()), or null when full
+  double* add(arma::uword run) {
+    if (at_.size() >= max_rows_) return nullptr;
+    at_[run] = rows_.size();
+    rows_.resize(rows_.size() + n_grid_);
+    return &rows_[rows_.size() - n_grid_];
+  }
+
+ private:
+  arma::uword n_grid_;
+  std::size_t max_rows_;
+  std::unordered_map<arma::uword, std::size_t> at_;
+  std::vector<double> rows_;
+};
+
+constexpr std::size_t kRunRowsMax = std::size_t{1} << 22;  // 32 MB
+
 // grid point | theta (tau integrated out when collapsed, else given tau).
-void draw_grid(const arma::mat& C, const SamplerOptions& o, std::vector<double>& log_w,
-               std::vector<double>& work, ChainState& st) {
+// The draw is the same with or without the rows kept: the same weights, in
+// the same order.
+void draw_grid(const arma::mat& C, const SamplerOptions& o, RunRows& rows,
+               std::vector<double>& log_w, std::vector<double>& work, ChainState& st) {
   const arma::uword n_grid = C.n_cols;
   if (n_grid < 2) return;
+  const double* kept = rows.find(st.run);
+  if (o.collapsed && kept) {
+    st.grid = draw_from_cdf(kept, n_grid);
+    return;
+  }
+  double* row = kept ? nullptr : rows.add(st.run);
+  if (!o.collapsed && row) {
+    for (arma::uword g = 0; g < n_grid; ++g) row[g] = C(st.run, g);
+    kept = row;
+  }
   for (arma::uword g = 0; g < n_grid; ++g) {
-    const double fit = o.collapsed ? collapsed_log_fit(C(st.run, g), o.shape_post, o.rate)
-                                   : given_tau_log_fit(C(st.run, g), st.tau);
+    const double c = kept ? kept[g] : C(st.run, g);
+    const double fit = o.collapsed ? collapsed_log_fit(c, o.shape_post, o.rate)
+                                   : given_tau_log_fit(c, st.tau);
     log_w[g] = grid_log_prior(o.log_prior_grid[g], o.logdet[g]) + fit;
   }
-  st.grid = draw_from_log_weights(log_w.data(), n_grid, work.data());
+  double* cdf = (o.collapsed && row) ? row : work.data();
+  cumulative_weights(log_w.data(), n_grid, cdf);
+  st.grid = draw_from_cdf(cdf, n_grid);
 }
 
 // tau | theta, grid point ~ Gamma(a + n/2, rate b + C/2).
@@ -126,19 +174,63 @@ void draw_tau(const arma::mat& C, const SamplerOptions& o, ChainState& st) {
   st.tau = R::rgamma(o.shape_post, 1.0 / (o.rate + 0.5 * C(st.run, st.grid)));
 }
 
+// Whether a column of C is free of NA, NaN and Inf.
+bool column_finite(const double* c, arma::uword n) {
+  bool finite = true;
+  for (arma::uword i = 0; i < n; ++i) finite = finite && std::isfinite(c[i]);
+  return finite;
+}
+
 // Every column's run order (0-based), for the thesis update, whose weights
-// exp(-tau C_ig / 2) change with tau: the head is found per draw.
-Rcpp::IntegerMatrix run_order(const arma::mat& C) {
-  if (!C.is_finite()) Rcpp::stop("run_order: C holds NA, NaN or Inf");
-  Rcpp::IntegerMatrix order(C.n_rows, C.n_cols);
-  for (arma::uword g = 0; g < C.n_cols; ++g) {
-    Rcpp::checkUserInterrupt();
+// exp(-tau C_ig / 2) change with tau: the head is found per draw. Columns
+// are sorted on `threads` threads (parallel_waves.h).
+Rcpp::IntegerMatrix run_order(const arma::mat& C, int threads) {
+  Rcpp::IntegerMatrix order = Rcpp::no_init(C.n_rows, C.n_cols);  // every entry written
+  int* out = order.begin();
+  threads = usable_threads(threads);
+  std::vector<RadixOrder> sorters(threads);
+  std::vector<char> finite(C.n_cols, 1);
+  const long long wave = std::max<long long>(threads, 1e8 / std::max<arma::uword>(C.n_rows, 1));
+  parallel_waves(C.n_cols, wave, threads, [&](long long g, int thread) {
     const double* c = C.colptr(g);
-    int* o = &order[g * C.n_rows];
-    std::iota(o, o + C.n_rows, 0);
-    std::stable_sort(o, o + C.n_rows, [c](int a, int b) { return c[a] < c[b]; });
+    finite[g] = column_finite(c, C.n_rows);
+    if (finite[g]) sorters[thread](c, static_cast<int>(C.n_rows), out + g * C.n_rows);
+  });
+  if (std::find(finite.begin(), finite.end(), 0) != finite.end()) {
+    Rcpp::stop("run_order: C holds NA, NaN or Inf");
   }
   return order;
+}
+
+// The head of one column of C for the collapsed theta | grid point draw (see
+// collapsed_heads()): its runs (0-based, by increasing C) and cumulative
+// weights.
+struct ColumnHead {
+  std::vector<int> run;
+  std::vector<double> cdf;
+  bool finite = true;
+};
+
+void column_head(const double* c, const arma::vec& log_prior_run, double lp_max,
+                 double shape_post, double rate, double tol, ColumnHead& out) {
+  const arma::uword n = log_prior_run.n_elem;
+  out.finite = column_finite(c, n);
+  if (!out.finite) return;
+  const arma::uword first = std::min_element(c, c + n) - c;
+  const double budget = log_budget(n, tol, lp_max, log_prior_run[first]);
+  // (b + C/2) / (b + C_min/2) > exp(budget / shape_post) leaves the head
+  const double cut = 2.0 * ((rate + 0.5 * c[first]) * std::exp(budget / shape_post) - rate);
+  for (arma::uword i = 0; i < n; ++i) {
+    if (!(c[i] > cut)) out.run.push_back(static_cast<int>(i));
+  }
+  std::stable_sort(out.run.begin(), out.run.end(), [c](int a, int b) { return c[a] < c[b]; });
+  const arma::uword k = out.run.size();
+  std::vector<double> log_w(k);
+  for (arma::uword j = 0; j < k; ++j) {
+    log_w[j] = log_prior_run[out.run[j]] + collapsed_log_fit(c[out.run[j]], shape_post, rate);
+  }
+  out.cdf.resize(k);
+  cumulative_weights(log_w.data(), k, out.cdf.data());
 }
 
 // The collapsed theta | grid point draw of every grid point g: the head of the
@@ -146,40 +238,33 @@ Rcpp::IntegerMatrix run_order(const arma::mat& C) {
 // exceed tol / N of the first run's) and their cumulative weights, scaled so
 // the largest weight is 1. Ragged columns stored end to end: column g is
 // positions start[g] to start[g + 1] - 1 of `run` (0-based) and `cdf`.
+// Columns are found on `threads` threads (parallel_waves.h), in waves whose
+// heads are then appended in column order.
 Rcpp::List collapsed_heads(const arma::mat& C, const arma::vec& log_prior_run,
-                           double shape_post, double rate, double tol) {
+                           double shape_post, double rate, double tol, int threads) {
   const arma::uword n = C.n_rows;
   if (log_prior_run.n_elem != n || n == 0) {
     Rcpp::stop("collapsed_heads: C has %d rows but there are %d run priors",
                static_cast<int>(n), static_cast<int>(log_prior_run.n_elem));
   }
-  if (!C.is_finite()) Rcpp::stop("collapsed_heads: C holds NA, NaN or Inf");
   const double lp_max = log_prior_run.max();
   std::vector<int> start(C.n_cols + 1, 0), runs;
-  std::vector<double> cdf, log_w;
-  std::vector<int> head;
-  for (arma::uword g = 0; g < C.n_cols; ++g) {
-    Rcpp::checkUserInterrupt();
-    const double* c = C.colptr(g);
-    const arma::uword first = std::min_element(c, c + n) - c;
-    const double budget = log_budget(n, tol, lp_max, log_prior_run[first]);
-    // (b + C/2) / (b + C_min/2) > exp(budget / shape_post) leaves the head
-    const double cut = 2.0 * ((rate + 0.5 * c[first]) * std::exp(budget / shape_post) - rate);
-    head.clear();
-    for (arma::uword i = 0; i < n; ++i) {
-      if (!(c[i] > cut)) head.push_back(static_cast<int>(i));
+  std::vector<double> cdf;
+  const long long wave = std::max<long long>(usable_threads(threads), 1e8 / n);
+  std::vector<ColumnHead> heads;
+  for (arma::uword g0 = 0; g0 < C.n_cols; g0 += wave) {
+    const arma::uword g1 = std::min<arma::uword>(C.n_cols, g0 + wave);
+    heads.assign(g1 - g0, ColumnHead());
+    parallel_waves(g1 - g0, g1 - g0, threads, [&](long long k, int) {
+      column_head(C.colptr(g0 + k), log_prior_run, lp_max, shape_post, rate, tol, heads[k]);
+    });
+    for (arma::uword g = g0; g < g1; ++g) {
+      const ColumnHead& h = heads[g - g0];
+      if (!h.finite) Rcpp::stop("collapsed_heads: C holds NA, NaN or Inf");
+      runs.insert(runs.end(), h.run.begin(), h.run.end());
+      cdf.insert(cdf.end(), h.cdf.begin(), h.cdf.end());
+      start[g + 1] = static_cast<int>(runs.size());
     }
-    std::stable_sort(head.begin(), head.end(), [c](int a, int b) { return c[a] < c[b]; });
-    const arma::uword k = head.size();
-    log_w.resize(k);
-    for (arma::uword j = 0; j < k; ++j) {
-      log_w[j] = log_prior_run[head[j]] + collapsed_log_fit(c[head[j]], shape_post, rate);
-    }
-    const std::size_t at = cdf.size();
-    cdf.resize(at + k);
-    cumulative_weights(log_w.data(), k, cdf.data() + at);
-    runs.insert(runs.end(), head.begin(), head.end());
-    start[g + 1] = static_cast<int>(runs.size());
   }
   return Rcpp::List::create(Rcpp::Named("start") = Rcpp::wrap(start),
                             Rcpp::Named("run") = Rcpp::wrap(runs),
@@ -241,6 +326,9 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
   // log weights over the head of the runs (thesis update) or over the grid
   const arma::uword n_weights = o.collapsed ? n_grid : std::max(n_runs, n_grid);
   std::vector<double> log_w(n_weights), work(n_weights);
+  // options$keep_rows (doubles) for tests: 0 keeps none
+  RunRows rows(n_grid, options.containsElementNamed("keep_rows") ?
+                         Rcpp::as<std::size_t>(options["keep_rows"]) : kRunRowsMax);
   ChainState st;
   st.grid = static_cast<arma::uword>(grid_start);
   st.tau = tau_start;
@@ -249,12 +337,12 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
     if ((it - o.first_iter) % 256 == 0) Rcpp::checkUserInterrupt();
     if (o.collapsed) {
       draw_theta_collapsed(heads, st);
-      draw_grid(C, o, log_w, work, st);
+      draw_grid(C, o, rows, log_w, work, st);
       draw_tau(C, o, st);
     } else {
       draw_theta_given_tau(C, sorted, o, flat_runs, log_w, work, st);
       draw_tau(C, o, st);
-      draw_grid(C, o, log_w, work, st);
+      draw_grid(C, o, rows, log_w, work, st);
     }
     if (it > o.burn_in && (it - o.burn_in) % o.thin == 0) {
       run_out[k] = static_cast<int>(st.run) + 1;
@@ -277,14 +365,14 @@ Rcpp::List gibbs_chain(const arma::mat& C, const Rcpp::List& tables,
 // only hand R's objects to the functions of namespace griddy above.
 
 // [[Rcpp::export]]
-Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C) {
-  return griddy::run_order(C);
+Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C, int threads = 1) {
+  return griddy::run_order(C, threads);
 }
 
 // [[Rcpp::export]]
 Rcpp::List collapsed_heads_cpp(const arma::mat& C, const arma::vec& log_prior_run,
-                               double shape_post, double rate, double tol) {
-  return griddy::collapsed_heads(C, log_prior_run, shape_post, rate, tol);
+                               double shape_post, double rate, double tol, int threads = 1) {
+  return griddy::collapsed_heads(C, log_prior_run, shape_post, rate, tol, threads);
 }
 
 // [[Rcpp::export]]

@@ -346,3 +346,42 @@ test_that("replicates: summary counts measurements and cells; predict() is per m
   expect_equal(mean(width), 2 * stats::qnorm(0.975) * sqrt(mean(1 / fit$draws$tau)),
                tolerance = 0.1)
 })
+
+test_that("the run order is the stable order of each column, on any number of threads", {
+  set.seed(19)
+  # ties, -0 and +0, and a column long enough for the radix sort
+  C <- cbind(round(stats::runif(3000), 2), c(-0, 0, stats::rexp(2998)), stats::rexp(3000),
+             sample(c(1, 2, 3), 3000, replace = TRUE))
+  want <- apply(C, 2, function(v) order(v, method = "radix")) - 1L
+  for (threads in 1:3) {
+    expect_identical(run_order_cpp(C, threads), matrix(as.integer(want), nrow(C)))
+  }
+  # std::stable_sort below 256 runs
+  expect_identical(run_order_cpp(C[1:100, ], 2L),
+                   matrix(as.integer(apply(C[1:100, ], 2, order) - 1L), 100))
+})
+
+test_that("the collapsed heads do not depend on the number of threads", {
+  toy <- toy_ar1(n_runs = 500, n_t = 60, sd = 0.05)
+  p <- calibration_problem(toy$library, toy$field, 0, seq(0, 0.9, by = 0.1),
+                           list(shape = 1e-9, rate = 1e-9), 2, NULL)
+  one <- collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 1L)
+  expect_identical(collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 2L), one)
+})
+
+test_that("the grid draws are the same with the runs' rows kept or computed each time", {
+  toy <- toy_xt(n_per_dim = 6, n_t = 5)
+  problem <- calibration_problem(toy$library, toy$field, list(load = c(0, 0.4, 0.8), speed = 0.3),
+                                 c(0, 0.3, 0.6), NULL, 2, NULL)
+  control <- sampler_control(3000, 100, 1, 1, FALSE)
+  for (update in c("collapsed", "thesis")) {
+    tables <- sampler_tables(problem, update)
+    options <- c(sampler_options(problem, update, control), n_iter = 3000, first_iter = 1)
+    chain <- function(keep_rows) {
+      set.seed(4)
+      gibbs_chain_cpp(problem$C, tables, c(options, keep_rows = keep_rows), 0L, 1)
+    }
+    expect_identical(chain(2^22), chain(0))
+    expect_identical(chain(50), chain(0))  # room for a few runs only
+  }
+})

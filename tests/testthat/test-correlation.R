@@ -71,3 +71,17 @@ test_that("singular R_x and bad x_power are reported", {
   expect_error(correlation_setup(lib, rho_x = 0.99, rho_t = 0), "R_x is numerically singular at rho_x_h = 0.99")
   expect_error(correlation_setup(lib, 0, 0, x_power = 3), "`x_power` must be a single number in \\(0, 2\\]")
 })
+
+test_that("corr_x_grid() gives corr_x() at every combination, in expand.grid() order", {
+  x <- data.frame(a = c(0, 0.3, 1, 0.5), b = c(2, 1, 1, 0), c = c(5, 5, 6, 7))
+  grids <- list(a = c(0, 0.4), b = c(0.2, 0.7, 0.9), c = 0.5)
+  combos <- expand.grid(grids)
+  for (power in c(1, 2)) {
+    R <- corr_x_grid(x, grids, power)
+    expect_length(R, nrow(combos))
+    for (k in seq_len(nrow(combos))) {
+      expect_identical(R[[k]], corr_x(x, unlist(combos[k, ]), power))
+    }
+  }
+  expect_identical(corr_x_grid(NULL, list(x = 0)), list(matrix(1)))
+})

@@ -1,0 +1,58 @@
+#' Threads of griddy's compiled code
+#'
+#' The quadratic forms \eqn{C_{ig}} that [calibrate()] and [posterior_exact()]
+#' precompute, the sorting of their columns for the sampler and the exact
+#' posterior over runs run on several threads (OpenMP). `griddy_threads()`
+#' says how many.
+#'
+#' Set the number with `options(griddy.threads = n)`. Without the option,
+#' griddy uses every logical CPU the OpenMP runtime reports, as
+#' `data.table::setDTthreads(0)` does. Either way the number is at most
+#' * the logical CPUs,
+#' * the environment variables `OMP_THREAD_LIMIT` and `OMP_NUM_THREADS`, when
+#'   set (CRAN's check machines set `OMP_THREAD_LIMIT` to 2), and
+#' * 2 when the environment variable `_R_CHECK_LIMIT_CORES_` is set (to
+#'   anything but `"false"`), as `R CMD check --as-cran` does: CRAN allows a
+#'   package at most two cores in its checks.
+#'
+#' A package built without OpenMP runs on one thread. The results do not
+#' depend on the number of threads: each \eqn{C_{ig}} is computed the same
+#' way, in the same order, whichever thread computes it.
+#'
+#' When the chunks of a library on disk ([hdf5_library()], [disk_library()])
+#' are read on the workers of a parallel [future][future::plan] plan, each
+#' worker uses `griddy_threads()` divided by the number of workers.
+#'
+#' @return The number of threads, an integer >= 1.
+#' @examples
+#' griddy_threads()
+#' old <- options(griddy.threads = 1)
+#' griddy_threads()
+#' options(old)
+#' @export
+griddy_threads <- function() {
+  limits <- omp_limits_cpp()  # logical CPUs, OMP_THREAD_LIMIT, OMP_NUM_THREADS
+  cap <- min(limits, env_count("OMP_THREAD_LIMIT"), env_count("OMP_NUM_THREADS"))
+  check <- Sys.getenv("_R_CHECK_LIMIT_CORES_")
+  if (nzchar(check) && !identical(tolower(check), "false")) cap <- min(cap, 2L)
+  wanted <- getOption("griddy.threads")
+  if (is.null(wanted)) return(as.integer(max(1L, cap)))
+  wanted <- tryCatch(assert_count(wanted, "griddy.threads"), griddy_error = function(e) {
+    griddy_abort("Option `griddy.threads` must be a whole number >= 1 (or NULL for the ",
+                 "default); received ", paste(format(wanted), collapse = ", "), ".")
+  })
+  as.integer(max(1L, min(wanted, cap)))
+}
+
+# A positive whole number from an environment variable, Inf when unset or
+# not one.
+env_count <- function(name) {
+  v <- suppressWarnings(as.integer(Sys.getenv(name)))
+  if (is.na(v) || v < 1L) Inf else v
+}
+
+# The threads for each of `workers` parallel workers (a future plan's), so
+# that together they use griddy_threads().
+threads_per_worker <- function(workers) {
+  as.integer(max(1L, griddy_threads() %/% max(1L, workers)))
+}
