@@ -184,7 +184,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
-                                 noise_groups)
+                                 noise_groups, update)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
   exact_run <- exact_from_problem(fit, joint = FALSE)$run

@@ -22,9 +22,9 @@ memory_statement <- function(library, n_grid, update = NULL) {
 # (class griddy_message_memory) before computing it.
 memory_message_bytes <- 1e9
 
-inform_memory <- function(library, n_grid, threshold = memory_message_bytes) {
+inform_memory <- function(library, n_grid, update = NULL, threshold = memory_message_bytes) {
   if (8 * lib_n_runs(library) * n_grid < threshold) return(invisible(NULL))
-  rlang::inform(paste0("Computing the ", memory_statement(library, n_grid), "."),
+  rlang::inform(paste0("Computing the ", memory_statement(library, n_grid, update), "."),
                 class = c("griddy_message_memory", "griddy_message"))
 }
 

@@ -4,7 +4,7 @@
 # problem also takes a fit.
 
 calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
-                                run_weights, noise_groups = NULL) {
+                                run_weights, noise_groups = NULL, update = NULL) {
   check_library(library)
   layout <- field_layout(library, field)
   default_prior <- is.null(prior)
@@ -12,7 +12,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   log_prior_run <- log_run_weights(run_weights, library)
   pattern <- noise_pattern(library, layout, noise_groups, prior)
   setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
-  inform_memory(library, n_grid_points(setup))
+  inform_memory(library, n_grid_points(setup), update)
   problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)
   problem

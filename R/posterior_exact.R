@@ -21,12 +21,17 @@
 #' (see [field_data()]) \eqn{|R_g|} is that of \eqn{S R_g S}.
 #'
 #' @inheritParams calibrate
+#' @param joint Logical: keep the runs x grid points table of joint
+#'   probabilities? It is as large as the misfit table C (8 GB at 10^6 runs x
+#'   1,000 grid points); `FALSE` leaves it out (`joint` is then `NULL`) and
+#'   keeps only the margins, computed in passes over C.
 #' @return A list of class `griddy_exact` with elements
 #'   * `run`: the posterior probability of each library row (summed over the
 #'     correlation grid);
 #'   * `rho`: a data.frame of the correlation grid (see [rho_grid()]) with a
 #'     column `prob`;
-#'   * `joint`: the runs x grid points matrix of joint probabilities;
+#'   * `joint`: the runs x grid points matrix of joint probabilities (`NULL`
+#'     with `joint = FALSE`);
 #'   * `log_evidence`: the log marginal likelihood under the stated priors
 #'     (`NA` when `prior$rate` is 0, an improper prior). With the default
 #'     vague prior it is meaningful for comparing libraries or correlation
@@ -37,13 +42,18 @@
 #' exact <- posterior_exact(ex$library, ex$field)
 #' head(sort(exact$run, decreasing = TRUE))
 #' exact$log_evidence
+#' # the margins only, without the table as large as C
+#' margins <- posterior_exact(ex$library, ex$field, rho_t = c(0, 0.5), joint = FALSE)
+#' margins$rho
 #' @export
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
                             prior = NULL,
-                            x_power = 2, run_weights = NULL, noise_groups = NULL) {
+                            x_power = 2, run_weights = NULL, noise_groups = NULL,
+                            joint = TRUE) {
+  joint <- assert_flag(joint, "joint")
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
                                  noise_groups)
-  exact_from_problem(problem)
+  exact_from_problem(problem, joint)
 }
 
 # The exact posterior of a calibration problem, or of a fit (which holds its

@@ -574,7 +574,12 @@ posterior_noise_var <- function(state) {
   pr <- state$problem
   sizes <- pr$setup$group_sizes
   denom <- pmax(pr$prior$shape + sizes / 2 - 1, 0.5)
-  if (length(sizes) == 1L) return(sum(state$joint * (pr$prior$rate + pr$C / 2)) / denom)
+  if (length(sizes) == 1L) {
+    # column by column: no temporaries as large as C (8 GB at 10^6 runs x 1,000 grid points)
+    weighted_C <- sum(vapply(seq_len(ncol(pr$C)), function(g) sum(state$joint[, g] * pr$C[, g]),
+                             numeric(1)))
+    return((pr$prior$rate * sum(state$joint) + weighted_C / 2) / denom)
+  }
   total <- numeric(length(sizes))
   for (g in seq_len(ncol(state$joint))) {
     runs <- which(state$joint[, g] > 1e-12 * max(state$joint))

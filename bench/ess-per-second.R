@@ -86,13 +86,15 @@ if (length(args) == 3 && args[1] == "--one") {
       rows[[method]] <- cbind(ess_row(method, ess, m$elapsed_s,
                                       kf$runtime[["sampling"]], koh_iter, nrow(kf$draws)),
                               acceptance_theta = kf$acceptance[["theta"]],
-                              cpu_per_elapsed = m$cpu_s / m$elapsed_s)
+                              cpu_per_elapsed = m$cpu_s / m$elapsed_s,
+                              other_cores = m$other_cores)
       params[[method]] <- data.frame(method = method, parameter = kf$parameters, ess_bulk = ess,
                                      mean = colMeans(kf$draws[kf$parameters]))
     }
   } else {
     lib39 <- case_library(inputs$lib39)
     for (u in c("collapsed", "thesis")) {
+      others <- other_work_start()
       calls <- lapply(1:5, function(i) measure_call(suppressWarnings(
         calibrate(lib39, field, n_iter = griddy_iter, burn_in = griddy_burn, update = u,
                   seed = seed, progress = FALSE))))
@@ -104,7 +106,8 @@ if (length(args) == 3 && args[1] == "--one") {
       rows[[method]] <- cbind(ess_row(method, s$ess_bulk, median(secs),
                                       fit$runtime[["sampling"]], griddy_iter, nrow(fit$draws)),
                               acceptance_theta = NA_real_,
-                              cpu_per_elapsed = calls[[5]]$cpu_s / calls[[5]]$elapsed_s)
+                              cpu_per_elapsed = calls[[5]]$cpu_s / calls[[5]]$elapsed_s,
+                              other_cores = other_cores_since(others))  # over the 5 calls
       params[[method]] <- data.frame(method = method, parameter = s$parameter,
                                      ess_bulk = s$ess_bulk, mean = s$mean)
     }
@@ -137,7 +140,7 @@ parameters <- data.table::rbindlist(lapply(impls, function(l) {
 }))
 unlink(dir, recursive = TRUE)
 results[, n_points := 54]
-results[, shared_machine := load_1min > 1]
+results[, shared_machine := other_cores > 0.2]
 results[, machine := start_note]
 results[, date := format(Sys.Date())]
 reference <- results[method == "griddy new (collapsed)", ess_per_s]
@@ -153,12 +156,12 @@ shown <- results[, .(method, `seconds` = signif(seconds, 3), `sampling (s)` = si
                      `ESS / s` = fmt3(ess_per_s),
                      `ESS / sampling s` = fmt3(ess_per_sampling_s),
                      `griddy's ESS/s over this` = fmt3(ess_per_s_vs_griddy),
-                     `CPU / elapsed` = round(cpu_per_elapsed, 2), `load (1 min)` = load_1min)]
+                     `CPU / elapsed` = round(cpu_per_elapsed, 2), `other cores` = round(other_cores, 2), `load (1 min)` = load_1min)]
 ess_wide <- data.table::dcast(parameters, parameter ~ method, value.var = "ess_bulk",
                               fun.aggregate = function(v) round(v[1]))
 md <- c(
   md_header("Effective samples per second: griddy against RobustCalibration (chapter 4, 54 points)",
-            "bench/ess-per-second.R", start_note, results$load_1min),
+            "bench/ess-per-second.R", start_note, results$load_1min, results$other_cores),
   "",
   paste0("griddy: ", format(n_runs, big.mark = ","), "-run library, rho fixed, ",
          format(griddy_iter, big.mark = ","),

@@ -234,19 +234,40 @@ os_threads <- function() {
   as.integer(sub("[^0-9]*([0-9]+).*", "\\1", grep("^Threads", s, value = TRUE)))
 }
 
+# CPU seconds the whole machine has been busy since boot (Linux /proc/stat:
+# user, nice, system, irq, softirq and steal time over all cores).
+machine_busy_s <- function() {
+  ticks <- as.numeric(strsplit(trimws(readLines("/proc/stat", n = 1L)), " +")[[1]][-1])
+  sum(ticks[c(1:3, 6:8)]) / 100  # USER_HZ is 100 on Linux
+}
+
+# The cores other processes kept busy since `start` (other_work_start()): the
+# machine's busy time less this process's, over the elapsed time; 0 on an
+# otherwise idle machine. NA over less than a second (the counters tick in
+# hundredths of a second).
+other_work_start <- function() list(busy = machine_busy_s(), time = proc.time())
+other_cores_since <- function(start) {
+  t <- proc.time() - start$time
+  if (t[["elapsed"]] < 1) return(NA_real_)
+  own <- t[["user.self"]] + t[["sys.self"]]
+  max(0, (machine_busy_s() - start$busy - own) / t[["elapsed"]])
+}
+
 # Evaluate `expr`, measuring elapsed and CPU seconds (all threads of this
 # process), the peak resident memory during it above the memory before it
-# (peak reset first), the absolute peak and the threads afterwards.
+# (peak reset first), the absolute peak, the threads afterwards, and the
+# cores other processes kept busy meanwhile (other_cores_since()).
 measure_call <- function(expr) {
   gc()
   reset_peak()
   before <- rss_mb()
+  others <- other_work_start()
   t0 <- proc.time()
   value <- force(expr)
   t <- proc.time() - t0
-  list(value = value, elapsed_s = t[["elapsed"]],
-       cpu_s = t[["user.self"]] + t[["sys.self"]], rss_before_mb = before,
-       peak_extra_mb = peak_mb() - before, peak_mb = peak_mb(), os_threads = os_threads())
+  list(value = value, elapsed_s = t[["elapsed"]], cpu_s = t[["user.self"]] + t[["sys.self"]],
+       rss_before_mb = before, peak_extra_mb = peak_mb() - before, peak_mb = peak_mb(),
+       os_threads = os_threads(), other_cores = other_cores_since(others))
 }
 
 # Evaluate `expr`, muffling warnings and returning their classes (first
@@ -293,18 +314,30 @@ max_mean_z <- function(a, b) {
 }
 
 # The opening lines of a results page: title, script, date, machine, and
-# whether other work shared the machine (a load average above 1 before a run).
-md_header <- function(title, script, machine, loads) {
+# whether other work shared it: the most cores other processes kept busy
+# during a timed call (other_cores_since(); above 0.2, the machine was
+# shared). The one-minute load average before each process is reported
+# too, but it counts the benchmark's own previous process, so it is not the
+# test.
+md_header <- function(title, script, machine, loads, other_cores) {
+  load_note <- paste0("The one-minute load average before each process, which includes the ",
+                      "benchmark's own previous process, was between ", min(loads), " and ",
+                      max(loads), ".")
+  if (all(is.na(other_cores))) {
+    sharing <- "Other work on the machine was not measured (every timed call took under 1 s)."
+  } else {
+    worst <- max(other_cores, na.rm = TRUE)
+    shared <- worst > 0.2
+    sharing <- paste0(
+      if (shared) "**The machine was shared**: " else "The machine was otherwise idle: ",
+      "during the timed calls of 1 s or more other processes kept at most ",
+      format(round(worst, 2)), " cores busy (from /proc/stat: the machine's busy time ",
+      "less the benchmark process's own)",
+      if (shared) ", so absolute times are noisy; ratios within one run count more", ".")
+  }
   c(paste("#", title), "",
     paste0("Written by `", script, "` on ", format(Sys.Date()), ". ", machine, "."),
-    if (max(loads) > 1) {
-      paste0("**The machine was shared**: the one-minute load average before a run was ",
-             "between ", min(loads), " and ", max(loads), " (above 1 means other work ran ",
-             "beside the benchmark), so absolute times are noisy; ratios within one run ",
-             "count more.")
-    } else {
-      "The machine was otherwise idle (load average at most 1 before every run)."
-    })
+    paste(sharing, load_note))
 }
 
 # Numbers to 3 significant digits with thousands separators, for tables.

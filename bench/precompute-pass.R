@@ -13,8 +13,9 @@
 # (GRIDDY_NEW_LIB, default the installed griddy; once per thread count in
 # GRIDDY_NEW_THREADS, e.g. "1,2"). The pass and each update's calibrate() are
 # repeated REPEATS times (default 7) alternately, and the medians compared
-# (the minima are in the CSV too). The one-minute load average before each
-# process is recorded: above 1, the machine was shared.
+# (the minima are in the CSV too). The cores other processes kept busy over
+# the repeats are recorded (above 0.2: the machine was shared), and the
+# one-minute load average before each process as context.
 #
 # Usage, from the package root:
 #   GRIDDY_NEW_LIB=/tmp/lib-new Rscript bench/precompute-pass.R
@@ -44,6 +45,7 @@ if (length(args) == 3 && args[1] == "--one") {
   pass <- numeric(repeats)
   pre <- matrix(NA_real_, repeats, 2, dimnames = list(NULL, updates))
   calls <- list()
+  others <- other_work_start()
   for (r in seq_len(repeats)) {
     pass[r] <- time_it(sum(lib$y))
     for (u in updates) {
@@ -53,6 +55,7 @@ if (length(args) == 3 && args[1] == "--one") {
       pre[r, u] <- calls[[u]]$value$runtime[["precompute"]]
     }
   }
+  other_cores <- other_cores_since(others)  # over all repeats
   rows <- lapply(updates, function(u) {
     m <- calls[[u]]
     data.frame(implementation = label, update = u, runs = n_runs, data_points = n_points,
@@ -63,7 +66,7 @@ if (length(args) == 3 && args[1] == "--one") {
                sampling_s = m$value$runtime[["sampling"]],
                library_mb = 8 * n_runs * n_points / 2^20,
                peak_extra_mb = m$peak_extra_mb, cpu_per_elapsed = m$cpu_s / m$elapsed_s,
-               os_threads = m$os_threads, load_1min = load_before)
+               os_threads = m$os_threads, other_cores = other_cores, load_1min = load_before)
   })
   data.table::fwrite(do.call(rbind, rows), out)
   quit(save = "no")
@@ -91,7 +94,7 @@ results <- data.table::rbindlist(lapply(names(runs), function(label) {
   row
 }))
 results[, within_goal := passes <= goal_passes]
-results[, shared_machine := load_1min > 1]
+results[, shared_machine := other_cores > 0.2]
 results[, machine := start_note]
 results[, date := format(Sys.Date())]
 dir.create("bench/results", showWarnings = FALSE, recursive = TRUE)
@@ -102,10 +105,10 @@ shown <- results[, .(
   `precompute (s)` = signif(precompute_s, 3), `precompute / pass` = round(passes, 2),
   `goal <= 1.5` = within_goal, `sampling (s)` = signif(sampling_s, 2),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
-  threads = threads_label(threads_option, griddy_threads, os_threads), `load (1 min)` = load_1min)]
+  threads = threads_label(threads_option, griddy_threads, os_threads), `other cores` = round(other_cores, 2), `load (1 min)` = load_1min)]
 md <- c(
   md_header("The precompute at 10^6 runs, rho fixed, against one pass over memory",
-            "bench/precompute-pass.R", start_note, results$load_1min),
+            "bench/precompute-pass.R", start_note, results$load_1min, results$other_cores),
   "",
   paste0(format(n_runs, big.mark = ",", scientific = FALSE), " runs x ", n_points,
          " outputs (", round(8 * n_runs * n_points / 2^20), " MB), rho fixed, 35,000 ",

@@ -10,6 +10,9 @@
 # Side by side in one run, each implementation in its own R process:
 #  * old:   griddy as on main before issue 15 (commit c18971b), installed
 #           into GRIDDY_OLD_LIB (default /tmp/lib-griddy-old) on first use;
+#  * issue: griddy at e0ff0cf, the commit whose figures issue 15 quotes,
+#           installed into GRIDDY_ISSUE_LIB (default /tmp/lib-griddy-e0ff0cf);
+#           run after old, with which it is compared;
 #  * new:   the griddy in GRIDDY_NEW_LIB (default: the installed griddy), once
 #           per thread count in GRIDDY_NEW_THREADS (e.g. "1,2"; default the
 #           package's own choice), set as option griddy.threads;
@@ -23,19 +26,24 @@
 # sampling = the chain), for the plain loop C and the loop. Per process: peak
 # resident memory during the call above the memory before it (the library
 # is in memory before), CPU seconds / elapsed (the cores used), the process's
-# threads after the call and the one-minute load average before it (above 1:
-# the machine was shared). Checks: C of each implementation against the old
-# code's (largest relative difference), the draws identical to the old
-# code's, and the posterior means against the old code's in Monte Carlo
-# standard errors (largest |z|).
+# threads after the call, the cores other processes kept busy during it (the
+# test of a shared machine), and the one-minute load average before it
+# (context only: it counts the benchmark's own previous process). Checks: C
+# of each implementation against the old code's (largest relative
+# difference), the draws identical to the old code's, and the posterior means
+# against the old code's in Monte Carlo standard errors (largest |z|).
 #
 # Usage, from the package root:
 #   GRIDDY_NEW_LIB=/tmp/lib-new Rscript bench/rho-x-grid.R
 # Options (environment): RHO_X_SIZES (default "3,5,10"), RHO_X_IMPLEMENTATIONS
-# (default "old,new,plain"), GRIDDY_NEW_THREADS, PLAIN_MAX_ITER, RHO_X_PER_DIM
-# (values per coefficient of the library, default 39; smaller for a smoke test).
+# (default "issue,old,new,plain"), GRIDDY_NEW_THREADS, PLAIN_MAX_ITER, RHO_X_PER_DIM
+# (values per coefficient of the library, default 39; smaller for a smoke test),
+# RHO_X_CASE ("piston", the default, or "random": the same runs and data with
+# x drawn uniformly on [0, 1]^3 per data point, so that no two points share a
+# coordinate; then a grid point with some rho_j = 0 has R_x = I, which every
+# version recognises, the case issue 15's figures fit best).
 # Writes bench/results/rho-x-grid.csv, rho-x-grid-posterior.csv and
-# rho-x-grid.md. Runtime here: about 15 minutes (old code 2.5 minutes and the
+# rho-x-grid.md (rho-x-grid-random.* for the random case). Runtime here: about 15 minutes (old code 2.5 minutes and the
 # plain loop about 8 at 1,000 grid points), plus 1-3 minutes to install the old code once.
 source("bench/helpers.R")
 args <- commandArgs(TRUE)
@@ -44,6 +52,20 @@ burn_in <- 15000L
 rho_values <- function(k) seq(0, 0.9, length.out = k)
 thesis_seconds <- 38.8  # Table 4.5, 54 data points (about 40 s at every size)
 goal_seconds <- 10      # issue 15: 1,000 grid points
+x_case <- Sys.getenv("RHO_X_CASE", "piston")
+stopifnot(x_case %in% c("piston", "random"))
+result_name <- if (x_case == "piston") "rho-x-grid" else "rho-x-grid-random"
+
+# The piston case's inputs, with x drawn at random in the random case.
+case_inputs <- function(per_dim) {
+  inputs <- piston_case_inputs(per_dim)
+  if (x_case == "random") {
+    set.seed(1)
+    n <- length(inputs$field_y)
+    inputs$x <- data.frame(x1 = runif(n), x2 = runif(n), x3 = runif(n))
+  }
+  inputs
+}
 
 # The case's grids, one per x column.
 case_grids <- function(x, k) setNames(rep(list(rho_values(k)), ncol(x)), names(x))
@@ -51,7 +73,7 @@ case_grids <- function(x, k) setNames(rep(list(rho_values(k)), ncol(x)), names(x
 # Child: the inputs (library and field as plain data, so every griddy reads the same).
 if (length(args) == 2 && args[1] == "--inputs") {
   suppressPackageStartupMessages(library(griddy))
-  saveRDS(piston_case_inputs(as.integer(Sys.getenv("RHO_X_PER_DIM", 39))),  # smaller: smoke test
+  saveRDS(case_inputs(as.integer(Sys.getenv("RHO_X_PER_DIM", 39))),  # smaller: smoke test
           file.path(args[2], "inputs.rds"), compress = FALSE)
   quit(save = "no")
 }
@@ -107,9 +129,13 @@ if (length(args) == 5 && args[1] == "--one") {
     precompute <- fit$runtime[["precompute"]]
     sampling <- fit$runtime[["sampling"]]
     s <- as.data.frame(unclass(summary(fit)))
+    if (!"mcse" %in% names(s)) s$mcse <- NA_real_  # griddy 0.1.0 (the issue's code) had none
     post <- s[!s$parameter %in% "tau", c("parameter", "mean", "mcse")]
-    draws_out <- list(run = fit$draws$run, grid_point = fit$draws$grid_point)
-    C <- fit$C
+    # griddy 0.1.0 named the grid point `rho` and kept C in the problem
+    draws_out <- list(run = fit$draws$run,
+                      grid_point = if (is.null(fit$draws$grid_point)) fit$draws$rho else
+                        fit$draws$grid_point)
+    C <- if (is.null(fit$C)) fit$problem$C else fit$C
     C_mb <- if (is.null(C)) NA_real_ else as.numeric(object.size(C)) / 2^20
     warnings <- attr(fit, "warnings")
     iterations_run <- n_iter
@@ -127,16 +153,23 @@ if (length(args) == 5 && args[1] == "--one") {
     sampling_s = sampling, iterations = n_iter, plain_iterations = iterations_run,
     C_mb = C_mb, rss_before_mb = m$rss_before_mb, peak_extra_mb = m$peak_extra_mb,
     peak_mb = m$peak_mb, cpu_s = m$cpu_s * total / m$elapsed_s,
-    cpu_per_elapsed = m$cpu_s / m$elapsed_s, os_threads = m$os_threads, load_1min = load_before, warnings = warnings), paste0(base, ".csv"))
+    cpu_per_elapsed = m$cpu_s / m$elapsed_s, os_threads = m$os_threads,
+    other_cores = m$other_cores, load_1min = load_before, warnings = warnings), paste0(base, ".csv"))
   quit(save = "no")
 }
 
 # Parent: run every implementation at every size, compare, write the results.
 sizes <- as.integer(strsplit(Sys.getenv("RHO_X_SIZES", "3,5,10"), ",")[[1]])
-impls <- strsplit(Sys.getenv("RHO_X_IMPLEMENTATIONS", "old,new,plain"), ",")[[1]]
+impls <- strsplit(Sys.getenv("RHO_X_IMPLEMENTATIONS", "issue,old,new,plain"), ",")[[1]]
 old_lib <- old_griddy_lib()
 runs <- list()
 if ("old" %in% impls) runs$old <- list(impl = "griddy", lib = old_lib, env = character())
+# after old, which the others are compared with
+if ("issue" %in% impls) {
+  runs$issue <- list(impl = "griddy", env = character(),
+                     lib = old_griddy_lib(Sys.getenv("GRIDDY_ISSUE_LIB", "/tmp/lib-griddy-e0ff0cf"),
+                                          commit = "e0ff0cf"))
+}
 if ("new" %in% impls) {
   for (th in new_griddy_threads()) {
     label <- if (is.na(th)) "new" else paste0("new-", th, "threads")
@@ -184,7 +217,7 @@ for (k in sizes) {
 unlink(dir, recursive = TRUE)
 results <- data.table::rbindlist(rows, fill = TRUE)
 results[, warnings := data.table::fifelse(is.na(warnings), "", as.character(warnings))]
-results[, shared_machine := load_1min > 1]
+results[, shared_machine := other_cores > 0.2]
 if ("old" %in% names(runs)) {
   results[, speedup_vs_old := calibrate_s[implementation == "old"] / calibrate_s,
           by = grid_points]
@@ -203,9 +236,9 @@ results[, library_build_s := build_s]
 results[, machine := start_note]
 results[, date := format(Sys.Date())]
 dir.create("bench/results", showWarnings = FALSE, recursive = TRUE)
-data.table::fwrite(results, "bench/results/rho-x-grid.csv")
+data.table::fwrite(results, file.path("bench/results", paste0(result_name, ".csv")))
 data.table::fwrite(data.table::rbindlist(posteriors, fill = TRUE),
-                   "bench/results/rho-x-grid-posterior.csv")
+                   file.path("bench/results", paste0(result_name, "-posterior.csv")))
 
 # The Markdown report: the issue's table, the new columns, the bar and the goal.
 shown <- results[, .(
@@ -216,7 +249,7 @@ shown <- results[, .(
   `sampling (s)` = signif(sampling_s, 3), `CPU (s)` = signif(cpu_s, 3), `C (MB)` = round(C_mb),
   `peak above start (MB)` = round(peak_extra_mb), `CPU / elapsed` = round(cpu_per_elapsed, 2),
   threads = threads_label(threads_option, griddy_threads, os_threads),
-  `load (1 min)` = load_1min,
+  `other cores` = round(other_cores, 2), `load (1 min)` = load_1min,
   `vs old` = signif(speedup_vs_old, 3), `vs plain` = signif(speedup_vs_plain, 3),
   `C max rel. diff vs old` = ifelse(is.na(C_max_rel_diff_vs_old), "-",
                                     formatC(C_max_rel_diff_vs_old, format = "g", digits = 2)),
@@ -232,12 +265,14 @@ data.table::setcolorder(post_wide, c("rho_values_per_coordinate", "parameter",
                                      intersect(names(runs), names(post_wide))))
 data.table::setnames(post_wide, "rho_values_per_coordinate", "rho values per coordinate")
 md <- c(
-  md_header("The rho_x-grid case of issue 15, side by side",
-            "bench/rho-x-grid.R", start_note, results$load_1min),
+  md_header(paste0("The rho_x-grid case of issue 15, side by side",
+                   if (x_case == "random") ": x drawn at random"),
+            "bench/rho-x-grid.R", start_note, results$load_1min, results$other_cores),
   "",
   paste0(format(n_runs, big.mark = ","), " runs x 54 data points (the piston library, ",
          round(n_runs^(1 / 3)), " values per coefficient; ",
-         "x = r, z, condition), one rho_x grid per coordinate, seq(0, 0.9, length.out = k), ",
+         if (x_case == "random") "x = 3 coordinates drawn uniformly on [0, 1] per data point, seed 1" else
+           "x = r, z, condition", "), one rho_x grid per coordinate, seq(0, 0.9, length.out = k), ",
          "every combination; `x_power = 1` (Appendix A's eq. 5); ", format(n_iter, big.mark = ","),
          " iterations (burn-in ", format(burn_in, big.mark = ","), "), collapsed update, seed 1. ",
          "Building the library (", round(build_s, 1), " s) is not timed."),
@@ -246,10 +281,10 @@ md <- c(
   "",
   paste0("- Bar: the thesis's whole calibration, about 40 s (Table 4.5: ", thesis_seconds,
          " s at 54 data points). Goal: 1,000 grid points in under ", goal_seconds, " s."),
-  "- `old`: griddy at c18971b (main before issue 15); `new`: the library in GRIDDY_NEW_LIB; `plain`: the thesis's Appendix A loop in plain R (C by `plain_quad_forms_x()`, then `thesis_plain_r()`; uniform prior over grid points, which here equals griddy's prior over distinct structures: every R_x of these grids differs).",
+  "- `issue`: griddy at e0ff0cf, the commit issue 15 measured (0.1.0); `old`: griddy at c18971b (main before issue 15); `new`: the library in GRIDDY_NEW_LIB; `plain`: the thesis's Appendix A loop in plain R (C by `plain_quad_forms_x()`, then `thesis_plain_r()`; uniform prior over grid points, which here equals griddy's prior over distinct structures: every R_x of these grids differs).",
   "- CPU: CPU seconds of the process (all its threads) during the call (for the plain loop scaled as its time); CPU / elapsed: about 1 is one core busy throughout, below 1 means the process waited for a core (a shared machine), about 2 is both cores.",
   "- threads: option `griddy.threads` as set (\"default\" if unset) -> the threads `griddy_threads()` gives (- where the code has no such function: one), and the process's OS threads after the call.",
-  "- C max rel. diff: largest elementwise |C - C_old| / C_old. max |z|: largest difference of posterior means (theta and rho_x) in Monte Carlo standard errors; a parameter whose draws sit on one value in both fits counts as 0 when the values agree.",
+  "- C max rel. diff: largest elementwise |C - C_old| / C_old. max |z|: largest difference of posterior means (theta and rho_x) in Monte Carlo standard errors; a parameter whose draws sit on one value in both fits counts as 0 when the values agree. The issue's code reports no Monte Carlo standard error, so its |z| uses the old code's alone.",
   if (any(results$plain_iterations < n_iter)) paste0(
     "- The plain loop ran ",
     paste(unique(results[implementation == "plain", plain_iterations]), collapse = "/"),
@@ -264,5 +299,5 @@ md <- c(
     paste(unique(paste0(results$implementation, " at ", results$grid_points, ": ",
                         results$warnings)[nzchar(results$warnings)]), collapse = "; "), ".")
 )
-writeLines(md, "bench/results/rho-x-grid.md")
+writeLines(md, file.path("bench/results", paste0(result_name, ".md")))
 cat(md, sep = "\n")

@@ -21,6 +21,10 @@ test_that("print() of a fit states the memory, and a large precompute announces 
   expect_message(inform_memory(ex$library, 10, threshold = 0), class = "griddy_message_memory",
                  regexp = "Computing the misfit table C: .* x 10 grid points")
   expect_silent(inform_memory(ex$library, 10))
+  # the up-front statement left out the thesis update's run order (4 GB at
+  # 10^6 runs x 1,000 grid points), which print(fit) gave afterwards
+  expect_message(inform_memory(ex$library, 10, "thesis", threshold = 0),
+                 class = "griddy_message_memory", regexp = "its run order for the thesis update")
 })
 
 test_that("the path from the outputs to the posterior does not copy C", {

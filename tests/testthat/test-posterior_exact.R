@@ -37,6 +37,18 @@ test_that("run and rho marginals sum to one and weights enter the prior", {
   expect_output(print(ex), "exact posterior over 50 runs x 3 correlation grid point")
 })
 
+test_that("joint = FALSE leaves out the joint table and keeps the same margins", {
+  toy <- toy_ar1(n_runs = 50, n_t = 20)
+  full <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2))
+  margins <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2), joint = FALSE)
+  expect_null(margins$joint)
+  expect_identical(margins$run, full$run)
+  expect_identical(margins$rho, full$rho)
+  expect_identical(margins$log_evidence, full$log_evidence)
+  expect_error(posterior_exact(toy$library, toy$field, joint = NA), class = "griddy_error",
+               regexp = "`joint` must be TRUE or FALSE")
+})
+
 test_that("an improper prior gives no evidence", {
   toy <- toy_ar1(n_runs = 10, n_t = 8)
   expect_identical(posterior_exact(toy$library, toy$field, prior = list(shape = 1, rate = 0))$log_evidence,

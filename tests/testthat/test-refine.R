@@ -314,3 +314,15 @@ test_that("refine() adds the replicates' pure error to its new runs", {
   expect_equal(ref$C[added, 1], rss)
   expect_identical(ref$n_obs, 28L)
 })
+
+test_that("the posterior noise variance is the exact posterior mean of 1/tau, column by column", {
+  toy <- toy_ar1(n_runs = 40, n_t = 15)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0, 0.3, 0.6),
+                                    n_iter = 500, burn_in = 100, seed = 1))
+  state <- refine_state(fit)
+  pr <- state$problem
+  n <- sum(pr$setup$group_sizes)
+  # E[1/tau | i, g] = (b + C_ig / 2) / (a + n/2 - 1), averaged over the joint posterior
+  expected <- sum(state$joint * (pr$prior$rate + pr$C / 2)) / (pr$prior$shape + n / 2 - 1)
+  expect_equal(posterior_noise_var(state), expected, tolerance = 1e-12)
+})
