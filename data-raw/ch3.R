@@ -2,9 +2,10 @@
 # vignettes/chapter3.Rmd.  Writes inst/extdata/ch3_*.csv.gz (all but ch3_refine,
 # from data-raw/ch3-refine.R) and inst/extdata/ch3_session.txt.
 # Run from the package root with griddy installed:  Rscript data-raw/ch3.R
-# (6 minutes here on a quiet machine, 20 at load 6 on 2 cores; most of it
-# building the 14 libraries and the correlated-error fits at the largest
-# sizes). ch3_session.txt records the last run's time and load.
+# (3 minutes here on an otherwise idle 2-core machine, most of it building
+# the 14 libraries; 20 minutes at load 6 before issue 15's precompute, when
+# the correlated-error fits took up to 104 s each). ch3_session.txt records
+# the last run's time and load.
 library(griddy)
 library(data.table)
 

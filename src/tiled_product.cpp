@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cstdint>
 
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+// GRIDDY_PORTABLE_ONLY builds what a non-x86 processor gets (the plain C++
+// kernels alone), so that build can be tested on x86 too
+// (tools/check-portable-build.sh).
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && \
+    !defined(GRIDDY_PORTABLE_ONLY)
 #define GRIDDY_X86_DISPATCH 1
 #include <immintrin.h>
 #endif
