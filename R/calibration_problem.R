@@ -12,6 +12,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   log_prior_run <- log_run_weights(run_weights, library)
   pattern <- noise_pattern(library, layout, noise_groups, prior)
   setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
+  setup$noise_prior <- prior  # an emulated library's noise plug-in (emulation_error.R)
   inform_memory(library, n_grid_points(setup), update)
   problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)

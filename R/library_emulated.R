@@ -152,30 +152,6 @@ assert_distinct_design <- function(m) {
   }
 }
 
-# The error model over the library's outputs (see the documentation):
-# list(U, lambda), noise_var set where the field data are known. In the
-# joint form V = (S^1/2 K_x S^1/2) (x) V_t, whose eigenpairs are the
-# products of its factors'.
-design_error_model <- function(gp, var) {
-  if (gp$mode == "theta") return(emulation_error_model(gp$loo, NA_real_))
-  vt <- emulation_error_model(gp$loo, NA_real_)
-  if (is.null(vt)) return(NULL)
-  s <- colMeans(var)
-  s <- if (mean(s) > 0) s / mean(s) else rep(1, length(s))
-  kx <- eigen(sqrt(s) * t(sqrt(s) * design_gp_setting_cor(gp)), symmetric = TRUE)
-  lambda <- outer(pmax(kx$values, 0), vt$lambda)
-  order <- order(lambda, decreasing = TRUE)
-  energy <- cumsum(lambda[order]) / sum(lambda)
-  m <- min(which(energy >= 0.9999)[1], 50L, length(lambda))
-  keep <- order[seq_len(m)]
-  kx_j <- row(lambda)[keep]
-  vt_j <- col(lambda)[keep]
-  U <- vapply(seq_len(m), function(j) {
-    kronecker(kx$vectors[, kx_j[j]], vt$U[, vt_j[j]])
-  }, numeric(gp$n_x * gp$n_t))
-  list(U = matrix(U, ncol = m), lambda = lambda[keep], noise_var = NA_real_)
-}
-
 #' @export
 print.emulated_library <- function(x, ...) {
   gp <- x$emulator
@@ -205,73 +181,14 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 }
 
 # C with the emulation error at the library's own plug-in noise variance
-# for these field data (see emulated_noise_var()), and attribute
-# "extra_logdet"; warns when the emulator is worse than the noise.
+# and shared kappa for these field data (emulated_noise_var() in
+# emulation_error.R), its extra log-determinant folded in; warns when the
+# emulator is worse than the noise.
 #' @exportS3Method
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
   structure(fixed$C, emulation_error = fixed$ratio)
-}
-
-# C of the library's runs at plug-in noise variance s2.
-emulated_library_forms <- function(library, y_field, setup, s2) {
-  if (is.null(library$error)) return(plain_quad_forms(library$y, y_field, setup))
-  err <- library$error
-  err$noise_var <- s2
-  em <- emulated_quad_forms(library$y, y_field, setup, err, library$rel_var,
-                            lib_n_x(library), lib_n_t(library))
-  structure(em$C, extra_logdet = em$logdet)
-}
-
-# The noise variance that puts the emulation error on the scale of 1/tau:
-# the smallest misfit per data point (the best run's), then, a few times,
-# the posterior mean of 1/tau under the error model with the last value
-# (tau's prior taken as Jeffreys', the runs and grid points uniform; the
-# calibration's own prior is not known here). A value restated by refine()
-# for these field data is used as it is. Returns list(C, noise_var, ratio =
-# the leave-one-out error near the mode over the noise sd).
-emulated_noise_var <- function(library, y_field, setup, times = 4L) {
-  n <- sum(setup$group_sizes)  # every measurement
-  stored <- library$noise
-  if (!is.null(stored) && identical(stored$y_field, y_field)) {
-    C <- emulated_library_forms(library, y_field, setup, stored$noise_var)
-    return(list(C = C, noise_var = stored$noise_var,
-                ratio = emulated_error_ratio(library, C, setup, stored$noise_var, n)))
-  }
-  C0 <- plain_quad_forms(library$y, y_field, setup)
-  s2 <- max(min(C0) / n, 1e-300)
-  C <- C0
-  for (i in seq_len(times)) {
-    C <- emulated_library_forms(library, y_field, setup, s2)
-    w <- emulated_weights(C, setup, n)
-    s2_new <- max(sum(w * C) / max(n - 2, 1), 1e-300)
-    done <- abs(s2_new - s2) <= 0.01 * s2
-    s2 <- s2_new
-    if (done) break
-  }
-  C <- emulated_library_forms(library, y_field, setup, s2)
-  list(C = C, noise_var = s2, ratio = emulated_error_ratio(library, C, setup, s2, n))
-}
-
-# Posterior weights over (run, grid point) for the fixed point: tau
-# integrated out under Jeffreys' prior, the extra log-determinant included.
-emulated_weights <- function(C, setup, n) {
-  extra <- attr(C, "extra_logdet")
-  if (is.null(extra)) extra <- 0
-  lw <- -(n / 2) * log(pmax(C, 1e-300)) - extra / 2
-  lw <- sweep(lw, 2, setup$logdet / 2, "-")
-  w <- exp(lw - max(lw))
-  w / sum(w)
-}
-
-# The leave-one-out error of the design runs nearest the posterior's most
-# probable run (2p + 1 of them, in theta) over the noise sd: the ratio
-# refine() reports as `emulation_error`.
-emulated_error_ratio <- function(library, C, setup, s2, n) {
-  w <- emulated_weights(C, setup, n)
-  mode <- as.matrix(library$theta)[which.max(rowSums(w)), ]
-  loo_error_near(library$emulator, mode, s2)
 }
 
 warn_design_emulation <- function(ratio) {
