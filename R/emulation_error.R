@@ -32,7 +32,8 @@
 # posterior to where the emulator knows least (on the spot-weld data, 54%
 # of it on the design's upper edge). The error still widens the likelihood,
 # at the size it has where the posterior is: one kappa, the posterior mean
-# of kappa_i, found with the noise plug-in by one fixed point.
+# of kappa_i under the posterior without the error (under the posterior
+# with it, kappa would follow the mass the error pulls, and feed it).
 
 # ---- the error model ------------------------------------------------------------
 
@@ -60,10 +61,12 @@ emulation_error_model <- function(E, noise_var, max_rank = 50L) {
 }
 
 # An emulated library's error model over its outputs (see ?emulated_library).
-# In the joint form V = (S^1/2 K_x S^1/2) (x) V_t, whose eigenpairs are the
-# products of its factors'.
+# The leave-one-out residuals are standardised first, each by its own
+# predictive sd relative to their mean (standardised_loo()). In the joint
+# form V = (S^1/2 K_x S^1/2) (x) V_t, whose eigenpairs are the products of
+# its factors'.
 design_error_model <- function(gp, var) {
-  vt <- emulation_error_model(gp$loo, NA_real_)
+  vt <- emulation_error_model(standardised_loo(gp), NA_real_)
   if (gp$mode == "theta" || is.null(vt)) return(vt)
   s <- colMeans(var)
   s <- if (mean(s) > 0) s / mean(s) else rep(1, length(s))
@@ -78,6 +81,19 @@ design_error_model <- function(gp, var) {
     kronecker(kx$vectors[, kx_j[j]], vt$U[, vt_j[j]])
   }, numeric(gp$n_x * gp$n_t))
   list(U = matrix(U, ncol = m), lambda = lambda[keep], noise_var = NA_real_)
+}
+
+# The design's leave-one-out residuals, each divided by its predictive sd
+# over their root mean variance. Unstandardised, the few runs at the
+# design's edges, where leaving one out is extrapolating, dominate the
+# second moment: V's leading direction is then the difference between the
+# edge runs' outputs and the interior's, and the error forgives the edge
+# runs' misfit in exactly that direction. kappa_i carries the size of each
+# prediction's error, V only its shape.
+standardised_loo <- function(gp) {
+  v <- gp$loo_var / mean(gp$loo_var)
+  if (!all(is.finite(v)) || any(v <= 0)) return(gp$loo)
+  gp$loo / sqrt(v)
 }
 
 # ---- the algebra ------------------------------------------------------------------
@@ -282,7 +298,7 @@ reference_noise_var <- function(setup, s2, C) {
 # library's misfit, which would understate the prediction error relative to
 # it; so each round puts all rounds on the newest estimate, a few times, to
 # a fixed point. An emulated base library's runs are restated with them
-# (its shared kappa too).
+# (its shared kappa kept).
 restate_noise_var <- function(state, times = 3L) {
   for (i in seq_len(times)) {
     problem <- state$problem
@@ -293,15 +309,14 @@ restate_noise_var <- function(state, times = 3L) {
     if (length(emulated) == 0L && !base_emulated) return(state)
     old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, s2)
     if (base_emulated) {
-      kappa <- emulated_kappa(library$base, state$p[seq_len(lib_n_runs(library$base))])
       base_s2 <- library$base$noise$noise_var
       old <- c(old, if (length(base_s2) == length(s2)) base_s2 else rep(NA_real_, length(s2)))
-      same_kappa <- isTRUE(abs(library$base$noise$kappa - kappa) <= 0.01 * kappa)
-    } else {
-      same_kappa <- TRUE
     }
-    if (same_kappa && all(!is.na(old) & abs(old - s2) <= 0.01 * s2)) return(state)
+    if (all(!is.na(old) & abs(old - s2) <= 0.01 * s2)) return(state)
     if (base_emulated) {
+      # the shared kappa the library found for these data (emulated_noise_var())
+      kappa <- library$base$noise$kappa
+      if (is.null(kappa)) kappa <- mean(library$base$rel_var)
       library$base$noise <- list(y_field = problem$y_field, noise_var = s2, kappa = kappa)
       problem$C[seq_len(lib_n_runs(library$base)), ] <- fold_extra_logdet(
         emulated_library_forms(library$base, problem$y_field, problem$setup, s2, kappa),
@@ -341,10 +356,10 @@ emulated_library_forms <- function(library, y_field, setup, s2, kappa) {
 }
 
 # The noise variance and the shared kappa of an emulated library for these
-# field data, by a fixed point: the best run's misfit per data point and
-# the design's mean kappa, then, a few times, the posterior mean of 1/tau
-# (posterior_noise_var(), under the problem's prior setup$noise_prior, the
-# runs equally weighted) and of kappa_i. A value restated by refine() for
+# field data: kappa the posterior mean of kappa_i without the error, and the
+# noise variance by a fixed point from the best run's misfit per data point,
+# a few times the posterior mean of 1/tau (posterior_noise_var(), under the
+# problem's prior setup$noise_prior, the runs equally weighted). A value restated by refine() for
 # these field data is used as it is. Returns list(C (extra_logdet folded),
 # noise_var, kappa, ratio = the leave-one-out error near the mode over the
 # noise sd, emulation_error_ratio()'s measure).
@@ -374,16 +389,16 @@ emulated_noise_var <- function(library, y_field, setup, times = 6L) {
   }
   C0 <- plain_quad_forms(library$y, y_field, setup)
   s2 <- rep(max(min(C0) / n, 1e-300), length(setup$group_sizes))
-  kappa <- mean(library$rel_var)
+  # kappa where the data put the runs before the error has a say: under the
+  # posterior with the error, kappa would follow the mass the error pulls
+  kappa <- emulated_kappa(library, posterior(C0)$p)
   for (i in seq_len(times)) {
     library$noise <- list(y_field = y_field, noise_var = s2, kappa = kappa)
     state <- posterior(emulated_library_forms(library, y_field, setup, s2, kappa))
     state$problem$library <- library
     s2_new <- pmax(posterior_noise_var(state), 1e-300)
-    kappa_new <- emulated_kappa(library, state$p)
-    done <- all(abs(s2_new - s2) <= 0.01 * s2) && abs(kappa_new - kappa) <= 0.01 * kappa
+    done <- all(abs(s2_new - s2) <= 0.01 * s2)
     s2 <- s2_new
-    kappa <- kappa_new
     if (done) break
   }
   library$noise <- list(y_field = y_field, noise_var = s2, kappa = kappa)
