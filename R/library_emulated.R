@@ -99,8 +99,40 @@ emulated_library <- function(theta, y, x = NULL, t = NULL, settings = NULL, n_ru
   if (!is.null(x)) settings <- settings[names(x)]
   t <- as_coordinates(t, ncol(y), "t", "outputs per run (columns of `y`)")
   n_runs <- assert_count(n_runs, "n_runs", min = 2L)
+  assert_emulated_size(n_runs, ncol(theta), if (is.null(settings)) 1L else nrow(settings),
+                       length(t))
   seed <- assert_seed(seed)
   with_seed(seed, build_emulated_library(theta, y, x, t, settings, n_runs))
+}
+
+# The memory the library takes, checked before any of it is allocated: its
+# predicted outputs (n_runs x n_x n_t), their variances (n_runs x n_x), the
+# Latin hypercube and kappa, each double, with the prediction's temporaries
+# (twice the outputs). Refused beyond the machine's available memory (or
+# emulated_max_bytes when that is not known).
+emulated_max_bytes <- 64 * 2^30
+
+assert_emulated_size <- function(n_runs, p, n_x, n_t) {
+  bytes <- 8 * n_runs * (3 * n_x * n_t + n_x + p + 1)
+  limit <- min(available_memory_bytes(), emulated_max_bytes)
+  if (bytes > limit) {
+    griddy_abort("An emulated library of ", format_count(n_runs), " runs x ",
+                 format_count(n_x * n_t), " outputs would take about ", format_bytes(bytes),
+                 ", more than the ", format_bytes(limit), " available; use a smaller `n_runs`.",
+                 class = "memory")
+  }
+  invisible(bytes)
+}
+
+# The memory the system reports available (Linux's MemAvailable), Inf when
+# it does not say.
+available_memory_bytes <- function() {
+  info <- tryCatch(readLines("/proc/meminfo", n = 5L, warn = FALSE), error = function(e) "",
+                   warning = function(w) "")
+  line <- grep("^MemAvailable:", info, value = TRUE)
+  if (length(line) != 1L) return(Inf)
+  kb <- suppressWarnings(as.numeric(gsub("[^0-9]", "", line)))
+  if (is.finite(kb) && kb > 0) kb * 1024 else Inf
 }
 
 # Each run's control settings: a data.frame with one row per run (rows may
