@@ -373,14 +373,15 @@ emulated_noise_var <- function(library, y_field, setup, times = 6L) {
                     log_prior_run = rep(-log(nrow(C)), nrow(C)),
                     log_prior_grid = grid_log_prior(setup))
     post <- grid_posterior(problem)
-    list(problem = problem, joint = post$joint, p = post$run)
+    list(problem = problem, joint = post$joint, p = post$run, best = min(C))
   }
   result <- function(state) {
     mode <- as.matrix(library$theta)[which.max(state$p), ]
     s2 <- state$problem$library$noise$noise_var
     list(C = state$problem$C, noise_var = s2, kappa = state$problem$library$noise$kappa,
          ratio = loo_error_near(library$emulator, mode,
-                                reference_noise_var(setup, s2, state$problem$C)))
+                                reference_noise_var(setup, s2, state$problem$C)),
+         lack_of_fit = lack_of_fit(setup, state$best))
   }
   stored <- library$noise
   if (!is.null(stored) && identical(stored$y_field, y_field)) {
@@ -405,6 +406,34 @@ emulated_noise_var <- function(library, y_field, setup, times = 6L) {
   state <- posterior(emulated_library_forms(library, y_field, setup, s2, kappa))
   state$problem$library <- library
   result(state)
+}
+
+# Whether the best run fits the replicated field data: its misfit under the
+# emulator's error beyond the replicates' pure error, per measured cell,
+# over the pure error's mean square (an F statistic on the cells and the
+# pure error's degrees of freedom). NULL without enough replicates. When no
+# run fits (a discrepancy, or a simulator or data in error), the emulator's
+# error is the likelihood's only slack, and shapes the posterior.
+lack_of_fit <- function(setup, best) {
+  if (is.null(setup$dense)) return(NULL)
+  cells <- sum(lengths(setup$dense$groups))
+  df <- sum(setup$group_sizes) - cells
+  if (df < 5L) return(NULL)
+  pure <- sum(setup$pure_ss)
+  f <- max(best - pure, 0) / cells / (pure / df)
+  list(f = f, cells = cells, df = df, p_value = stats::pf(f, cells, df, lower.tail = FALSE))
+}
+
+lack_of_fit_p <- 0.001
+
+warn_lack_of_fit <- function(lof) {
+  if (is.null(lof) || !is.finite(lof$p_value) || lof$p_value > lack_of_fit_p) return()
+  griddy_warn("No run of the emulated library fits the field data: the best run's misfit, ",
+              "with the emulator's error allowed for, is ", format(lof$f, digits = 2),
+              " times the replicates' pure error per measured cell (F test on ", lof$cells,
+              " and ", lof$df, " degrees of freedom, p = ", format(lof$p_value, digits = 2),
+              "). The emulator's error then shapes the posterior; the simulator may need a ",
+              "discrepancy, or the data or the runs a check.", class = "lack_of_fit")
 }
 
 # ---- how well the emulator predicts near the posterior ---------------------------------

@@ -220,6 +220,7 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
+  warn_lack_of_fit(fixed$lack_of_fit)
   structure(fixed$C, emulation_error = fixed$ratio)
 }
 

@@ -67,7 +67,7 @@ test_that("the misfit table and the leave-block pieces are one algebra", {
 # One theta in [0, 1]; a joint design dense in its middle with one run near
 # each edge, so the emulator knows little there; replicated field data from
 # theta = 0.5 with a discrepancy no run removes.
-edge_system <- function() {
+edge_system <- function(discrepancy = 0.5) {
   sim <- function(x, th) sin(2 * pi * x) + sin(6 * th) * (1 + x)
   set.seed(3)
   th <- c(stats::runif(24, 0.3, 0.7), 0.02, 0.98)
@@ -76,7 +76,7 @@ edge_system <- function() {
   lib <- emulated_library(data.frame(theta = th), matrix(sim(xs, th)), x = data.frame(x = xs),
                           t = 1, settings = settings, n_runs = 2000, seed = 1)
   fx <- rep(settings$x, each = 5)
-  y <- sim(fx, 0.5) + 0.5 * cos(3 * fx) + stats::rnorm(length(fx), sd = 0.05)
+  y <- sim(fx, 0.5) + discrepancy * cos(3 * fx) + stats::rnorm(length(fx), sd = 0.05)
   list(lib = lib, field = field_data(matrix(y), x = data.frame(x = fx), t = 1))
 }
 
@@ -89,6 +89,16 @@ test_that("the emulator's error does not pull the posterior to the design's edge
   post <- suppressWarnings(posterior_exact(sys$lib, sys$field))
   expect_lt(sum(post$run[theta < 0.15 | theta > 0.85]), 0.01)
   expect_gt(sum(post$run[theta > 0.3 & theta < 0.7]), 0.99)
+})
+
+test_that("data no run fits are said to be so, against the replicates' pure error", {
+  skip_if_not_installed("RobustGaSP")
+  sys <- edge_system()
+  expect_warning(posterior_exact(sys$lib, sys$field), class = "griddy_warning_lack_of_fit")
+  fits <- edge_system(discrepancy = 0)
+  expect_no_warning(post <- posterior_exact(fits$lib, fits$field))
+  theta <- fits$lib$theta$theta
+  expect_gt(sum(post$run[abs(theta - 0.5) < 0.05]), 0.95)
 })
 
 test_that("the emulation check's noise scale is one the emulator's error cannot inflate", {
@@ -119,7 +129,9 @@ test_that("a useless emulator warns, against replicates' noise", {
   truth <- matrix(emulated_truth(cbind(k = 2.1, c = 0.3)), 3, 10, byrow = TRUE)
   yf <- truth[rep(1:3, each = 3), ] + stats::rnorm(90, sd = 0.02)
   field <- field_data(yf, x = data.frame(x = rep(c(0.2, 0.5, 0.8), each = 3)), t = d$t)
-  expect_warning(posterior_exact(lib, field), class = "griddy_warning_emulation")
+  # (and no run fits the data by its predictions: said too)
+  expect_warning(expect_warning(posterior_exact(lib, field), class = "griddy_warning_emulation"),
+                 class = "griddy_warning_lack_of_fit")
 })
 
 test_that("an emulated library too large for memory is refused before it is built", {
