@@ -22,26 +22,38 @@
 #' (R's random stream) over the design's \eqn{\theta} range, each predicted
 #' at every wanted setting.
 #'
-#' **Its error enters the likelihood.** A predicted run \eqn{i} carries the
-#' emulator's error \eqn{\delta_i \sim N(0, \kappa_i V)}: \eqn{\kappa_i} is
-#' the GP's predictive variance at the run (mean over the settings) over its
-#' mean leave-one-out variance on the design, and \eqn{V} the second moment
-#' of the leave-one-out residuals. In the \eqn{\theta} form \eqn{V} is that
-#' of the residuals over all outputs. In the joint form it is
+#' **Its error enters the likelihood.** A predicted run carries the
+#' emulator's error \eqn{\delta \sim N(0, \kappa V)}. \eqn{V} is the second
+#' moment of the design's leave-one-out residuals, each standardised by the
+#' GP's own leave-one-out sd (so that the few runs at the design's edges,
+#' where leaving one out extrapolates, do not set its shape). In the
+#' \eqn{\theta} form it is taken over all outputs; in the joint form
 #' \eqn{V = (S^{1/2} K_x S^{1/2}) \otimes V_t}: \eqn{V_t} the residuals'
 #' second moment over t, \eqn{K_x} the GP's correlation between the wanted
 #' settings and \eqn{S} each setting's mean predictive variance over the
 #' library relative to their mean, so that a misprediction at one
-#' \eqn{\theta}, shared by nearby settings, is not averaged away by them. It
-#' enters as in [refine()]: the covariance \eqn{\tau^{-1} R + \kappa_i V}
-#' with a plug-in noise variance for \eqn{1/\tau}, here found by the library
-#' itself for the field data at hand, by a short fixed point (the best
-#' run's misfit per point, then the posterior mean of \eqn{1/\tau}, a few
-#' times). When the leave-one-out error near the posterior's mode exceeds
-#' that noise (the ratio `refine()` reports as `emulation_error`), the
+#' \eqn{\theta}, shared by nearby settings, is not averaged away by them.
+#' \eqn{\kappa} is the GP's predictive variance (mean over the settings)
+#' over its mean leave-one-out variance on the design, averaged over the
+#' posterior without the error: one value for every run. A run-dependent
+#' \eqn{\kappa_i}, which rises towards the design's edges, would pull the
+#' posterior there whenever the data sit further from every run than the
+#' noise and the error allow: a Gaussian's density rises with its variance
+#' while the variance is below the squared misfit. The error enters as in
+#' [refine()]: the covariance \eqn{\tau^{-1} R + \kappa V}, with the
+#' posterior mean of \eqn{1/\tau} under the calibration's prior as the
+#' plug-in for \eqn{1/\tau}, found by a short fixed point for the field data
+#' at hand. When the leave-one-out error near the posterior's mode exceeds
+#' the noise sd (the replicates' pure error when the field data have
+#' replicates; otherwise the smaller of the plug-in and the best run's
+#' misfit per data point, which the emulator's error cannot inflate), the
 #' intervals rest on the error model, an estimate, and a warning of class
-#' `griddy_warning_emulation` says so. [refine()] without a simulator
-#' predicts its new runs with this library's emulator.
+#' `griddy_warning_emulation` says so. With replicates, data that no run
+#' fits even with the error allowed for (an F test against the pure error)
+#' are said in a warning of class `griddy_warning_lack_of_fit`. [refine()]
+#' without a simulator predicts its new runs with this library's emulator.
+#' A library that would not fit in the available memory is refused before
+#' it is built (error class `griddy_error_memory`).
 #'
 #' @param theta A data.frame, or a numeric matrix with column names, of the
 #'   design runs' parameter values, one row per run.
@@ -60,7 +72,8 @@
 #' @return An object of class `emulated_library`, a library usable wherever
 #'   one is ([calibrate()], [posterior_exact()], [refine()],
 #'   [koh_calibrate()]): a list with `theta`, `y` (predicted outputs, blocks
-#'   by setting), `x` (the settings), `t`, `rel_var` (\eqn{\kappa_i}),
+#'   by setting), `x` (the settings), `t`, `rel_var` (each run's
+#'   \eqn{\kappa_i}, before it is averaged),
 #'   `error` (the error model: `U`, `lambda`), `emulator` (the fitted GP and
 #'   its leave-one-out residuals), `design` (the runs) and `loo_rms`, the
 #'   root mean square leave-one-out error over the design's outputs.
@@ -105,15 +118,17 @@ emulated_library <- function(theta, y, x = NULL, t = NULL, settings = NULL, n_ru
   with_seed(seed, build_emulated_library(theta, y, x, t, settings, n_runs))
 }
 
-# The memory the library takes, checked before any of it is allocated: its
-# predicted outputs (n_runs x n_x n_t), their variances (n_runs x n_x), the
-# Latin hypercube and kappa, each double, with the prediction's temporaries
-# (twice the outputs). Refused beyond the machine's available memory (or
-# emulated_max_bytes when that is not known).
+# The memory building the library takes at its peak, checked before any of
+# it is allocated, in doubles per run: the predicted outputs (n_x n_t) and
+# their variances (n_x), each held twice while the chunks are bound, a
+# third copy of the outputs in the library, the Latin hypercube's draws,
+# values and copies (4 p), and kappa with the chunks' row indices (2).
+# Refused beyond the memory the system reports available, and beyond
+# emulated_max_bytes.
 emulated_max_bytes <- 64 * 2^30
 
 assert_emulated_size <- function(n_runs, p, n_x, n_t) {
-  bytes <- 8 * n_runs * (3 * n_x * n_t + n_x + p + 1)
+  bytes <- 8 * n_runs * (3 * n_x * n_t + 2 * n_x + 4 * p + 2)
   limit <- min(available_memory_bytes(), emulated_max_bytes)
   if (bytes > limit) {
     griddy_abort("An emulated library of ", format_count(n_runs), " runs x ",

@@ -140,5 +140,5 @@ test_that("an emulated library too large for memory is refused before it is buil
   expect_error(emulated_library(d$theta, d$y, x = data.frame(x = d$x), t = d$t,
                                 settings = d$settings, n_runs = 2e9),
                class = "griddy_error_memory")
-  expect_identical(assert_emulated_size(1e4, 2, 3, 10), 8 * 1e4 * (90 + 3 + 2 + 1))
+  expect_identical(assert_emulated_size(1e4, 2, 3, 10), 8 * 1e4 * (90 + 6 + 8 + 2))
 })
