@@ -230,13 +230,16 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 # C with the emulation error at the library's own plug-in noise variance
 # and shared kappa for these field data (emulated_noise_var() in
 # emulation_error.R), its extra log-determinant folded in; warns when the
-# emulator is worse than the noise.
+# emulator is worse than the noise. The plug-in travels as attribute
+# "library_noise" into the problem's library (problem_from_parts()).
 #' @exportS3Method
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
   warn_lack_of_fit(fixed$lack_of_fit)
-  structure(fixed$C, emulation_error = fixed$ratio)
+  structure(fixed$C, emulation_error = fixed$ratio,
+            library_noise = list(y_field = y_field, noise_var = fixed$noise_var,
+                                 kappa = fixed$kappa))
 }
 
 warn_design_emulation <- function(ratio) {

@@ -142,3 +142,23 @@ test_that("an emulated library too large for memory is refused before it is buil
                class = "griddy_error_memory")
   expect_identical(assert_emulated_size(1e4, 2, 3, 10), 8 * 1e4 * (90 + 6 + 8 + 2))
 })
+
+test_that("an emulated library's fit keeps its noise plug-in, and its group forms agree with C", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 300)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), noise_groups = "x", n_iter = 200,
+                                    burn_in = 50, seed = 1))
+  noise <- fit$library$noise
+  expect_length(noise$noise_var, 3)
+  expect_identical(noise$y_field, fit$y_field)
+  runs <- 1:5
+  Ck <- run_group_forms(fit, runs, 1)
+  err <- lib$error
+  err$noise_var <- noise$noise_var
+  em <- emulated_quad_forms(lib$y[runs, ], fit$y_field, fit$setup, err, rep(noise$kappa, 5), 3, 10)
+  expect_equal(fold_groups(Ck, fit$setup), em$C[, 1])
+  C <- structure(em$C, extra_logdet = em$logdet)
+  expect_equal(fold_extra_logdet(C, fit$prior, fit$n_obs)[, 1], fit$C[runs, 1])
+  # the tau draws see the error too: not the plain forms
+  expect_false(isTRUE(all.equal(Ck, group_quad_forms(lib$y[runs, ], fit$y_field, fit$setup, 1))))
+})
