@@ -35,8 +35,9 @@ fit <- withCallingHandlers(calibrate(lib, inputs$field, seed = 1), warning = say
 print(summary(fit))
 tuning <- lib$theta$tuning
 p <- grid_posterior(fit)$run
-cat("mass in the top 5% of tuning's range:", signif(sum(p[tuning > stats::quantile(tuning, 0.95)]), 3),
-    "\n\nWithout the error term:\n")
+top <- tuning > stats::quantile(tuning, 0.95)
+cat("mass in the top 5% of tuning's range:", signif(sum(p[top]), 3), "\n")
+cat("\nWithout the error term:\n")
 plain <- lib
 plain$error <- NULL
 print(summary(suppressWarnings(calibrate(plain, inputs$field, seed = 1))))

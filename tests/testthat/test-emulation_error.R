@@ -10,7 +10,7 @@ test_that("one truncation rule: the leading directions hold 99.99% of the second
   expect_gte(sum(err$lambda) / sum(d2), error_energy)
 })
 
-test_that("the error model is the Kronecker product of settings and outputs, and C agrees with dense algebra", {
+test_that("the error model is the Kronecker product of settings and outputs, as dense algebra", {
   skip_if_not_installed("RobustGaSP")
   lib <- emulated_toy_library(n_runs = 50)
   err <- lib$error
