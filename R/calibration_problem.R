@@ -12,6 +12,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   log_prior_run <- log_run_weights(run_weights, library)
   pattern <- noise_pattern(library, layout, noise_groups, prior)
   setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
+  setup$noise_prior <- prior  # an emulated library's noise plug-in (emulation_error.R)
   inform_memory(library, n_grid_points(setup), update)
   problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)
@@ -27,6 +28,13 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
   }
   emulation_error <- attr(C, "emulation_error")
   if (!is.null(emulation_error)) attr(C, "emulation_error") <- NULL
+  # an emulated library's noise plug-in for these data (emulation_error.R),
+  # kept with it so that what reads its error later agrees with C
+  noise <- attr(C, "library_noise")
+  if (!is.null(noise)) {
+    attr(C, "library_noise") <- NULL
+    library$noise <- noise
+  }
   # every measurement: the observed cells and the replicates' pure-error
   # degrees of freedom (see noise_pattern())
   list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),

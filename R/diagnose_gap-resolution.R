@@ -80,27 +80,6 @@ matched_terms <- function(ctx, Y, log_prior, C, library = NULL) {
   terms
 }
 
-# Which runs of a refined library were predicted, and the error model of
-# each (NULL for a plain library): gap_where() checks those runs under their
-# own covariance.
-run_errors <- function(library) {
-  if (!inherits(library, "refined_library")) return(NULL)
-  n0 <- lib_n_runs(library$base)
-  list(n_base = n0, round = library$added$round, kappa = library$added$rel_var,
-       errors = lapply(library$rounds, `[[`, "error"))
-}
-
-# The prediction error of run j as V (data points x rank, S = R_g + V V'
-# over the observed points `obs`), or NULL when the run was simulated.
-run_emulation <- function(emulation, j, obs) {
-  if (is.null(emulation) || j <= emulation$n_base) return(NULL)
-  k <- j - emulation$n_base
-  err <- emulation$errors[[emulation$round[k]]]
-  if (is.null(err) || emulation$kappa[k] <= 0) return(NULL)
-  list(V = err$U[obs, , drop = FALSE] %*%
-         diag(sqrt(emulation$kappa[k] * err$lambda / err$noise_var), length(err$lambda)))
-}
-
 # The fit's own context and base terms, for the confounding screen.
 screen_terms <- function(fit) {
   ctx <- gap_context(fit)

@@ -88,30 +88,6 @@ plain_block <- function(h_B, U, Q) {
   list(D = sum(z^2), Q = Q, logdet = 0, logdet_BB = 2 * sum(log(diag(U))))
 }
 
-# A predicted run's covariance S = R_g + V V' over the data points (V = U
-# diag(sqrt(kappa lambda / s2)) restricted to them, its prediction error;
-# library_refined.R): S^-1 = P - PV K V'P with P = R_g^-1 (apply_precision())
-# and K = (I + V'PV)^-1, h = S^-1 r, Q = r'S^-1 r and
-# log|S| - log|R_g| = log|I + V'PV|.
-emulated_inverse <- function(ctx, node, e, err) {
-  PV <- apply(err$V, 2, function(v) apply_precision(ctx, node, v))
-  inner <- diag(ncol(err$V)) + crossprod(err$V, PV)
-  K <- solve(inner)
-  Pr <- apply_precision(ctx, node, e)
-  h <- Pr - drop(PV %*% (K %*% crossprod(PV, e)))
-  list(PV = PV, K = K, h = h, Q = sum(e * h),
-       logdet = as.numeric(determinant(inner)$modulus))
-}
-
-# Its leave-block pieces: (S^-1)_BB = P_BB - (PV)_B K (PV)_B'.
-emulated_block <- function(wood, P_BB, pos) {
-  A <- wood$PV[pos, , drop = FALSE]
-  S_BB <- P_BB - A %*% wood$K %*% t(A)
-  U <- chol(S_BB)
-  z <- backsolve(U, wood$h[pos], transpose = TRUE)
-  list(D = sum(z^2), Q = wood$Q, logdet = wood$logdet, logdet_BB = 2 * sum(log(diag(U))))
-}
-
 # Indices of the largest weights holding `mass` of the total (at most `cap`).
 top_pairs <- function(w, mass, cap) {
   o <- order(w, decreasing = TRUE)

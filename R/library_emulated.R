@@ -22,26 +22,38 @@
 #' (R's random stream) over the design's \eqn{\theta} range, each predicted
 #' at every wanted setting.
 #'
-#' **Its error enters the likelihood.** A predicted run \eqn{i} carries the
-#' emulator's error \eqn{\delta_i \sim N(0, \kappa_i V)}: \eqn{\kappa_i} is
-#' the GP's predictive variance at the run (mean over the settings) over its
-#' mean leave-one-out variance on the design, and \eqn{V} the second moment
-#' of the leave-one-out residuals. In the \eqn{\theta} form \eqn{V} is that
-#' of the residuals over all outputs. In the joint form it is
+#' **Its error enters the likelihood.** A predicted run carries the
+#' emulator's error \eqn{\delta \sim N(0, \kappa V)}. \eqn{V} is the second
+#' moment of the design's leave-one-out residuals, each standardised by the
+#' GP's own leave-one-out sd (so that the few runs at the design's edges,
+#' where leaving one out extrapolates, do not set its shape). In the
+#' \eqn{\theta} form it is taken over all outputs; in the joint form
 #' \eqn{V = (S^{1/2} K_x S^{1/2}) \otimes V_t}: \eqn{V_t} the residuals'
 #' second moment over t, \eqn{K_x} the GP's correlation between the wanted
 #' settings and \eqn{S} each setting's mean predictive variance over the
 #' library relative to their mean, so that a misprediction at one
-#' \eqn{\theta}, shared by nearby settings, is not averaged away by them. It
-#' enters as in [refine()]: the covariance \eqn{\tau^{-1} R + \kappa_i V}
-#' with a plug-in noise variance for \eqn{1/\tau}, here found by the library
-#' itself for the field data at hand, by a short fixed point (the best
-#' run's misfit per point, then the posterior mean of \eqn{1/\tau}, a few
-#' times). When the leave-one-out error near the posterior's mode exceeds
-#' that noise (the ratio `refine()` reports as `emulation_error`), the
+#' \eqn{\theta}, shared by nearby settings, is not averaged away by them.
+#' \eqn{\kappa} is the GP's predictive variance (mean over the settings)
+#' over its mean leave-one-out variance on the design, averaged over the
+#' posterior without the error: one value for every run. A run-dependent
+#' \eqn{\kappa_i}, which rises towards the design's edges, would pull the
+#' posterior there whenever the data sit further from every run than the
+#' noise and the error allow: a Gaussian's density rises with its variance
+#' while the variance is below the squared misfit. The error enters as in
+#' [refine()]: the covariance \eqn{\tau^{-1} R + \kappa V}, with the
+#' posterior mean of \eqn{1/\tau} under the calibration's prior as the
+#' plug-in for \eqn{1/\tau}, found by a short fixed point for the field data
+#' at hand. When the leave-one-out error near the posterior's mode exceeds
+#' the noise sd (the replicates' pure error when the field data have
+#' replicates; otherwise the smaller of the plug-in and the best run's
+#' misfit per data point, which the emulator's error cannot inflate), the
 #' intervals rest on the error model, an estimate, and a warning of class
-#' `griddy_warning_emulation` says so. [refine()] without a simulator
-#' predicts its new runs with this library's emulator.
+#' `griddy_warning_emulation` says so. With replicates, data that no run
+#' fits even with the error allowed for (an F test against the pure error)
+#' are said in a warning of class `griddy_warning_lack_of_fit`. [refine()]
+#' without a simulator predicts its new runs with this library's emulator.
+#' A library that would not fit in the available memory is refused before
+#' it is built (error class `griddy_error_memory`).
 #'
 #' @param theta A data.frame, or a numeric matrix with column names, of the
 #'   design runs' parameter values, one row per run.
@@ -60,7 +72,8 @@
 #' @return An object of class `emulated_library`, a library usable wherever
 #'   one is ([calibrate()], [posterior_exact()], [refine()],
 #'   [koh_calibrate()]): a list with `theta`, `y` (predicted outputs, blocks
-#'   by setting), `x` (the settings), `t`, `rel_var` (\eqn{\kappa_i}),
+#'   by setting), `x` (the settings), `t`, `rel_var` (each run's
+#'   \eqn{\kappa_i}, before it is averaged),
 #'   `error` (the error model: `U`, `lambda`), `emulator` (the fitted GP and
 #'   its leave-one-out residuals), `design` (the runs) and `loo_rms`, the
 #'   root mean square leave-one-out error over the design's outputs.
@@ -99,8 +112,42 @@ emulated_library <- function(theta, y, x = NULL, t = NULL, settings = NULL, n_ru
   if (!is.null(x)) settings <- settings[names(x)]
   t <- as_coordinates(t, ncol(y), "t", "outputs per run (columns of `y`)")
   n_runs <- assert_count(n_runs, "n_runs", min = 2L)
+  assert_emulated_size(n_runs, ncol(theta), if (is.null(settings)) 1L else nrow(settings),
+                       length(t))
   seed <- assert_seed(seed)
   with_seed(seed, build_emulated_library(theta, y, x, t, settings, n_runs))
+}
+
+# The memory building the library takes at its peak, checked before any of
+# it is allocated, in doubles per run: the predicted outputs (n_x n_t) and
+# their variances (n_x), each held twice while the chunks are bound, a
+# third copy of the outputs in the library, the Latin hypercube's draws,
+# values and copies (4 p), and kappa with the chunks' row indices (2).
+# Refused beyond the memory the system reports available, and beyond
+# emulated_max_bytes.
+emulated_max_bytes <- 64 * 2^30
+
+assert_emulated_size <- function(n_runs, p, n_x, n_t) {
+  bytes <- 8 * n_runs * (3 * n_x * n_t + 2 * n_x + 4 * p + 2)
+  limit <- min(available_memory_bytes(), emulated_max_bytes)
+  if (bytes > limit) {
+    griddy_abort("An emulated library of ", format_count(n_runs), " runs x ",
+                 format_count(n_x * n_t), " outputs would take about ", format_bytes(bytes),
+                 ", more than the ", format_bytes(limit), " available; use a smaller `n_runs`.",
+                 class = "memory")
+  }
+  invisible(bytes)
+}
+
+# The memory the system reports available (Linux's MemAvailable), Inf when
+# it does not say.
+available_memory_bytes <- function() {
+  info <- tryCatch(readLines("/proc/meminfo", n = 5L, warn = FALSE), error = function(e) "",
+                   warning = function(w) "")
+  line <- grep("^MemAvailable:", info, value = TRUE)
+  if (length(line) != 1L) return(Inf)
+  kb <- suppressWarnings(as.numeric(gsub("[^0-9]", "", line)))
+  if (is.finite(kb) && kb > 0) kb * 1024 else Inf
 }
 
 # Each run's control settings: a data.frame with one row per run (rows may
@@ -152,30 +199,6 @@ assert_distinct_design <- function(m) {
   }
 }
 
-# The error model over the library's outputs (see the documentation):
-# list(U, lambda), noise_var set where the field data are known. In the
-# joint form V = (S^1/2 K_x S^1/2) (x) V_t, whose eigenpairs are the
-# products of its factors'.
-design_error_model <- function(gp, var) {
-  if (gp$mode == "theta") return(emulation_error_model(gp$loo, NA_real_))
-  vt <- emulation_error_model(gp$loo, NA_real_)
-  if (is.null(vt)) return(NULL)
-  s <- colMeans(var)
-  s <- if (mean(s) > 0) s / mean(s) else rep(1, length(s))
-  kx <- eigen(sqrt(s) * t(sqrt(s) * design_gp_setting_cor(gp)), symmetric = TRUE)
-  lambda <- outer(pmax(kx$values, 0), vt$lambda)
-  order <- order(lambda, decreasing = TRUE)
-  energy <- cumsum(lambda[order]) / sum(lambda)
-  m <- min(which(energy >= 0.9999)[1], 50L, length(lambda))
-  keep <- order[seq_len(m)]
-  kx_j <- row(lambda)[keep]
-  vt_j <- col(lambda)[keep]
-  U <- vapply(seq_len(m), function(j) {
-    kronecker(kx$vectors[, kx_j[j]], vt$U[, vt_j[j]])
-  }, numeric(gp$n_x * gp$n_t))
-  list(U = matrix(U, ncol = m), lambda = lambda[keep], noise_var = NA_real_)
-}
-
 #' @export
 print.emulated_library <- function(x, ...) {
   gp <- x$emulator
@@ -205,73 +228,18 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 }
 
 # C with the emulation error at the library's own plug-in noise variance
-# for these field data (see emulated_noise_var()), and attribute
-# "extra_logdet"; warns when the emulator is worse than the noise.
+# and shared kappa for these field data (emulated_noise_var() in
+# emulation_error.R), its extra log-determinant folded in; warns when the
+# emulator is worse than the noise. The plug-in travels as attribute
+# "library_noise" into the problem's library (problem_from_parts()).
 #' @exportS3Method
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
-  structure(fixed$C, emulation_error = fixed$ratio)
-}
-
-# C of the library's runs at plug-in noise variance s2.
-emulated_library_forms <- function(library, y_field, setup, s2) {
-  if (is.null(library$error)) return(plain_quad_forms(library$y, y_field, setup))
-  err <- library$error
-  err$noise_var <- s2
-  em <- emulated_quad_forms(library$y, y_field, setup, err, library$rel_var,
-                            lib_n_x(library), lib_n_t(library))
-  structure(em$C, extra_logdet = em$logdet)
-}
-
-# The noise variance that puts the emulation error on the scale of 1/tau:
-# the smallest misfit per data point (the best run's), then, a few times,
-# the posterior mean of 1/tau under the error model with the last value
-# (tau's prior taken as Jeffreys', the runs and grid points uniform; the
-# calibration's own prior is not known here). A value restated by refine()
-# for these field data is used as it is. Returns list(C, noise_var, ratio =
-# the leave-one-out error near the mode over the noise sd).
-emulated_noise_var <- function(library, y_field, setup, times = 4L) {
-  n <- sum(setup$group_sizes)  # every measurement
-  stored <- library$noise
-  if (!is.null(stored) && identical(stored$y_field, y_field)) {
-    C <- emulated_library_forms(library, y_field, setup, stored$noise_var)
-    return(list(C = C, noise_var = stored$noise_var,
-                ratio = emulated_error_ratio(library, C, setup, stored$noise_var, n)))
-  }
-  C0 <- plain_quad_forms(library$y, y_field, setup)
-  s2 <- max(min(C0) / n, 1e-300)
-  C <- C0
-  for (i in seq_len(times)) {
-    C <- emulated_library_forms(library, y_field, setup, s2)
-    w <- emulated_weights(C, setup, n)
-    s2_new <- max(sum(w * C) / max(n - 2, 1), 1e-300)
-    done <- abs(s2_new - s2) <= 0.01 * s2
-    s2 <- s2_new
-    if (done) break
-  }
-  C <- emulated_library_forms(library, y_field, setup, s2)
-  list(C = C, noise_var = s2, ratio = emulated_error_ratio(library, C, setup, s2, n))
-}
-
-# Posterior weights over (run, grid point) for the fixed point: tau
-# integrated out under Jeffreys' prior, the extra log-determinant included.
-emulated_weights <- function(C, setup, n) {
-  extra <- attr(C, "extra_logdet")
-  if (is.null(extra)) extra <- 0
-  lw <- -(n / 2) * log(pmax(C, 1e-300)) - extra / 2
-  lw <- sweep(lw, 2, setup$logdet / 2, "-")
-  w <- exp(lw - max(lw))
-  w / sum(w)
-}
-
-# The leave-one-out error of the design runs nearest the posterior's most
-# probable run (2p + 1 of them, in theta) over the noise sd: the ratio
-# refine() reports as `emulation_error`.
-emulated_error_ratio <- function(library, C, setup, s2, n) {
-  w <- emulated_weights(C, setup, n)
-  mode <- as.matrix(library$theta)[which.max(rowSums(w)), ]
-  loo_error_near(library$emulator, mode, s2)
+  warn_lack_of_fit(fixed$lack_of_fit)
+  structure(fixed$C, emulation_error = fixed$ratio,
+            library_noise = list(y_field = y_field, noise_var = fixed$noise_var,
+                                 kappa = fixed$kappa))
 }
 
 warn_design_emulation <- function(ratio) {

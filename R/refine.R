@@ -250,34 +250,6 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
        emulation_error = if (!is.null(emulator)) emulation_error_ratio(emulator, state))
 }
 
-# How well the library predicts its own runs where the posterior is: the
-# leave-one-out residuals' root mean square over the 2p + 1 library runs
-# nearest the most probable run, over the fitted noise sd. Above 1 the
-# predicted runs there are off by more than the noise, and the intervals rest
-# on the emulator's error model, an estimate.
-emulation_error_ratio <- function(emulator, state) {
-  theta <- as.matrix(lib_theta(state$problem$library))
-  loo_error_near(emulator, theta[which.max(state$p), ],
-                 noise_var_pooled(state$problem, posterior_noise_var(state)))
-}
-
-# The root mean square of an emulator's leave-one-out residuals (`loo`, at
-# the runs `loo_theta`) over the 2p + 1 runs nearest `mode` (distances on
-# columns scaled by the runs' ranges), over the noise sd sqrt(s2).
-loo_error_near <- function(emulator, mode, s2) {
-  th <- emulator$loo_theta
-  width <- pmax(apply(th, 2, function(v) diff(range(v))), 1e-300)
-  d2 <- colSums(((t(th) - mode) / width)^2)
-  near <- order(d2)[seq_len(min(2L * ncol(th) + 1L, length(d2)))]
-  sqrt(mean(emulator$loo[near, ]^2) / s2)
-}
-
-# One noise variance for all observed points: the groups' own (see
-# posterior_noise_var()) averaged over the points.
-noise_var_pooled <- function(problem, s2) {
-  sum(s2 * problem$setup$group_sizes) / sum(problem$setup$group_sizes)
-}
-
 # The exact posterior over runs of a problem and its resolution table.
 refine_state <- function(problem) {
   post <- grid_posterior(problem)
@@ -524,68 +496,4 @@ emulated_batch <- function(emulator, theta_new, state) {
   pred <- emulator_predict(emulator, theta_new)
   list(y = pred$outputs, rel_var = pred$rel_var,
        error = emulation_error_model(emulator$loo, posterior_noise_var(state)))
-}
-
-# Every round's prediction error on the scale of the current posterior's
-# noise variance, and the posterior again. The scale is a plug-in; the first
-# rounds' posteriors, still on a coarse library, overstate the noise by the
-# library's misfit, which would understate the prediction error relative to
-# it; so each round puts all rounds on the newest estimate, a few times, to
-# a fixed point. An emulated base library's runs are restated with them.
-restate_noise_var <- function(state, times = 3L) {
-  for (i in seq_len(times)) {
-    problem <- state$problem
-    library <- problem$library
-    s2 <- posterior_noise_var(state)
-    emulated <- which(vapply(library$rounds, function(r) !is.null(r$error), logical(1)))
-    base_emulated <- inherits(library$base, "emulated_library")
-    if (length(emulated) == 0L && !base_emulated) return(state)
-    old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, s2)
-    if (base_emulated) {
-      # one value per noise group, as posterior_noise_var() gives
-      base_s2 <- library$base$noise$noise_var
-      old <- c(old, if (length(base_s2) == length(s2)) base_s2 else rep(NA_real_, length(s2)))
-    }
-    if (all(!is.na(old) & abs(old - s2) <= 0.01 * s2)) return(state)
-    if (base_emulated) {
-      library$base$noise <- list(y_field = problem$y_field, noise_var = s2)
-      problem$C[seq_len(lib_n_runs(library$base)), ] <- fold_extra_logdet(
-        emulated_library_forms(library$base, problem$y_field, problem$setup, s2),
-        problem$prior, problem$n_obs)
-    }
-    for (r in emulated) library$rounds[[r]]$error$noise_var <- s2
-    which <- which(library$added$round %in% emulated)
-    rows <- lib_n_runs(library$base) + which
-    if (length(which) > 0L) {
-      problem$C[rows, ] <- fold_extra_logdet(
-        added_quad_forms(library, which, problem$y_field, problem$setup),
-        problem$prior, problem$n_obs)
-    }
-    problem$library <- library
-    state <- refine_state(problem)
-  }
-  state
-}
-
-# The posterior mean of 1/tau: (b + C/2) / (a + n/2 - 1) averaged over the
-# exact posterior over (run, grid point); with noise groups, that of each
-# 1/tau_k (over the runs that carry the posterior: all but 1e-12 of it).
-posterior_noise_var <- function(state) {
-  pr <- state$problem
-  sizes <- pr$setup$group_sizes
-  denom <- pmax(pr$prior$shape + sizes / 2 - 1, 0.5)
-  if (length(sizes) == 1L) {
-    # column by column: no temporaries as large as C (8 GB at 10^6 runs x 1,000 grid points)
-    weighted_C <- sum(vapply(seq_len(ncol(pr$C)), function(g) sum(state$joint[, g] * pr$C[, g]),
-                             numeric(1)))
-    return((pr$prior$rate * sum(state$joint) + weighted_C / 2) / denom)
-  }
-  total <- numeric(length(sizes))
-  for (g in seq_len(ncol(state$joint))) {
-    runs <- which(state$joint[, g] > 1e-12 * max(state$joint))
-    if (length(runs) == 0L) next
-    Ck <- run_group_forms(pr, runs, g)
-    total <- total + colSums(state$joint[runs, g] * (pr$prior$rate + Ck / 2))
-  }
-  total / sum(state$joint) / denom
 }

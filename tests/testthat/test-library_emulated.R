@@ -67,34 +67,6 @@ test_that("held-out runs of a smooth toy are predicted within tolerance, the sam
   expect_identical(lib$theta, again$theta)
 })
 
-test_that("the error model is the Kronecker product of settings and outputs, and C agrees with dense algebra", {
-  skip_if_not_installed("RobustGaSP")
-  lib <- emulated_toy_library(n_runs = 50)
-  err <- lib$error
-  gp <- lib$emulator
-  V <- err$U %*% diag(err$lambda, length(err$lambda)) %*% t(err$U)
-  pred <- design_gp_predict(gp, as.matrix(lib$theta))
-  s <- colMeans(pred$var)
-  s <- s / mean(s)
-  K <- sqrt(s) * t(sqrt(s) * design_gp_setting_cor(gp))
-  Vt <- crossprod(gp$loo) / nrow(gp$loo)
-  dense <- kronecker(K, Vt)
-  expect_lt(norm(V - dense, "F") / norm(dense, "F"), 0.02)
-  # the settings' errors are correlated, not independent
-  expect_gt(K[1, 2] / sqrt(K[1, 1] * K[2, 2]), 0.1)
-  field <- emulated_toy_field()
-  y <- as.vector(t(field$y))
-  setup <- correlation_setup(lib, list(x = 0), 0)
-  got <- emulated_library_forms(lib, y, setup, 4e-4)
-  for (i in 1:3) {
-    S <- diag(length(y)) + lib$rel_var[i] * V / 4e-4
-    r <- y - lib$y[i, ]
-    expect_equal(got[i, 1], drop(t(r) %*% solve(S, r)), tolerance = 1e-8)
-    expect_equal(attr(got, "extra_logdet")[i, 1], as.numeric(determinant(S)$modulus),
-                 tolerance = 1e-8)
-  }
-})
-
 test_that("the library finds its noise variance near the truth's and calibrate() covers the truth", {
   skip_if_not_installed("RobustGaSP")
   lib <- emulated_toy_library(n_runs = 3000)
