@@ -16,7 +16,8 @@
 #'   experiments (see [field_data()]).
 #'
 #' Files are read with [data.table::fread()] (csv or whitespace-separated).
-#' A header line is optional: a file whose first line is all numbers has
+#' Comment lines, starting with `#`, are skipped wherever they are. A header
+#' line is optional: a file whose first line is all numbers has
 #' none, and its columns are named `V1`, `V2`, ... (so a header line must
 #' hold at least one name that is not a number). Whole numbers too large for
 #' an integer are read as doubles.
@@ -174,13 +175,20 @@ read_table_input <- function(v, arg, na_ok = FALSE) {
 }
 
 # Read one input file. A first line of numbers only is data, not a header
-# (fread(header = TRUE) would take the first run for column names).
+# (fread(header = TRUE) would take the first run for column names). Comment
+# lines (starting with `#`, after optional blanks) are dropped first:
+# fread() would take a leading one for the header, and the header then for
+# a row of data (this data.table has no comment character).
 read_input_file <- function(path, arg) {
   if (!file.exists(path) || dir.exists(path)) {
     griddy_abort("`", arg, "` file not found: ", path)
   }
+  lines <- readLines(path, warn = FALSE)
+  comment <- grepl("^[[:blank:]]*#", lines)
+  source <- if (any(comment)) list(text = lines[!comment]) else list(file = path)
   read <- function(...) {
-    tryCatch(data.table::fread(path, data.table = FALSE, integer64 = "double", ...),
+    tryCatch(do.call(data.table::fread,
+                     c(source, list(data.table = FALSE, integer64 = "double", ...))),
              error = function(e) griddy_abort("`", arg, "` could not be read from ", path,
                                               ": ", conditionMessage(e)))
   }

@@ -211,3 +211,29 @@ test_that("replicated experiments in expobs are kept as replicates (they were re
   expect_identical(pr1$n_obs, 4L)
   expect_equal(pr1$y_field, c(2.1, 0.95))
 })
+
+test_that("comment lines in input files are skipped, never read as a header or a row (issue 22)", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  with_comments <- function(df, path, header = TRUE) {
+    body <- utils::capture.output(utils::write.csv(df, stdout(), row.names = FALSE))
+    if (!header) body <- body[-1]
+    writeLines(c("# written by the simulator, 2026-11-25", "  # units: SI", body[1],
+                 "# a comment between rows", body[-1]), path)
+    path
+  }
+  ref <- read_calibration_inputs(d$design, d$simobs, d$expobs, n_x = 1)
+  out <- read_calibration_inputs(with_comments(d$design, file.path(dir, "design.csv")),
+                                 with_comments(d$simobs, file.path(dir, "simobs.csv"), FALSE),
+                                 with_comments(d$expobs, file.path(dir, "expobs.csv")),
+                                 n_x = 1)
+  expect_identical(out$library$y, ref$library$y)
+  expect_identical(out$library$theta, ref$library$theta)
+  expect_identical(out$field$y, ref$field$y)
+  expect_identical(names(out$library$x), "h")
+  # a headerless expobs whose first line is a comment keeps its first row
+  with_comments(d$expobs, file.path(dir, "expobs-nohead.csv"), header = FALSE)
+  out2 <- read_calibration_inputs(d$design, d$simobs, file.path(dir, "expobs-nohead.csv"),
+                                  n_x = 1)
+  expect_identical(out2$field$y, ref$field$y)
+})
