@@ -236,7 +236,7 @@ print.hdf5_library <- function(x, ...) {
 #' `append = TRUE` the runs are added after those already in `file`, so a
 #' library larger than memory can be written piece by piece as the simulator
 #' produces it; any library can be written, so
-#' `write_library(disk_library(dir), file)` converts an old `.rds` chunk
+#' `write_library(disk_library(dir, trust = TRUE), file)` converts an old `.rds` chunk
 #' directory, reading it a piece at a time.
 #'
 #' @section Safe appends: An append first extends the datasets and writes the
@@ -329,6 +329,9 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 #'
 #' @param path An HDF5 file written by [write_library()] or an old `.rds`
 #'   chunk directory.
+#' @param trust For an `.rds` directory: `TRUE` to read its `.rds` files,
+#'   only for a directory you trust (reading an `.rds` file can run code
+#'   hidden in it; see the section on security in [disk_library()]).
 #' @return A list, invisibly: `path`, the number of `runs` kept and the
 #'   number `dropped`; a message reports them.
 #' @seealso [write_library()], [hdf5_library()], [disk_library()]
@@ -341,12 +344,13 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 #'   unlink(file)
 #' }
 #' @export
-repair_library <- function(path) {
+repair_library <- function(path, trust = FALSE) {
   path <- assert_string(path, "path")
+  trust <- assert_flag(trust, "trust")
   if (!file.exists(path)) {
     griddy_abort("`path` (", path, ") does not exist.")
   }
-  out <- if (dir.exists(path)) repair_rds_library(path) else repair_h5_library(path)
+  out <- if (dir.exists(path)) repair_rds_library(path, trust) else repair_h5_library(path)
   message("The library in ", out$path, " holds ", out$runs, " runs; ",
           if (out$dropped > 0L) paste0(out$dropped, " uncommitted run(s) discarded.")
           else "nothing to repair.")
