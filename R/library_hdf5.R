@@ -142,6 +142,7 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
   }
 
   out_ds <- h5_dataset(h5, outputs, "outputs", file)
+  h5_check_stored(out_ds, "outputs", outputs, file)
   dims <- rev(out_ds$dims)
   if (!as.character(out_ds$get_type()$get_class()) %in% c("H5T_FLOAT", "H5T_INTEGER")) {
     griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " must be numeric; it is ",
@@ -574,6 +575,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
   type <- ds$get_type()
   cls <- as.character(type$get_class())
   dims <- rev(ds$dims)
+  h5_check_stored(ds, arg, name, file)
   if (cls == "H5T_COMPOUND") {
     tab <- ds$read()
     if (!is.data.frame(tab)) tab <- as.data.frame(tab)
@@ -623,6 +625,29 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
   first_rows(v)
 }
 
+# A dataset's dimensions are only a claim: a file of a few kB can declare
+# 10^9 runs that were never written (HDF5 allocates chunks as they are
+# written, and reads unwritten ones as fill values), and reading it would
+# allocate the claimed size. Refuse, before any read, a dataset whose
+# claimed size exceeds what it stores by more than compression could
+# explain (deflate's limit is about 1032:1; a bound of 1100 leaves room).
+# Small datasets (under 1 MB) are read as they are.
+h5_check_stored <- function(ds, arg, name, file, max_ratio = 1100) {
+  claimed <- prod(as.double(ds$dims)) * ds$get_type()$get_size()
+  if (claimed <= 2^20) return(invisible(ds))
+  stored <- as.double(ds$get_storage_size())
+  if (claimed <= max_ratio * stored) return(invisible(ds))
+  size <- function(b) format(structure(b, class = "object_size"), units = "auto",
+                             standard = "SI")
+  dims <- format(as.double(rev(ds$dims)), big.mark = ",", scientific = FALSE, trim = TRUE)
+  griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " claims ",
+               paste(dims, collapse = " x "),
+               " entries (", size(claimed), ") but stores ", size(stored), " (the file is ",
+               size(as.double(file.size(file))), "): its dimensions were written without its ",
+               "data, so the file is damaged or not a library. Nothing was read.",
+               class = "library")
+}
+
 h5_names_attr <- function(ds) {
   for (a in c("names", "column_names")) {
     if (ds$attr_exists(a)) {
@@ -634,6 +659,7 @@ h5_names_attr <- function(ds) {
 }
 
 h5_read_vector <- function(ds, arg, name, file) {
+  h5_check_stored(ds, arg, name, file)
   if (length(ds$dims) != 1L && !(length(ds$dims) == 2L && min(ds$dims) == 1L)) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be one-dimensional; ",
                  "it is ", paste(rev(ds$dims), collapse = " x "), ".")
@@ -680,7 +706,17 @@ h5_griddy_meta <- function(h5) {
                  "committed-run count (attribute griddy_n_runs): it is damaged.",
                  class = "library")
   }
-  list(griddy = TRUE, n_runs = as.integer(hdf5r::h5attr(h5, "griddy_n_runs")))
+  n_runs <- hdf5r::h5attr(h5, "griddy_n_runs")
+  ok <- is.numeric(n_runs) && length(n_runs) == 1L && is.finite(n_runs) && n_runs >= 0 &&
+    n_runs == round(n_runs) && n_runs <= .Machine$integer.max
+  if (!ok) {
+    griddy_abort(h5$get_filename(), " is damaged: its committed-run count (attribute ",
+                 "griddy_n_runs) must be one whole number of runs; it is ",
+                 paste(format(n_runs), collapse = ", "), if (is.character(n_runs)) " (text)",
+                 ". Rewrite the library from the simulator's outputs, or set the attribute ",
+                 "to the number of runs written.", class = "library")
+  }
+  list(griddy = TRUE, n_runs = as.integer(n_runs))
 }
 
 h5_warn_uncommitted <- function(file, n_runs, n_ext) {
