@@ -21,6 +21,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
 # The problem from validated parts; refine() builds its problems here too.
 problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
                                C = misfit_table(library, y_field, setup, prior)) {
+  assert_misfit_scale(C, y_field, sum(setup$group_sizes))
   if (prior$rate == 0 && min(C) <= 0) {  # min(): no temporary as large as C
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
