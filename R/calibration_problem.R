@@ -117,6 +117,9 @@ log_run_weights <- function(run_weights, library) {
   if (any(w < 0) || sum(w) <= 0) {
     griddy_abort("`run_weights` must be >= 0 with a positive sum.")
   }
+  # scaled by the largest first: a sum of weights near 1e308 overflows, and
+  # every log weight became -Inf (reaching the sampler as an internal error)
+  w <- w / max(w)
   log(w / sum(w))
 }
 
