@@ -136,6 +136,7 @@ disk_library <- function(dir, trust = FALSE) {
   if (nrow(theta) != n_chunk_rows) {
     griddy_abort(rds_out_of_step(dir, nrow(theta), n_chunk_rows), class = "library")
   }
+  assert_library_size(n_chunk_rows, paste0("The library in ", dir))
   theta <- as.data.frame(tryCatch(as_theta_matrix(theta), griddy_error = function(e) {
     griddy_abort("The parameter values ", file.path(dir, "theta.rds"), " are damaged: ",
                  conditionMessage(e), class = "library")

@@ -183,10 +183,8 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
     }
     n_runs <- n_theta
   }
-  if (n_runs < 2L) {
-    griddy_abort("`theta` must hold at least 2 runs; dataset '", theta, "' in ", file,
-                 " holds ", n_runs, if (meta$griddy) " committed", ".")
-  }
+  assert_library_size(n_runs, paste0("Dataset '", theta, "' in ", file,
+                                     if (meta$griddy) " (committed runs)"))
   theta_mat <- as_theta_matrix(theta_tab[seq_len(n_runs), , drop = FALSE])
   rownames(theta_mat) <- NULL
   if (n_out %% n_x != 0L) {

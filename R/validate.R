@@ -57,6 +57,8 @@ as_numeric_matrix <- function(v, arg, n_col = NULL, min_rows = 0L) {
                    " are ", show_some(unique(vapply(v[bad], function(z) class(z)[1], ""))), ".")
     }
     v <- as.matrix(v)
+    # a data.frame of 0 rows becomes a logical matrix, whatever its columns
+    if (nrow(v) == 0L) storage.mode(v) <- "double"
   } else {
     v <- as_plain_numeric(v, arg)
     if (is.numeric(v) && is.null(dim(v))) {

@@ -210,3 +210,15 @@ test_that("an .rds directory is read only with trust = TRUE: reading .rds can ru
                    chunk_size = 5)
   expect_identical(lib_outputs(disk_library(dir2, trust = TRUE)), toy$library$y)
 })
+
+test_that("an .rds directory of 1 run is a classed error (issue 22)", {
+  toy <- toy_ar1(n_runs = 10, n_t = 3)
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  dir.create(dir)
+  saveRDS(toy$library$y[1, , drop = FALSE], file.path(dir, "chunk-000001.rds"))
+  saveRDS(toy$library$theta[1, , drop = FALSE], file.path(dir, "theta.rds"))
+  saveRDS(list(x = NULL, t = toy$library$t, theta_names = names(toy$library$theta), n_out = 3L,
+               files = "chunk-000001.rds", rows = 1L), file.path(dir, "manifest.rds"))
+  expect_error(disk_library(dir, trust = TRUE), "holds 1 run",
+               class = "griddy_error_library_size")
+})

@@ -282,3 +282,23 @@ test_that("a tampered committed-run count is a classed error naming the file and
     expect_match(conditionMessage(err), basename(file), fixed = TRUE)
   }
 })
+
+test_that("an HDF5 library of 0 runs is a classed error (issue 22)", {
+  skip_if_not_installed("hdf5r")
+  file <- withr::local_tempfile(fileext = ".h5")
+  h5 <- hdf5r::H5File$new(file, "w")
+  h5[["theta"]] <- numeric(0)
+  h5[["y"]] <- matrix(numeric(0), 0, 3)
+  h5$close_all()
+  expect_error(hdf5_library(file, theta_names = "k"), "holds 0 runs",
+               class = "griddy_error_library_size")
+  toy <- toy_ar1(n_runs = 10, n_t = 3)
+  own <- withr::local_tempfile(fileext = ".h5")
+  write_library(toy$library, own)
+  h5 <- hdf5r::H5File$new(own, "r+")
+  h5$attr_delete("griddy_n_runs")
+  hdf5r::h5attr(h5, "griddy_n_runs") <- 0
+  h5$close_all()
+  expect_error(suppressWarnings(hdf5_library(own)), "committed runs\\) holds 0 runs",
+               class = "griddy_error_library_size")
+})

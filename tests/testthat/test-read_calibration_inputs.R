@@ -70,7 +70,7 @@ test_that("bad thesis-format inputs get clear errors", {
   expect_error(read_calibration_inputs(1:3, d$simobs, d$expobs, 1), "must be a file path, a data.frame or a matrix")
   one <- d$design$k == 5
   expect_error(read_calibration_inputs(d$design[one, ], d$simobs[one, ], d$expobs, 1),
-               "`theta` must hold at least 2 runs")
+               "`theta` holds 1 run: a library needs at least 2 runs")
 })
 
 test_that("runs at settings expobs lacks are dropped with a message", {
