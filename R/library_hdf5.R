@@ -48,6 +48,14 @@
 #'   `column_names`. The same holds for an `x` dataset, whose names come from
 #'   its fields or attributes (a one-dimensional `x` is named `x`).
 #'
+#' @section Damaged files: A dataset's dimensions are checked against the
+#'   bytes it stores before anything is read: one that claims more than 1100
+#'   times what it stores (compression explains at most about 1032:1 for
+#'   HDF5's deflate), such as a few-kB file declaring 10^9 runs that were
+#'   never written, is refused with an error of class
+#'   `griddy_error_library` rather than allocated. A committed-run count that
+#'   is not one whole number is refused the same way.
+#'
 #' @section Files written by write_library(): They carry the attribute
 #'   `griddy_format` and a committed-run count `griddy_n_runs`, updated last by
 #'   every append. Readers use only the committed runs: the rows of an append

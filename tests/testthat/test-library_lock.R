@@ -35,6 +35,13 @@ test_that("smoke: a held lock refuses a writer and repair, naming its holder; re
              file.path(lock, "owner"))
   expect_error(write_library(lib_rows(lib, 1:2), file, append = TRUE),
                "no longer running: the lock is stale", class = "griddy_error_lock")
+  # for an old .rds directory the repair it advises says trust = TRUE
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(lib, dir, chunk_size = 10)
+  token <- library_lock(normalizePath(dir), "library directory")
+  on.exit(library_unlock(token), add = TRUE)
+  expect_error(repair_library(dir, trust = TRUE), "repair_library\\(.*, trust = TRUE\\)",
+               class = "griddy_error_lock")
 })
 
 # R code for a child that appends the sim_library saved in `piece_rds` to
