@@ -31,7 +31,13 @@
 #'   value), optionally a column `sd` (as the argument `sd`), and the x
 #'   columns; cells not listed are missing, cells listed more than once are
 #'   replicated (the j-th value of each cell goes to the j-th row of its
-#'   setting).
+#'   setting). A data.frame with only one of the columns `t` and `y`, with a
+#'   column spelled like `t`, `y` or `sd` in other case, or (in wide format)
+#'   with columns of `x`, is refused: its columns would otherwise be read as
+#'   measurements or settings. Without `x` and `t`, a matrix `y` must have
+#'   the library's shape (its x settings by its outputs, checked by
+#'   [calibrate()]), so that a transposed one is refused rather than read in
+#'   the wrong order; a vector is in the library's order.
 #' @param x A data.frame of the `n_x` control settings, one per row of `y`,
 #'   with the library's (distinct) column names; `NULL` means "the library's
 #'   settings, in its order". Rows may come in another order than the
@@ -395,7 +401,7 @@ field_layout <- function(library, field) {
   if (is.null(field$x) && is.null(field$t) && !isTRUE(field$one_setting)) {
     # a vector (one row) is in the library's order; a matrix must have its
     # shape, or a transposed one would be read in the wrong order
-    if (nrow(y) > 1L && !identical(dim(y), c(n_x, n_t))) {
+    if (nrow(y) > 1L && !all(dim(y) == c(n_x, n_t))) {
       griddy_abort("`field` is ", nrow(y), " x ", ncol(y), " (rows x columns of `y`) but ",
                    "the library has ", n_x, " x settings x ", n_t, " outputs: `y` must be ",
                    "an ", n_x, " x ", n_t, " matrix, one row per x setting in the library's ",
