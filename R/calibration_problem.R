@@ -22,6 +22,7 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
 # The problem from validated parts; refine() builds its problems here too.
 problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
                                C = misfit_table(library, y_field, setup, prior)) {
+  assert_misfit_scale(C, y_field, sum(setup$group_sizes))
   if (prior$rate == 0 && min(C) <= 0) {  # min(): no temporary as large as C
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
@@ -124,6 +125,9 @@ log_run_weights <- function(run_weights, library) {
   if (any(w < 0) || sum(w) <= 0) {
     griddy_abort("`run_weights` must be >= 0 with a positive sum.")
   }
+  # scaled by the largest first: a sum of weights near 1e308 overflows, and
+  # every log weight became -Inf (reaching the sampler as an internal error)
+  w <- w / max(w)
   log(w / sum(w))
 }
 

@@ -7,7 +7,7 @@
 #' `write_library_chunks()` is defunct: use [write_library()], which writes an
 #' HDF5 file that [hdf5_library()] opens. Directories written by earlier
 #' versions are still read by [disk_library()], and
-#' `write_library(disk_library(dir), file)` converts one.
+#' `write_library(disk_library(dir, trust = TRUE), file)` converts one.
 #'
 #' Why defunct rather than deprecated: its format cannot be appended to
 #' safely. An append must change two files, `theta.rds` and `manifest.rds`,
@@ -30,8 +30,8 @@ write_library_chunks <- function(...) {
   .Defunct("write_library", package = "griddy", msg = paste0(
     "write_library_chunks() is defunct: its .rds chunk directories cannot be appended to ",
     "safely. Use write_library(library, file, append = ) to write an HDF5 library and ",
-    "hdf5_library(file) to open it; disk_library(dir) still reads old directories and ",
-    "write_library(disk_library(dir), file) converts one. See ?write_library_chunks."))
+    "hdf5_library(file) to open it; disk_library(dir, trust = TRUE) still reads old directories and ",
+    "write_library(disk_library(dir, trust = TRUE), file) converts one. See ?write_library_chunks."))
 }
 
 #' A simulation library stored on disk in chunks (old format)
@@ -62,7 +62,20 @@ write_library_chunks <- function(...) {
 #' reported with the fix: [repair_library()] cuts `theta.rds` back to the runs
 #' the manifest lists.
 #'
+#' @section Security: An `.rds` file is R's serialization format, and reading
+#'   one can run code hidden in it: a crafted `theta.rds` runs arbitrary code
+#'   when it is read (CVE-2024-27322, fixed in R 4.4.0; R's serialization is
+#'   not meant for untrusted data on any version). `disk_library()` therefore
+#'   reads a directory only when told it is trusted, `trust = TRUE`, on every
+#'   R version; otherwise it stops, before reading any file, with an error of
+#'   class `griddy_error_untrusted`. Open with `trust = TRUE` only directories
+#'   you (or someone you trust) wrote, and convert them once to HDF5, which
+#'   holds data only: `write_library(disk_library(dir, trust = TRUE), file)`,
+#'   then [hdf5_library()]`(file)`.
+#'
 #' @param dir Directory holding the library.
+#' @param trust `TRUE` to read the `.rds` files of `dir`: only for a
+#'   directory you trust (see the section on security). The default refuses.
 #' @return An object of class `disk_library`: a list with the directory
 #'   `dir`, the chunk `files` and their `rows`, the parameter values `theta`
 #'   (a data.frame), the settings `x`, coordinates `t` and the number of
@@ -82,19 +95,21 @@ write_library_chunks <- function(...) {
 #'              theta_names = names(ex$library$theta), n_out = ncol(y),
 #'              files = c("chunk-000001.rds", "chunk-000002.rds"),
 #'              rows = c(100L, nrow(y) - 100L)), file.path(dir, "manifest.rds"))
-#' lib <- disk_library(dir)
+#' lib <- disk_library(dir, trust = TRUE) # we wrote it ourselves
 #' lib
 #' fit <- calibrate(lib, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #' fit
 #' unlink(dir, recursive = TRUE)
 #' @export
-disk_library <- function(dir) {
+disk_library <- function(dir, trust = FALSE) {
   dir <- assert_string(dir, "dir")
+  trust <- assert_flag(trust, "trust")
   manifest_file <- file.path(dir, "manifest.rds")
   if (!file.exists(manifest_file)) {
     griddy_abort("`dir` (", dir, ") holds no library written by write_library_chunks(): ",
                  "it has no manifest.rds.", class = "library")
   }
+  assert_trusted_rds(dir, trust, "disk_library")
   dir <- normalizePath(dir)
   m <- read_rds_checked(file.path(dir, "manifest.rds"), "The manifest")
   if (!is.list(m) || !is.character(m$files) || !is.numeric(m$rows) ||
@@ -121,6 +136,7 @@ disk_library <- function(dir) {
   if (nrow(theta) != n_chunk_rows) {
     griddy_abort(rds_out_of_step(dir, nrow(theta), n_chunk_rows), class = "library")
   }
+  assert_library_size(n_chunk_rows, paste0("The library in ", dir))
   theta <- as.data.frame(tryCatch(as_theta_matrix(theta), griddy_error = function(e) {
     griddy_abort("The parameter values ", file.path(dir, "theta.rds"), " are damaged: ",
                  conditionMessage(e), class = "library")
@@ -138,16 +154,29 @@ disk_library <- function(dir) {
   lib
 }
 
+# Refuses to read the .rds files of `dir` unless the caller said it trusts
+# them: readRDS() can run code hidden in a file (CVE-2024-27322).
+assert_trusted_rds <- function(dir, trust, fun) {
+  if (isTRUE(trust)) return(invisible(dir))
+  griddy_abort(fun, "() reads the .rds files in ", dir, ", and reading an .rds file can run ",
+               "code hidden in it (CVE-2024-27322, fixed in R 4.4.0; R's serialization is not ",
+               "meant for untrusted data), so it reads a directory only when told to trust ",
+               "it. If you (or someone you trust) wrote it, call ", fun, "(dir, trust = TRUE), ",
+               "and convert it once to HDF5, which holds data only: ",
+               "write_library(disk_library(dir, trust = TRUE), file), then hdf5_library(file).",
+               class = "untrusted")
+}
+
 # The message for a directory whose theta.rds and manifest.rds disagree.
 rds_out_of_step <- function(dir, n_theta, n_chunk_rows) {
   paste0("The library in ", dir, " is incomplete: theta.rds has ", n_theta,
          " runs but the chunks listed in manifest.rds hold ", n_chunk_rows, ". ",
          if (n_theta > n_chunk_rows) {
            paste0("An append died between writing theta.rds and manifest.rds. Run ",
-                  "repair_library(\"", dir, "\") to cut theta.rds back to the ", n_chunk_rows,
+                  "repair_library(\"", dir, "\", trust = TRUE) to cut theta.rds back to the ", n_chunk_rows,
                   " runs the manifest lists (the unfinished append's ", n_theta - n_chunk_rows,
                   " runs are dropped), then write them again, e.g. after converting the ",
-                  "library to HDF5 with write_library(disk_library(dir), file).")
+                  "library to HDF5 with write_library(disk_library(dir, trust = TRUE), file).")
          } else {
            paste0("theta.rds has fewer runs than the chunks, which no interrupted append ",
                   "leaves: the library cannot be repaired; rewrite it from the simulator's ",
@@ -246,7 +275,8 @@ lib_outputs.disk_library <- function(library, rows = NULL) {
 # manifest.rds: theta.rds is cut to the runs the manifest lists (written to a
 # temporary file and renamed over it), and chunk files the manifest does not
 # list (written by the unfinished append) are removed.
-repair_rds_library <- function(dir) {
+repair_rds_library <- function(dir, trust) {
+  assert_trusted_rds(dir, trust, "repair_library")
   dir <- normalizePath(dir)
   token <- library_lock(dir, "library directory")
   on.exit(library_unlock(token), add = TRUE)

@@ -31,7 +31,13 @@
 #'   value), optionally a column `sd` (as the argument `sd`), and the x
 #'   columns; cells not listed are missing, cells listed more than once are
 #'   replicated (the j-th value of each cell goes to the j-th row of its
-#'   setting).
+#'   setting). A data.frame with only one of the columns `t` and `y`, with a
+#'   column spelled like `t`, `y` or `sd` in other case, or (in wide format)
+#'   with columns of `x`, is refused: its columns would otherwise be read as
+#'   measurements or settings. Without `x` and `t`, a matrix `y` must have
+#'   the library's shape (its x settings by its outputs, checked by
+#'   [calibrate()]), so that a transposed one is refused rather than read in
+#'   the wrong order; a vector is in the library's order.
 #' @param x A data.frame of the `n_x` control settings, one per row of `y`,
 #'   with the library's (distinct) column names; `NULL` means "the library's
 #'   settings, in its order". Rows may come in another order than the
@@ -72,6 +78,7 @@
 #' @export
 field_data <- function(y, x = NULL, t = NULL, sd = NULL) {
   one_setting <- FALSE
+  if (is.data.frame(y)) check_table_format(y, x)
   if (is_long_field(y)) {
     long <- long_field(y, x, t, sd)
     y <- long$y
@@ -174,6 +181,48 @@ field_sd_matrix <- function(sd, y) {
 # (and optionally `sd`).
 is_long_field <- function(y) {
   is.data.frame(y) && all(c("t", "y") %in% names(y))
+}
+
+# A data.frame `y` is read in long format only when it has both columns `t`
+# and `y`; a table with one of them (or `sd`), or with columns spelled like
+# them, or with x's columns, was meant as long format or mixes settings with
+# measurements: reading it as a wide matrix would turn those columns into
+# measurements silently, so it is refused with the cause.
+check_table_format <- function(y, x) {
+  cols <- names(y)
+  if (all(c("t", "y") %in% cols)) {
+    near <- setdiff(cols[tolower(cols) %in% c("t", "y", "sd")], c("t", "y", "sd"))
+    if (length(near) > 0L) {
+      griddy_abort("`y` is in long format (columns `t` and `y`) and has column(s) ",
+                   show_some(paste0("`", near, "`")), ", which would be read as x settings: ",
+                   "name the relative sd column `sd` (lower case), or rename the column.")
+    }
+    return(invisible(y))
+  }
+  has <- intersect(c("t", "y", "sd"), cols)
+  near <- setdiff(cols[tolower(cols) %in% c("t", "y", "sd")], has)
+  if (length(has) > 0L || length(near) > 0L) {
+    found <- c(has, near)[1]
+    missing <- if (!"t" %in% cols) "t" else "y"
+    others <- setdiff(cols, c("t", "y", "sd"))
+    griddy_abort("`y` is a table with a column `", found, "` but no column `", missing, "`. ",
+                 "In long format the output coordinates must be in a column named `t` and ",
+                 "the measurements in a column named `y`",
+                 if (length(others) > 0L) {
+                   paste0(" (its other columns, ", show_some(paste0("`", others, "`")),
+                          ", would be read as x settings)")
+                 },
+                 "; rename the columns. A table of measurements in wide format (one row ",
+                 "per x setting, one column per output) must not have columns named `t`, ",
+                 "`y` or `sd`: give it as a matrix.")
+  }
+  if (is.data.frame(x) && length(intersect(cols, names(x))) > 0L) {
+    griddy_abort("`y` is a wide table of measurements, but its column(s) ",
+                 show_some(intersect(cols, names(x))), " of `y` are also columns of `x`: ",
+                 "they would be read as measurements. Give `y` without the x columns, or in ",
+                 "long format (columns `t` and `y` with the x columns, see ?field_data).")
+  }
+  invisible(y)
 }
 
 # A long-format table as the wide matrix (settings x coordinates, NA where
@@ -350,6 +399,19 @@ field_layout <- function(library, field) {
   n_t <- lib_n_t(library)
   y <- field$y
   if (is.null(field$x) && is.null(field$t) && !isTRUE(field$one_setting)) {
+    # a vector (one row) is in the library's order; a matrix must have its
+    # shape, or a transposed one would be read in the wrong order
+    if (nrow(y) > 1L && !all(dim(y) == c(n_x, n_t))) {
+      griddy_abort("`field` is ", nrow(y), " x ", ncol(y), " (rows x columns of `y`) but ",
+                   "the library has ", n_x, " x settings x ", n_t, " outputs: `y` must be ",
+                   "an ", n_x, " x ", n_t, " matrix, one row per x setting in the library's ",
+                   "order",
+                   if (nrow(y) == n_t && ncol(y) == n_x) {
+                     paste0("; it looks transposed (one row per output): give t(y)")
+                   } else {
+                     "; or give `x` and `t` to say which row and column is which"
+                   }, ".", class = "shape")
+    }
     if (length(y) != n_x * n_t) {
       griddy_abort("`field` has ", length(y), " measurements but the library has ",
                    n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")

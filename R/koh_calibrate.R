@@ -48,7 +48,22 @@
 #'   `"pow_exp"`.
 #' @param seed `NULL`, or a seed for this call only (the global random number
 #'   stream is left as it was).
-#' @param quiet Silence the two packages' console output.
+#' @param progress Show the two packages' console output (their progress);
+#'   silent by default outside interactive sessions.
+#' @param quiet Deprecated: use `progress = !quiet`. Still honoured, with a
+#'   warning of class `griddy_warning_deprecated`.
+#'
+#' @section Library size: The emulator estimates a range parameter per
+#'   parameter besides its mean and variance, so a library of `p` parameters
+#'   needs at least `p + 2` runs (an [emulated_library()]: design runs);
+#'   smaller ones are refused with an error of class
+#'   `griddy_error_library_size` (with 2 runs of 2 parameters the sampler
+#'   printed hundreds of "NaNs produced" warnings and returned a confident
+#'   interval). That is a floor, not a recommendation: about 10 runs per
+#'   parameter is the usual rule for a GP emulator (Loeppky, Sacks and Welch
+#'   2009). Warnings of non-finite values ("NaNs produced") from the sampler
+#'   are gathered into one warning of class `griddy_warning_koh_numerics`
+#'   saying how many there were.
 #' @return An object of class `griddy_koh`: a list holding the kept `draws` (a
 #'   data.frame with `iteration`, one column per parameter, and `sigma2`:
 #'   the noise variance, RobustCalibration's \eqn{\sigma_0^2}; with a
@@ -77,7 +92,7 @@
 koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "none"),
                           n_iter = 35000, burn_in = 15000, proposal_sd = NULL,
                           tune_rounds = 3, tune_iter = 1000, kernel = "matern_5_2",
-                          seed = NULL, quiet = TRUE) {
+                          seed = NULL, progress = interactive(), quiet) {
   for (pkg in c("RobustCalibration", "RobustGaSP")) {
     if (!requireNamespace(pkg, quietly = TRUE)) {
       griddy_abort("koh_calibrate() needs the package '", pkg,
@@ -95,7 +110,14 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   }
   tune_rounds <- assert_count(tune_rounds, "tune_rounds", min = 0L)
   tune_iter <- assert_count(tune_iter, "tune_iter", min = 10L)
-  assert_flag(quiet, "quiet")
+  progress <- assert_flag(progress, "progress")
+  if (!missing(quiet)) {
+    quiet <- assert_flag(quiet, "quiet")
+    griddy_warn("`quiet` is deprecated in koh_calibrate(): use `progress = ", !quiet,
+                "` (as every other griddy function says).", class = "deprecated")
+    progress <- !quiet
+  }
+  quiet <- !progress
   check_library(library)
   y <- field_vector(library, field)
   if (!is.null(field$sd)) {
@@ -114,6 +136,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
                    paste(format(proposal_sd), collapse = ", "), ".")
     }
   }
+  assert_koh_library_size(library, p)
   theta_range <- cbind(apply(theta, 2, min), apply(theta, 2, max))
   if (any(theta_range[, 2] <= theta_range[, 1])) {
     griddy_abort("Every library parameter must vary for koh_calibrate(); constant: ",
@@ -164,7 +187,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
     list(emulator = emulator, fit = main, sd_frac = sd_frac,
          runtime = c(emulator = t1 - t0, tuning = t2 - t1, sampling = t3 - t2))
   }
-  res <- with_seed(assert_seed(seed), run())
+  res <- with_seed(assert_seed(seed), koh_numerics(run()))
   post <- as.matrix(res$fit@post_sample)
   draws <- data.frame(iteration = seq(burn_in + 1L, length.out = nrow(post)),
                       post[, seq_len(p), drop = FALSE])
@@ -177,13 +200,51 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
                                 kernel = if (type == "no-discrepancy") NA else
                                   res$fit@accept_S[2]) / n_iter,
                  y_field = y, design = design, theta_range = theta_range,
-                 n_runs = if (inherits(library, "emulated_library")) {
-                   nrow(library$design$theta)
-                 } else {
-                   nrow(theta)
-                 }, control = list(n_iter = n_iter, burn_in = burn_in),
+                 n_runs = koh_training_runs(library), control = list(n_iter = n_iter, burn_in = burn_in),
                  runtime = res$runtime),
             class = "griddy_koh")
+}
+
+# The runs the emulator is trained on: the library's, or an emulated
+# library's design runs.
+koh_training_runs <- function(library) {
+  if (inherits(library, "emulated_library")) nrow(library$design$theta) else lib_n_runs(library)
+}
+
+# An emulator of p parameters estimates p range parameters, a mean and a
+# variance: fewer than p + 2 runs leave it undetermined (2 runs of 2
+# parameters gave hundreds of NaN warnings and a confident interval).
+assert_koh_library_size <- function(library, p) {
+  n <- koh_training_runs(library)
+  if (n < p + 2L) {
+    griddy_abort("koh_calibrate() needs a library of at least ", p + 2L, " runs for its ",
+                 "Gaussian-process emulator of ", p, " parameters (a range parameter each, a ",
+                 "mean and a variance); this one has ", n, " runs",
+                 if (inherits(library, "emulated_library")) " in its design", ". About ",
+                 10L * p, " runs (10 per parameter) is the usual rule; calibrate() works ",
+                 "on the library as it is.", class = "library_size")
+  }
+  invisible(n)
+}
+
+# Runs `expr` (the sampler), gathering base R's "NaNs produced" warnings from
+# inside RobustCalibration into one classed warning that says what they mean.
+koh_numerics <- function(expr) {
+  n_nan <- 0L
+  out <- withCallingHandlers(expr, warning = function(w) {
+    if (grepl("NaNs produced", conditionMessage(w), fixed = TRUE)) {
+      n_nan <<- n_nan + 1L
+      invokeRestart("muffleWarning")
+    }
+  })
+  if (n_nan > 0L) {
+    griddy_warn("RobustCalibration produced non-finite values (NaN) ", n_nan, " time(s) ",
+                "while sampling: its likelihood was undefined at some proposals, so the ",
+                "draws may not describe the posterior. A larger library (about 10 runs per ",
+                "parameter) or a discrepancy model usually removes them.",
+                class = "koh_numerics")
+  }
+  out
 }
 
 # Inputs of the observations, in the library's order (blocks by x setting).

@@ -48,6 +48,14 @@
 #'   `column_names`. The same holds for an `x` dataset, whose names come from
 #'   its fields or attributes (a one-dimensional `x` is named `x`).
 #'
+#' @section Damaged files: A dataset's dimensions are checked against the
+#'   bytes it stores before anything is read: one that claims more than 1100
+#'   times what it stores (compression explains at most about 1032:1 for
+#'   HDF5's deflate), such as a few-kB file declaring 10^9 runs that were
+#'   never written, is refused with an error of class
+#'   `griddy_error_library` rather than allocated. A committed-run count that
+#'   is not one whole number is refused the same way.
+#'
 #' @section Files written by write_library(): They carry the attribute
 #'   `griddy_format` and a committed-run count `griddy_n_runs`, updated last by
 #'   every append. Readers use only the committed runs: the rows of an append
@@ -142,6 +150,7 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
   }
 
   out_ds <- h5_dataset(h5, outputs, "outputs", file)
+  h5_check_stored(out_ds, "outputs", outputs, file)
   dims <- rev(out_ds$dims)
   if (!as.character(out_ds$get_type()$get_class()) %in% c("H5T_FLOAT", "H5T_INTEGER")) {
     griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " must be numeric; it is ",
@@ -182,10 +191,8 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
     }
     n_runs <- n_theta
   }
-  if (n_runs < 2L) {
-    griddy_abort("`theta` must hold at least 2 runs; dataset '", theta, "' in ", file,
-                 " holds ", n_runs, if (meta$griddy) " committed", ".")
-  }
+  assert_library_size(n_runs, paste0("Dataset '", theta, "' in ", file,
+                                     if (meta$griddy) " (committed runs)"))
   theta_mat <- as_theta_matrix(theta_tab[seq_len(n_runs), , drop = FALSE])
   rownames(theta_mat) <- NULL
   if (n_out %% n_x != 0L) {
@@ -236,7 +243,7 @@ print.hdf5_library <- function(x, ...) {
 #' `append = TRUE` the runs are added after those already in `file`, so a
 #' library larger than memory can be written piece by piece as the simulator
 #' produces it; any library can be written, so
-#' `write_library(disk_library(dir), file)` converts an old `.rds` chunk
+#' `write_library(disk_library(dir, trust = TRUE), file)` converts an old `.rds` chunk
 #' directory, reading it a piece at a time.
 #'
 #' @section Safe appends: An append first extends the datasets and writes the
@@ -329,6 +336,9 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 #'
 #' @param path An HDF5 file written by [write_library()] or an old `.rds`
 #'   chunk directory.
+#' @param trust For an `.rds` directory: `TRUE` to read its `.rds` files,
+#'   only for a directory you trust (reading an `.rds` file can run code
+#'   hidden in it; see the section on security in [disk_library()]).
 #' @return A list, invisibly: `path`, the number of `runs` kept and the
 #'   number `dropped`; a message reports them.
 #' @seealso [write_library()], [hdf5_library()], [disk_library()]
@@ -341,12 +351,13 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 #'   unlink(file)
 #' }
 #' @export
-repair_library <- function(path) {
+repair_library <- function(path, trust = FALSE) {
   path <- assert_string(path, "path")
+  trust <- assert_flag(trust, "trust")
   if (!file.exists(path)) {
     griddy_abort("`path` (", path, ") does not exist.")
   }
-  out <- if (dir.exists(path)) repair_rds_library(path) else repair_h5_library(path)
+  out <- if (dir.exists(path)) repair_rds_library(path, trust) else repair_h5_library(path)
   message("The library in ", out$path, " holds ", out$runs, " runs; ",
           if (out$dropped > 0L) paste0(out$dropped, " uncommitted run(s) discarded.")
           else "nothing to repair.")
@@ -570,6 +581,7 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
   type <- ds$get_type()
   cls <- as.character(type$get_class())
   dims <- rev(ds$dims)
+  h5_check_stored(ds, arg, name, file)
   if (cls == "H5T_COMPOUND") {
     tab <- ds$read()
     if (!is.data.frame(tab)) tab <- as.data.frame(tab)
@@ -619,6 +631,29 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
   first_rows(v)
 }
 
+# A dataset's dimensions are only a claim: a file of a few kB can declare
+# 10^9 runs that were never written (HDF5 allocates chunks as they are
+# written, and reads unwritten ones as fill values), and reading it would
+# allocate the claimed size. Refuse, before any read, a dataset whose
+# claimed size exceeds what it stores by more than compression could
+# explain (deflate's limit is about 1032:1; a bound of 1100 leaves room).
+# Small datasets (under 1 MB) are read as they are.
+h5_check_stored <- function(ds, arg, name, file, max_ratio = 1100) {
+  claimed <- prod(as.double(ds$dims)) * ds$get_type()$get_size()
+  if (claimed <= 2^20) return(invisible(ds))
+  stored <- as.double(ds$get_storage_size())
+  if (claimed <= max_ratio * stored) return(invisible(ds))
+  size <- function(b) format(structure(b, class = "object_size"), units = "auto",
+                             standard = "SI")
+  dims <- format(as.double(rev(ds$dims)), big.mark = ",", scientific = FALSE, trim = TRUE)
+  griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " claims ",
+               paste(dims, collapse = " x "),
+               " entries (", size(claimed), ") but stores ", size(stored), " (the file is ",
+               size(as.double(file.size(file))), "): its dimensions were written without its ",
+               "data, so the file is damaged or not a library. Nothing was read.",
+               class = "library")
+}
+
 h5_names_attr <- function(ds) {
   for (a in c("names", "column_names")) {
     if (ds$attr_exists(a)) {
@@ -630,6 +665,7 @@ h5_names_attr <- function(ds) {
 }
 
 h5_read_vector <- function(ds, arg, name, file) {
+  h5_check_stored(ds, arg, name, file)
   if (length(ds$dims) != 1L && !(length(ds$dims) == 2L && min(ds$dims) == 1L)) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be one-dimensional; ",
                  "it is ", paste(rev(ds$dims), collapse = " x "), ".")
@@ -676,7 +712,17 @@ h5_griddy_meta <- function(h5) {
                  "committed-run count (attribute griddy_n_runs): it is damaged.",
                  class = "library")
   }
-  list(griddy = TRUE, n_runs = as.integer(hdf5r::h5attr(h5, "griddy_n_runs")))
+  n_runs <- hdf5r::h5attr(h5, "griddy_n_runs")
+  ok <- is.numeric(n_runs) && length(n_runs) == 1L && is.finite(n_runs) && n_runs >= 0 &&
+    n_runs == round(n_runs) && n_runs <= .Machine$integer.max
+  if (!ok) {
+    griddy_abort(h5$get_filename(), " is damaged: its committed-run count (attribute ",
+                 "griddy_n_runs) must be one whole number of runs; it is ",
+                 paste(format(n_runs), collapse = ", "), if (is.character(n_runs)) " (text)",
+                 ". Rewrite the library from the simulator's outputs, or set the attribute ",
+                 "to the number of runs written.", class = "library")
+  }
+  list(griddy = TRUE, n_runs = as.integer(n_runs))
 }
 
 h5_warn_uncommitted <- function(file, n_runs, n_ext) {

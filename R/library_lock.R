@@ -69,17 +69,19 @@ lock_who <- function(owner) {
 }
 
 lock_refusal <- function(path, lock) {
+  # an old .rds directory is read only when trusted (see ?disk_library)
+  repair <- paste0("repair_library(\"", path, "\"", if (dir.exists(path)) ", trust = TRUE", ")")
   owner <- lock_owner(lock)
   who <- lock_who(owner)
   advice <- if (lock_is_stale(owner)) {
     paste0(" That process is no longer running: the lock is stale, left by a writer ",
            "that died. If no other writer is at work on `", path, "`, remove the lock with ",
-           "unlink(\"", lock, "\", recursive = TRUE) and run repair_library(\"", path,
-           "\") to discard any runs the dead writer left uncommitted.")
+           "unlink(\"", lock, "\", recursive = TRUE) and run ", repair,
+           " to discard any runs the dead writer left uncommitted.")
   } else {
     paste0(" Wait for that writer to finish. If it is known to have died (on another host ",
            "griddy cannot tell), remove the lock with unlink(\"", lock,
-           "\", recursive = TRUE) and run repair_library(\"", path, "\").")
+           "\", recursive = TRUE) and run ", repair, ".")
   }
   paste0("`", path, "` is being written by another writer: the lock ", lock, " is held by ",
          who, ".", advice)

@@ -16,7 +16,8 @@
 #'   experiments (see [field_data()]).
 #'
 #' Files are read with [data.table::fread()] (csv or whitespace-separated).
-#' A header line is optional: a file whose first line is all numbers has
+#' Comment lines, starting with `#`, are skipped wherever they are. A header
+#' line is optional: a file whose first line is all numbers has
 #' none, and its columns are named `V1`, `V2`, ... (so a header line must
 #' hold at least one name that is not a number). Whole numbers too large for
 #' an integer are read as doubles.
@@ -174,13 +175,23 @@ read_table_input <- function(v, arg, na_ok = FALSE) {
 }
 
 # Read one input file. A first line of numbers only is data, not a header
-# (fread(header = TRUE) would take the first run for column names).
+# (fread(header = TRUE) would take the first run for column names). Comment
+# lines (starting with `#`, after optional blanks) are dropped first:
+# fread() would take a leading one for the header, and the header then for
+# a row of data (this data.table has no comment character).
 read_input_file <- function(path, arg) {
   if (!file.exists(path) || dir.exists(path)) {
     griddy_abort("`", arg, "` file not found: ", path)
   }
+  source <- list(file = path)
+  if (file_has_byte(path, "#")) {
+    lines <- readLines(path, warn = FALSE)
+    comment <- grepl("^[[:blank:]]*#", lines)
+    if (any(comment)) source <- list(text = lines[!comment])
+  }
   read <- function(...) {
-    tryCatch(data.table::fread(path, data.table = FALSE, integer64 = "double", ...),
+    tryCatch(do.call(data.table::fread,
+                     c(source, list(data.table = FALSE, integer64 = "double", ...))),
              error = function(e) griddy_abort("`", arg, "` could not be read from ", path,
                                               ": ", conditionMessage(e)))
   }
@@ -189,6 +200,20 @@ read_input_file <- function(path, arg) {
   numbers <- suppressWarnings(as.numeric(fields))
   headerless <- length(fields) > 0L && all(!is.na(numbers))
   structure(read(header = !headerless), headerless = headerless)
+}
+
+# Whether a file holds the character `char` anywhere: a scan of its raw
+# bytes, 16 MB at a time, several times faster than reading its lines (so a
+# file without comments is read by fread() alone).
+file_has_byte <- function(path, char) {
+  byte <- charToRaw(char)
+  con <- file(path, "rb")
+  on.exit(close(con))
+  repeat {
+    chunk <- readBin(con, "raw", 2^24)
+    if (length(chunk) == 0L) return(FALSE)
+    if (length(grepRaw(byte, chunk, fixed = TRUE)) > 0L) return(TRUE)
+  }
 }
 
 # simobs as a runs x outputs matrix: one row per design row, or one column

@@ -32,9 +32,7 @@
 sim_library <- function(theta, y, x = NULL, t = NULL) {
   theta_mat <- as_theta_matrix(theta)
   n_runs <- nrow(theta_mat)
-  if (n_runs < 2L) {
-    griddy_abort("`theta` must hold at least 2 runs (rows); received ", n_runs, ".")
-  }
+  assert_library_size(n_runs)
   y <- as_numeric_matrix(y, "y")
   if (nrow(y) != n_runs) {
     griddy_abort("`y` must have one row per run: `theta` has ", n_runs,
@@ -134,6 +132,15 @@ as_theta_matrix <- function(theta) {
     griddy_abort("`theta` must have at least one parameter column.")
   }
   as_numeric_matrix(theta, "theta")
+}
+
+# A library needs at least 2 runs (a posterior over one run is that run);
+# `where` says where the runs were counted.
+assert_library_size <- function(n_runs, where = "`theta`") {
+  if (n_runs >= 2L) return(invisible(n_runs))
+  griddy_abort(where, " holds ", n_runs, " run", if (n_runs != 1L) "s", ": a library needs ",
+               "at least 2 runs (rows of theta, each with its outputs).",
+               class = "library_size")
 }
 
 # Control settings: a data.frame with named numeric columns and distinct rows

@@ -57,6 +57,8 @@ as_numeric_matrix <- function(v, arg, n_col = NULL, min_rows = 0L) {
                    " are ", show_some(unique(vapply(v[bad], function(z) class(z)[1], ""))), ".")
     }
     v <- as.matrix(v)
+    # a data.frame of 0 rows becomes a logical matrix, whatever its columns
+    if (nrow(v) == 0L) storage.mode(v) <- "double"
   } else {
     v <- as_plain_numeric(v, arg)
     if (is.numeric(v) && is.null(dim(v))) {
@@ -353,4 +355,26 @@ assert_level <- function(level, arg = "level") {
                  paste(format(level), collapse = ", "), ".")
   }
   level
+}
+
+# The misfits C must be representable: with field data at a tiny scale
+# (1e-300) the squared differences underflow to 0 or to denormals, and the
+# precision tau ~ n / C overflows, so the posterior is uniform, infinite or
+# NaN (it was reported as "a run reproduces the field data exactly", or
+# reached the sampler as an internal error). Checked only when the field's
+# scale makes it possible (C is as large as all of memory): at a field scale
+# above 1e-100 a misfit this small means outputs equal to the field to 60
+# digits, which the exact-reproduction check names.
+assert_misfit_scale <- function(C, y_field, n_obs) {
+  scale <- max(abs(y_field), na.rm = TRUE)
+  if (!(scale > 0 && scale < 1e-100)) return(invisible(C))
+  c_min <- min(C)
+  if (c_min > n_obs * 1e-300) return(invisible(C))
+  griddy_abort("The field data are at scale ", format(scale, digits = 3), " (largest |value|), ",
+               "so the squared misfits between the runs and the field underflow double ",
+               "precision (smallest misfit ", format(c_min, digits = 3), "; doubles end near ",
+               "1e-308) and the noise precision tau ~ n / misfit overflows: the posterior ",
+               "cannot be computed. Rescale the outputs and the field data by one common ",
+               "factor (e.g. multiply both by ", format(10^-round(log10(scale)), digits = 3),
+               ", or change their units) before calibrating.", class = "scale")
 }

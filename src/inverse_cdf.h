@@ -16,7 +16,9 @@ inline arma::uword draw_from_cdf(const double* cdf, arma::uword n) {
   // R validates C before any chain runs; this guards the invariant that a draw
   // never returns an entry of zero weight (the last, with no weight at all)
   if (n == 0 || !(cdf[n - 1] > 0.0) || !std::isfinite(cdf[n - 1])) {
-    Rcpp::stop("inverse-CDF draw: the weights sum to %g over %d entries", n ? cdf[n - 1] : 0.0,
+    Rcpp::stop("griddy internal error: a sampler draw's weights sum to %g over %d "
+               "entries (zero or non-finite weights should have been refused by R's checks); "
+               "please report it with the call that gave it", n ? cdf[n - 1] : 0.0,
                static_cast<int>(n));
   }
   const double target = R::unif_rand() * cdf[n - 1];

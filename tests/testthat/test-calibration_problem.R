@@ -56,3 +56,17 @@ test_that("the grid prior is uniform over distinct correlation structures, not g
   pr1 <- calibration_problem(lib1, field_data(rnorm(3), x = x["a"]), rho, 0, NULL, 2, NULL)
   expect_equal(pr1$log_prior_grid, rep(-log(6), 6))
 })
+
+test_that("run_weights whose sum overflows are normalised, not an internal inverse-CDF error (issue 22)", {
+  ex <- griddy_example()
+  n <- lib_n_runs(ex$library)
+  big <- suppressWarnings(calibrate(ex$library, ex$field, run_weights = rep(1e308, n),
+                                    n_iter = 200, burn_in = 50, seed = 1))
+  ref <- suppressWarnings(calibrate(ex$library, ex$field, run_weights = rep(1, n),
+                                    n_iter = 200, burn_in = 50, seed = 1))
+  expect_identical(big$draws$k, ref$draws$k)
+  expect_error(calibrate(ex$library, ex$field, run_weights = rep(0, n)),
+               "`run_weights` must be >= 0 with a positive sum")
+  expect_error(calibrate(ex$library, ex$field, run_weights = c(Inf, rep(1, n - 1))),
+               class = "griddy_error_input")
+})

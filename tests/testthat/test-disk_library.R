@@ -2,7 +2,7 @@ test_that("an old .rds chunk directory gives the in-memory C, exact posterior an
   toy <- toy_xt(n_per_dim = 9)
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(toy$library, dir, chunk_size = 20)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   expect_s3_class(lib, "disk_library")
   expect_length(lib$files, 5)
   expect_identical(lib$rows, c(20L, 20L, 20L, 20L, 1L))
@@ -48,13 +48,13 @@ test_that("finding (a): an append that died between theta.rds and manifest.rds i
   # the old writer, killed after theta.rds: 50 theta rows, chunks for 30
   write_rds_chunks(lib_rows(toy$library, 31:50), dir, chunk_size = 16, append = TRUE,
                    die_after = "theta")
-  expect_error(disk_library(dir), class = "griddy_error_library")
-  expect_error(disk_library(dir), paste0(
+  expect_error(disk_library(dir, trust = TRUE), class = "griddy_error_library")
+  expect_error(disk_library(dir, trust = TRUE), paste0(
     "theta.rds has 50 runs but the chunks listed in manifest.rds hold 30.*",
     "repair_library\\(.*cut theta.rds back to the 30 runs"))
-  expect_message(res <- repair_library(dir), "holds 30 runs; 20 uncommitted run\\(s\\) discarded")
+  expect_message(res <- repair_library(dir, trust = TRUE), "holds 30 runs; 20 uncommitted run\\(s\\) discarded")
   expect_identical(res$removed_files, c("chunk-000003.rds", "chunk-000004.rds"))
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   expect_identical(lib_outputs(lib), toy$library$y[1:30, ])
   expect_identical(as.matrix(lib$theta), as.matrix(toy$library$theta[1:30, , drop = FALSE]))
   # the repaired directory converts to HDF5, where appends are safe
@@ -67,8 +67,8 @@ test_that("finding (a): an append that died between theta.rds and manifest.rds i
                    posterior_exact(toy$library, toy$field)$joint)
   # fewer theta rows than chunk rows is no interrupted append: not repairable
   saveRDS(toy$library$theta[1:20, , drop = FALSE], file.path(dir, "theta.rds"))
-  expect_error(disk_library(dir), "cannot be repaired", class = "griddy_error_library")
-  expect_error(repair_library(dir), "cannot be repaired", class = "griddy_error_library")
+  expect_error(disk_library(dir, trust = TRUE), "cannot be repaired", class = "griddy_error_library")
+  expect_error(repair_library(dir, trust = TRUE), "cannot be repaired", class = "griddy_error_library")
 })
 
 test_that("finding (c): a chunk with the wrong dimensions stops with the file's name", {
@@ -79,7 +79,7 @@ test_that("finding (c): a chunk with the wrong dimensions stops with the file's 
   y2 <- readRDS(chunk2)
   # fewer columns than the manifest's n_out
   saveRDS(y2[, 1:9], chunk2)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   expect_error(posterior_exact(lib, toy$field),
                "chunk-000002.rds holds 16 x 9 \\(runs x outputs\\) where the library expects 16 x 10",
                class = "griddy_error_library")
@@ -104,7 +104,7 @@ test_that("finding (d): a missing or corrupt chunk is griddy's error, not readRD
   toy <- toy_ar1(n_runs = 50, n_t = 10)
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(toy$library, dir, chunk_size = 16)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   chunk3 <- file.path(dir, "chunk-000003.rds")
   writeBin(readBin(chunk3, "raw", 100), chunk3) # truncated
   err <- expect_error(posterior_exact(lib, toy$field), class = "griddy_error_library")
@@ -113,17 +113,17 @@ test_that("finding (d): a missing or corrupt chunk is griddy's error, not readRD
   unlink(chunk3)
   expect_error(posterior_exact(lib, toy$field), "chunk-000003.rds is missing",
                class = "griddy_error_library")
-  expect_error(disk_library(dir), "lacks chunk file\\(s\\) chunk-000003.rds",
+  expect_error(disk_library(dir, trust = TRUE), "lacks chunk file\\(s\\) chunk-000003.rds",
                class = "griddy_error_library")
   writeLines("not an rds file", file.path(dir, "manifest.rds"))
-  expect_error(disk_library(dir), "manifest.rds cannot be read", class = "griddy_error_library")
+  expect_error(disk_library(dir, trust = TRUE), "manifest.rds cannot be read", class = "griddy_error_library")
 })
 
 test_that("an edited disk_library is a shape error before any C++", {
   toy <- toy_ar1(n_runs = 50, n_t = 10)
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(toy$library, dir, chunk_size = 16)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   bad <- lib
   bad$theta$theta[4] <- NA
   expect_error(posterior_exact(bad, toy$field), "has been edited.*NA at \\[4, theta\\]",
@@ -149,7 +149,7 @@ test_that("chunks mapped on two future workers give the same C", {
   toy <- toy_xt(n_per_dim = 6)
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(toy$library, dir, chunk_size = 10)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   serial <- posterior_exact(lib, toy$field, rho_t = c(0, 0.5))
   old <- future::plan(future::multisession, workers = 2)
   on.exit(future::plan(old), add = TRUE)
@@ -180,7 +180,7 @@ test_that("a chunked library gives the in-memory C with missing data, sd and noi
   toy <- toy_xt(n_per_dim = 5)
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(toy$library, dir, chunk_size = 7)
-  lib <- disk_library(dir)
+  lib <- disk_library(dir, trust = TRUE)
   y <- toy$field$y
   y[2, 3:7] <- NA
   field <- field_data(y, x = toy$field$x, t = toy$field$t, sd = seq(1, 2, length.out = 12))
@@ -189,4 +189,36 @@ test_that("a chunked library gives the in-memory C with missing data, sd and noi
   disk <- calibration_problem(lib, field, c(0, 0.3), c(0, 0.5), prior, 2, NULL, "x")
   expect_false(is.null(mem$setup$dense))
   expect_equal(disk$C, mem$C)
+})
+
+test_that("an .rds directory is read only with trust = TRUE: reading .rds can run code (CVE-2024-27322)", {
+  toy <- toy_ar1(n_runs = 12, n_t = 4)
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(toy$library, dir, chunk_size = 5)
+  # refused before any file is deserialised: a theta.rds that would fail to
+  # read shows it was never opened
+  saveRDS(toy$library$theta, file.path(dir, "theta.rds"))
+  writeBin(as.raw(1:20), file.path(dir, "manifest.rds"))
+  err <- expect_error(disk_library(dir), class = "griddy_error_untrusted")
+  expect_match(conditionMessage(err), "CVE-2024-27322.*trust = TRUE.*write_library")
+  expect_error(disk_library(dir, trust = NA), "`trust` must be TRUE or FALSE")
+  expect_error(repair_library(dir), class = "griddy_error_untrusted")
+  # the opt-in reads it (and here finds the damaged manifest)
+  expect_error(disk_library(dir, trust = TRUE), "manifest.rds cannot be read",
+               class = "griddy_error_library")
+  write_rds_chunks(toy$library, dir2 <- withr::local_tempfile(pattern = "griddy-lib-"),
+                   chunk_size = 5)
+  expect_identical(lib_outputs(disk_library(dir2, trust = TRUE)), toy$library$y)
+})
+
+test_that("an .rds directory of 1 run is a classed error (issue 22)", {
+  toy <- toy_ar1(n_runs = 10, n_t = 3)
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  dir.create(dir)
+  saveRDS(toy$library$y[1, , drop = FALSE], file.path(dir, "chunk-000001.rds"))
+  saveRDS(toy$library$theta[1, , drop = FALSE], file.path(dir, "theta.rds"))
+  saveRDS(list(x = NULL, t = toy$library$t, theta_names = names(toy$library$theta), n_out = 3L,
+               files = "chunk-000001.rds", rows = 1L), file.path(dir, "manifest.rds"))
+  expect_error(disk_library(dir, trust = TRUE), "holds 1 run",
+               class = "griddy_error_library_size")
 })

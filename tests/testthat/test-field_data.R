@@ -181,3 +181,38 @@ test_that("replicated input that does not fit together is refused", {
   expect_error(calibrate(lib, field_data(c(1, 2), x = x), n_iter = 10, burn_in = 1),
                "x setting\\(s\\) at row\\(s\\) 1, 2 that the library does not have")
 })
+
+test_that("a wide y without x and t must have the library's shape, not only its size (issue 22)", {
+  # 3 settings x 2 outputs: t(Y) has the right number of values in the wrong
+  # order, and was read silently as if it were Y
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  Y <- rbind(c(1, 2), c(3, 4), c(5, 6))
+  expect_identical(field_vector(lib, field_data(Y)), c(1, 2, 3, 4, 5, 6))
+  err <- expect_error(field_vector(lib, field_data(t(Y))), class = "griddy_error_shape")
+  expect_match(conditionMessage(err), "2 x 3.*3 x settings x 2 outputs.*transposed")
+  expect_error(field_vector(lib, field_data(matrix(1:6, 6))), class = "griddy_error_shape")
+  # a vector (a one-row y) is in the library's order, as documented
+  expect_identical(field_vector(lib, field_data(1:6)), as.double(1:6))
+})
+
+test_that("a long table whose value column is not `y` is refused, not read as wide (issue 22)", {
+  long <- data.frame(h = c(10, 10, 20), t = c(0, 1, 1), value = c(1.1, 0.7, 0.4))
+  err <- expect_error(field_data(long), class = "griddy_error_input")
+  expect_match(conditionMessage(err), "column `t`.*no column `y`.*value")
+  # a table with `y` but no `t` is refused too (its x columns would be read
+  # as measurements)
+  expect_error(field_data(data.frame(h = c(10, 20), y = c(1, 2))), "column `y` but no column `t`",
+               class = "griddy_error_input")
+  # columns named like x's columns are settings, not measurements
+  expect_error(field_data(data.frame(h = c(10, 20), a = c(1, 2)), x = data.frame(h = c(10, 20))),
+               "column\\(s\\) h of `y` are also columns of `x`", class = "griddy_error_input")
+  # a wide data.frame of measurements still works
+  expect_identical(field_data(data.frame(a = c(1, 3), b = c(2, 4)))$y, rbind(c(1, 2), c(3, 4)))
+})
+
+test_that("a long table's column spelled like `sd` is not read as an x setting (issue 22)", {
+  long <- data.frame(h = c(10, 20), t = c(0, 0), y = c(1, 2), SD = c(0.1, 0.2))
+  expect_error(field_data(long), "`SD`, which would be read as x settings",
+               class = "griddy_error_input")
+})

@@ -16,8 +16,9 @@ test_that("koh_calibrate() recovers the truth of a tiny problem (GaSP and no dis
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy()
   for (d in c("GaSP", "none")) {
-    fit <- koh_calibrate(toy$library, toy$field, discrepancy = d, n_iter = 3000,
-                         burn_in = 1000, tune_iter = 300, seed = 11)
+    wall <- system.time(
+      fit <- koh_calibrate(toy$library, toy$field, discrepancy = d, n_iter = 3000,
+                           burn_in = 1000, tune_iter = 300, seed = 11))[["elapsed"]]
     expect_s3_class(fit, "griddy_koh")
     expect_equal(nrow(fit$draws), 2000)
     s <- summary(fit)
@@ -27,7 +28,10 @@ test_that("koh_calibrate() recovers the truth of a tiny problem (GaSP and no dis
     expect_true(all(s$lower < toy$truth & toy$truth < s$upper))
     expect_true(all(s$ess_bulk > 20))
     expect_true(all(c("ess_tail", "rhat", "mcse") %in% names(s)))
-    expect_true(all(fit$runtime >= 0))
+    # the three phases are timed, and together are within the call's time
+    expect_named(fit$runtime, c("emulator", "tuning", "sampling"))
+    expect_gt(fit$runtime[["sampling"]], 0)
+    expect_lte(sum(fit$runtime), wall + 0.05)
     p <- predict(fit, ndraws = 100)
     expect_equal(nrow(p), 8)
     expect_equal(p$observed, drop(toy$field$y))
@@ -141,4 +145,38 @@ test_that("a KOH summary prints each parameter on its own scale, within width", 
   # a subset keeps its level: it printed "% equal-tailed intervals"
   sub <- utils::capture.output(print(summary(koh, level = 0.9)[1, ], width = 200))
   expect_match(sub[1], "90% equal-tailed intervals")
+})
+
+test_that("koh_calibrate() refuses a library too small for its emulator (it printed NaN warnings and a confident interval)", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  for (n in 2:3) {
+    small <- lib_rows(toy$library, c(1, 13, 25)[seq_len(n)])
+    err <- expect_error(koh_calibrate(small, toy$field, discrepancy = "none", n_iter = 300,
+                                      burn_in = 100, tune_iter = 100, seed = 1),
+                        class = "griddy_error_library_size")
+    expect_match(conditionMessage(err), paste0("at least 4 runs.*2 parameters.*has ", n, " runs"))
+  }
+})
+
+test_that("koh_calibrate() says `progress`; `quiet` still works, with a deprecation warning", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  expect_identical(formals(koh_calibrate)$progress, quote(interactive()))
+  expect_silent(a <- koh_calibrate(toy$library, toy$field, discrepancy = "none", n_iter = 300,
+                                   burn_in = 100, tune_iter = 100, seed = 1, progress = FALSE))
+  expect_warning(b <- koh_calibrate(toy$library, toy$field, discrepancy = "none", n_iter = 300,
+                                    burn_in = 100, tune_iter = 100, seed = 1, quiet = TRUE),
+                 "`quiet` is deprecated.*progress = FALSE", class = "griddy_warning_deprecated")
+  expect_identical(b$draws, a$draws)
+  expect_error(koh_calibrate(toy$library, toy$field, progress = NA), "`progress` must be TRUE or FALSE")
+})
+
+test_that("the sampler's NaN warnings become one classed warning; others pass", {
+  expect_warning(out <- koh_numerics({
+    for (i in 1:50) log(-1)
+    7
+  }), "non-finite values \\(NaN\\) 50 time\\(s\\)", class = "griddy_warning_koh_numerics")
+  expect_identical(out, 7)
+  expect_warning(koh_numerics(warning("something else")), "something else")
 })

@@ -239,3 +239,66 @@ test_that("uncommitted rows are never read as theta, whatever they hold", {
   expect_warning(lib <- hdf5_library(file), "10 uncommitted run", class = "griddy_warning_library")
   expect_identical(lib$theta, toy$library$theta[1:20, , drop = FALSE])
 })
+
+test_that("a file claiming more runs than it stores is refused before allocating (issue 22)", {
+  skip_if_not_installed("hdf5r")
+  # 1.7 kB on disk, datasets of 10^9 runs that were never written: reading
+  # theta allocated 7.5 GB
+  file <- withr::local_tempfile(fileext = ".h5")
+  h5 <- hdf5r::H5File$new(file, "w")
+  h5$create_dataset("theta", space = hdf5r::H5S$new(dims = 1e9, maxdims = 1e9),
+                    dtype = hdf5r::h5types$H5T_NATIVE_DOUBLE, chunk_dims = 1e6)
+  h5$create_dataset("y", space = hdf5r::H5S$new(dims = c(1e9, 3), maxdims = c(1e9, 3)),
+                    dtype = hdf5r::h5types$H5T_NATIVE_DOUBLE, chunk_dims = c(1e5, 1))
+  h5$close_all()
+  expect_lt(file.size(file), 1e4)
+  err <- expect_error(hdf5_library(file, theta_names = "k"), class = "griddy_error_library")
+  expect_match(conditionMessage(err), paste0("dataset 'theta' in .* claims 1,000,000,000 entries \\(8 GB\\).*",
+                                             "stores 0 B"))
+  # the outputs are checked too (they are read later, a chunk at a time)
+  toy <- toy_ar1(n_runs = 10, n_t = 3)
+  file2 <- withr::local_tempfile(fileext = ".h5")
+  h5 <- hdf5r::H5File$new(file2, "w")
+  h5[["theta"]] <- seq_len(1e6) / 1e6
+  h5$create_dataset("y", space = hdf5r::H5S$new(dims = c(1e6, 3), maxdims = c(1e6, 3)),
+                    dtype = hdf5r::h5types$H5T_NATIVE_DOUBLE, chunk_dims = c(1e5, 1))
+  h5$close_all()
+  expect_error(hdf5_library(file2, theta_names = "k"), "dataset 'y' in .* stores 0 B",
+               class = "griddy_error_library")
+})
+
+test_that("a tampered committed-run count is a classed error naming the file and attribute (issue 22)", {
+  skip_if_not_installed("hdf5r")
+  toy <- toy_ar1(n_runs = 20, n_t = 4)
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(toy$library, file)
+  for (bad in list("many", 1e10, -3, 2.5, c(5, 6), NA_real_)) {
+    h5 <- hdf5r::H5File$new(file, "r+")
+    h5$attr_delete("griddy_n_runs")
+    hdf5r::h5attr(h5, "griddy_n_runs") <- bad
+    h5$close_all()
+    err <- expect_error(hdf5_library(file), class = "griddy_error_library")
+    expect_match(conditionMessage(err), "is damaged.*attribute griddy_n_runs")
+    expect_match(conditionMessage(err), basename(file), fixed = TRUE)
+  }
+})
+
+test_that("an HDF5 library of 0 runs is a classed error (issue 22)", {
+  skip_if_not_installed("hdf5r")
+  file <- withr::local_tempfile(fileext = ".h5")
+  h5 <- hdf5r::H5File$new(file, "w")
+  h5[["theta"]] <- numeric(0)
+  h5[["y"]] <- matrix(numeric(0), 0, 3)
+  h5$close_all()
+  expect_error(hdf5_library(file, theta_names = "k"), "holds 0 runs",
+               class = "griddy_error_library_size")
+  toy <- toy_ar1(n_runs = 10, n_t = 3)
+  own <- withr::local_tempfile(fileext = ".h5")
+  write_library(toy$library, own)
+  h5 <- hdf5r::H5File$new(own, "r+")
+  h5$attr_delete("griddy_n_runs")
+  hdf5r::h5attr(h5, "griddy_n_runs") <- 0
+  h5$close_all()
+  expect_error(suppressWarnings(hdf5_library(own)), "committed runs\\) holds 0 runs",
+               class = "griddy_error_library_size")
+})

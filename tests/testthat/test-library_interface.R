@@ -11,7 +11,7 @@ test_that("one library in memory, in HDF5 (both orientations) and in an old .rds
   own <- withr::local_tempfile(fileext = ".h5")
   write_library(mem, own, chunk_size = 9)
   libs <- list(
-    rds = disk_library(rds_dir),
+    rds = disk_library(rds_dir, trust = TRUE),
     h5_runs_first = hdf5_library(first, theta = "params", outputs = "sim/out", x = mem$x,
                                  t = "sim/time", chunk_size = 11),
     h5_runs_last = hdf5_library(last, theta = "params", outputs = "sim/out", x = mem$x,

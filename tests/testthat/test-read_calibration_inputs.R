@@ -70,7 +70,7 @@ test_that("bad thesis-format inputs get clear errors", {
   expect_error(read_calibration_inputs(1:3, d$simobs, d$expobs, 1), "must be a file path, a data.frame or a matrix")
   one <- d$design$k == 5
   expect_error(read_calibration_inputs(d$design[one, ], d$simobs[one, ], d$expobs, 1),
-               "`theta` must hold at least 2 runs")
+               "`theta` holds 1 run: a library needs at least 2 runs")
 })
 
 test_that("runs at settings expobs lacks are dropped with a message", {
@@ -210,4 +210,30 @@ test_that("replicated experiments in expobs are kept as replicates (they were re
   pr1 <- calibration_problem(one$library, one$field, 0, 0, NULL, 2, NULL)
   expect_identical(pr1$n_obs, 4L)
   expect_equal(pr1$y_field, c(2.1, 0.95))
+})
+
+test_that("comment lines in input files are skipped, never read as a header or a row (issue 22)", {
+  d <- thesis_inputs()
+  dir <- withr::local_tempdir()
+  with_comments <- function(df, path, header = TRUE) {
+    body <- utils::capture.output(utils::write.csv(df, stdout(), row.names = FALSE))
+    if (!header) body <- body[-1]
+    writeLines(c("# written by the simulator, 2026-11-25", "  # units: SI", body[1],
+                 "# a comment between rows", body[-1]), path)
+    path
+  }
+  ref <- read_calibration_inputs(d$design, d$simobs, d$expobs, n_x = 1)
+  out <- read_calibration_inputs(with_comments(d$design, file.path(dir, "design.csv")),
+                                 with_comments(d$simobs, file.path(dir, "simobs.csv"), FALSE),
+                                 with_comments(d$expobs, file.path(dir, "expobs.csv")),
+                                 n_x = 1)
+  expect_identical(out$library$y, ref$library$y)
+  expect_identical(out$library$theta, ref$library$theta)
+  expect_identical(out$field$y, ref$field$y)
+  expect_identical(names(out$library$x), "h")
+  # a headerless expobs whose first line is a comment keeps its first row
+  with_comments(d$expobs, file.path(dir, "expobs-nohead.csv"), header = FALSE)
+  out2 <- read_calibration_inputs(d$design, d$simobs, file.path(dir, "expobs-nohead.csv"),
+                                  n_x = 1)
+  expect_identical(out2$field$y, ref$field$y)
 })

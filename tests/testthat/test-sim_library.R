@@ -47,3 +47,14 @@ test_that("integer and integer64 x settings are stored as plain doubles", {
   lib <- sim_library(data.frame(k = 1:3), matrix(1:12, 3), x = x)
   expect_identical(lib$x, data.frame(load = c(3e9, 3e9 + 1), speed = c(1, 2)))
 })
+
+test_that("a library of 0 or 1 runs is a classed error saying how many (issue 22)", {
+  err <- expect_error(sim_library(data.frame(k = numeric(0)), matrix(numeric(0), 0, 3)),
+                      class = "griddy_error_library_size")
+  expect_match(conditionMessage(err), "`theta` holds 0 runs.*at least 2")
+  expect_error(sim_library(matrix(numeric(0), 0, 1, dimnames = list(NULL, "k")),
+                           matrix(numeric(0), 0, 3)), "holds 0 runs",
+               class = "griddy_error_library_size")
+  expect_error(sim_library(data.frame(k = 1), matrix(1:3, 1)), "holds 1 run",
+               class = "griddy_error_library_size")
+})

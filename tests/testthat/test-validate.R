@@ -151,3 +151,31 @@ test_that("the package raises no condition with a raw stop() or warning()", {
   }))
   expect_identical(code, NULL)
 })
+
+test_that("outputs and field at scale 1e-300: underflow is named, not an exact reproduction (issue 22)", {
+  ex <- griddy_example()
+  lib <- ex$library
+  scaled <- function(s) {
+    list(library = sim_library(lib$theta, lib$y * s, x = lib$x, t = lib$t),
+         field = field_data(ex$field$y * s, x = ex$field$x, t = ex$field$t))
+  }
+  tiny <- scaled(1e-300)
+  for (prior in list(NULL, list(shape = 1e-9, rate = 0))) {
+    err <- expect_error(calibrate(tiny$library, tiny$field, prior = prior, n_iter = 200,
+                                  burn_in = 50, seed = 1), class = "griddy_error_scale")
+    expect_match(conditionMessage(err), "scale 9.63e-300.*underflow.*multiply both by 1e\\+299")
+    expect_no_match(conditionMessage(err), "exactly")
+  }
+  expect_error(posterior_exact(tiny$library, tiny$field), class = "griddy_error_scale")
+  # tau then overflowed and reached the sampler or summary() as NaN
+  expect_error(calibrate(scaled(1e-160)$library, scaled(1e-160)$field, update = "thesis",
+                         prior = list(shape = 1e-9, rate = 0), n_iter = 200, burn_in = 50,
+                         seed = 1), class = "griddy_error_scale")
+  # a small scale that doubles still hold is calibrated as usual
+  small <- scaled(1e-150)
+  fit <- suppressWarnings(calibrate(small$library, small$field, n_iter = 200, burn_in = 50,
+                                    prior = list(shape = 1e-9, rate = 0), seed = 1))
+  ref <- suppressWarnings(calibrate(lib, ex$field, n_iter = 200, burn_in = 50,
+                                    prior = list(shape = 1e-9, rate = 0), seed = 1))
+  expect_identical(fit$draws$k, ref$draws$k)
+})
