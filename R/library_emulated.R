@@ -330,3 +330,17 @@ emulated_library_mean <- function(gp, th) {
   th <- matrix(th, ncol = length(gp$theta_names), dimnames = list(NULL, gp$theta_names))
   design_gp_predict(gp, th)$mean
 }
+
+# ---- what refine() reads (see library_interface.R) -----------------------------
+
+#' @exportS3Method
+lib_predicted.emulated_library <- function(library) rep(TRUE, lib_n_runs(library))
+
+#' @exportS3Method
+lib_simulated.emulated_library <- function(library) NULL
+
+#' @exportS3Method
+lib_with_noise_var.emulated_library <- function(library, noise_var, y_field) {
+  library$noise <- list(y_field = y_field, noise_var = noise_var)
+  library
+}
