@@ -39,6 +39,7 @@ simulator_caller <- function(simulator, dots) {
 # bar, so a slow run holds up little (and an interrupt loses little).
 simulator_chunks <- function(n) {
   k <- min(n, max(10L, 4L * griddy_workers()))
+  if (k < 2L) return(list(seq_len(n)))  # cut() needs two intervals
   unname(split(seq_len(n), cut(seq_len(n), k, labels = FALSE)))
 }
 

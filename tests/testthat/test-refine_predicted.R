@@ -59,3 +59,35 @@ test_that("refine() without a simulator applies the error model within each nois
   }
   expect_equal(f$logdet, ld, tolerance = 1e-8)
 })
+
+test_that("refine(fit, simulator) on an emulated library simulates the predicted runs near the posterior", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 1000)
+  field <- emulated_toy_field(sd = 0.1)
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 1000, burn_in = 200, seed = 1))
+  # the fit counts as resolved on its predicted runs
+  expect_true(is_resolved(refine_state(fit)$table, NULL))
+  calls <- 0L
+  sim <- function(theta) {
+    calls <<- calls + 1L
+    emulated_truth(as.matrix(theta))
+  }
+  ref <- suppressWarnings(refine(fit, sim, max_runs = 2000, seed = 1))
+  expect_gt(calls, 0L)
+  library <- ref$library
+  replaced <- library$replaced$rows
+  expect_gt(length(replaced), 0L)
+  # the replaced runs keep their theta and now hold the simulator's outputs
+  expect_equal(lib_theta(library)[replaced, ], lib_theta(lib)[replaced, ], ignore_attr = TRUE)
+  expect_equal(lib_outputs(library, replaced),
+               emulated_truth(as.matrix(lib_theta(library)[replaced, ])), ignore_attr = TRUE)
+  expect_false(any(lib_predicted(library)[replaced]))
+  # resolution is judged on simulated runs
+  state <- refine_state(ref)
+  expect_lte(predicted_mass(state), predicted_tol)
+  # calibrate() on the refined library gives the posterior refine() had
+  expect_equal(posterior_exact(library, field)$run, state$p, tolerance = 1e-8)
+  s <- summary(ref)
+  expect_true(s$lower[s$parameter == "k"] < 2.1 && s$upper[s$parameter == "k"] > 2.1)
+  expect_true(s$lower[s$parameter == "c"] < 0.3 && s$upper[s$parameter == "c"] > 0.3)
+})

@@ -14,3 +14,9 @@ test_that("refine() runs the simulator on the workers of a future plan, same res
   expect_identical(lib_theta(parallel$library), lib_theta(sequential$library))
   expect_equal(parallel$C, sequential$C)
 })
+
+test_that("one run is one chunk", {
+  expect_equal(simulator_chunks(1L), list(1L))
+  expect_equal(unlist(simulator_chunks(25L)), 1:25)
+  expect_length(simulator_chunks(25L), 10L)
+})
