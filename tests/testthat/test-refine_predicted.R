@@ -91,3 +91,13 @@ test_that("refine(fit, simulator) on an emulated library simulates the predicted
   expect_true(s$lower[s$parameter == "k"] < 2.1 && s$upper[s$parameter == "k"] > 2.1)
   expect_true(s$lower[s$parameter == "c"] < 0.3 && s$upper[s$parameter == "c"] > 0.3)
 })
+
+test_that("an emulator that cannot be built is said in terms of the refine() call", {
+  toy <- refine_toy()
+  state <- refine_state(toy$fit)
+  # a box beyond the library's range (k in 1..4): the emulator's region is empty
+  e <- tryCatch(round_emulator(state, rbind(5, 6)), error = function(e) e)
+  expect_s3_class(e, "griddy_error_emulation")
+  expect_no_match(conditionMessage(e), "region")
+  expect_match(conditionMessage(e), "refine() without a simulator", fixed = TRUE)
+})
