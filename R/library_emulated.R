@@ -340,6 +340,11 @@ lib_predicted.emulated_library <- function(library) rep(TRUE, lib_n_runs(library
 lib_simulated.emulated_library <- function(library) NULL
 
 #' @exportS3Method
+lib_noise_var.emulated_library <- function(library) {
+  if (is.null(library$noise)) NA_real_ else library$noise$noise_var
+}
+
+#' @exportS3Method
 lib_with_noise_var.emulated_library <- function(library, noise_var, y_field) {
   library$noise <- list(y_field = y_field, noise_var = noise_var)
   library

@@ -227,6 +227,26 @@ lib_with_noise_var <- function(library, noise_var, y_field) UseMethod("lib_with_
 #' @exportS3Method
 lib_with_noise_var.default <- function(library, noise_var, y_field) library
 
+# The plug-in noise variances the predicted runs' error is on now: one value
+# per noise group for each part with predicted runs (an emulated base, each
+# round of predicted runs), NA for a part that holds none yet; numeric(0)
+# when no run is predicted. With lib_with_noise_var() and
+# lib_run_quad_forms() of the predicted runs, what restating the noise
+# variance needs.
+lib_noise_var <- function(library) UseMethod("lib_noise_var")
+
+#' @exportS3Method
+lib_noise_var.default <- function(library) numeric()
+
+# Which added runs carry which error model: list(n_base, round = each added
+# run's round, kappa = each added run's relative variance, errors = each
+# round's error model or NULL), or NULL for a library refine() has not
+# touched (what the gap diagnosis's leave-block pieces need).
+lib_prediction_errors <- function(library) UseMethod("lib_prediction_errors")
+
+#' @exportS3Method
+lib_prediction_errors.default <- function(library) NULL
+
 # A sim_library of any number of runs (one is enough), unchecked: a piece of
 # runs to write to a file (write_library(append = TRUE)) whose runs were
 # checked where they came from.

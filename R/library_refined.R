@@ -213,6 +213,18 @@ lib_emulator.refined_library <- function(library, region) {
 }
 
 #' @exportS3Method
+lib_noise_var.refined_library <- function(library) {
+  rounds <- Filter(function(r) !is.null(r$error), library$rounds)
+  c(unlist(lapply(rounds, function(r) r$error$noise_var)), lib_noise_var(library$base))
+}
+
+#' @exportS3Method
+lib_prediction_errors.refined_library <- function(library) {
+  list(n_base = lib_n_runs(library$base), round = library$added$round,
+       kappa = library$added$rel_var, errors = lapply(library$rounds, `[[`, "error"))
+}
+
+#' @exportS3Method
 lib_with_noise_var.refined_library <- function(library, noise_var, y_field) {
   library$base <- lib_with_noise_var(library$base, noise_var, y_field)
   for (r in seq_along(library$rounds)) {
