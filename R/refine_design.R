@@ -33,7 +33,7 @@ refine_box <- function(state) {
 }
 
 # Sides (rows lower, upper; one column per parameter) on which the
-# posterior's 95% interval reaches the outer tenth of the last round's box
+# posterior's 95% interval reaches the edge band of the last round's box
 # while the box stops short of the library's range: there the dense runs
 # end, and the posterior is cut off by them rather than by the data.
 truncated_sides <- function(state) {
@@ -42,8 +42,12 @@ truncated_sides <- function(state) {
   last <- last_box(library)
   if (is.null(last)) return(matrix(FALSE, 2, p))
   range0 <- library_box(lib_base(library))
-  band <- edge_band * (last[2, ] - last[1, ])
   tab <- state$table
+  # within a tenth of the box, and within an eighth of the interval's width:
+  # a box reaching a whole width beyond one side may end a few interval
+  # widths past the other, which is not a cut (the margin, at least a
+  # quarter of the width, keeps an interior posterior further away)
+  band <- pmin(edge_band * (last[2, ] - last[1, ]), box_margin / 2 * (tab$upper - tab$lower))
   rbind(tab$lower <= last[1, ] + band & last[1, ] > range0[1, ] & band > 0,
         tab$upper >= last[2, ] - band & last[2, ] < range0[2, ] & band > 0)
 }

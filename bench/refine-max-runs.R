@@ -1,7 +1,8 @@
 # How many simulated runs refine() needs to resolve typical 2- and
 # 3-parameter problems (truth between runs, cheap simulator): the runs added
 # until `reason == "resolved"` with a large max_runs, over a few systems and
-# seeds. Run: Rscript bench/refine-max-runs.R
+# seeds, and how many parameters' 95% intervals hold the truth (`covered`,
+# out of p). Run: Rscript bench/refine-max-runs.R
 pkgload::load_all(".", quiet = TRUE)
 tt <- seq(0, 1, length.out = 30)
 systems <- list(
@@ -31,7 +32,8 @@ for (nm in names(systems)) for (seed in 1:3) {
   r <- suppressWarnings(refine(fit, sim, max_runs = 20000, seed = seed))
   res[[length(res) + 1]] <- data.frame(system = nm, p = p, seed = seed,
     runs = if (is.null(r$refinement)) 0 else r$refinement$runs_added,
-    reason = if (is.null(r$refinement)) "resolved" else r$refinement$reason)
+    reason = if (is.null(r$refinement)) "resolved" else r$refinement$reason,
+    covered = { sm <- summary(r); sum(sm$lower <= s$truth & s$truth <= sm$upper) })
   print(res[[length(res)]])
 }
 res <- do.call(rbind, res)

@@ -17,3 +17,24 @@ test_that("a posterior cut off by the last round's box is not resolved and reach
   tab <- resolution_limited(refined)
   expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
 })
+
+test_that("a box much wider than the posterior does not call an interior posterior cut off", {
+  # the flip-flop of a 3-parameter trial (bench/refine-max-runs.R, osc3 seed
+  # 2): a box reaching a whole width beyond one side ends a few posterior
+  # widths past the interval on the other, within a tenth of the box's width,
+  # so the next round reached beyond that side, and so on for 20,000 runs
+  toy <- refine_toy()                          # truth k = 2.23
+  box <- rbind(1.2, 2.33)
+  theta_new <- data.frame(k = seq(1.2, 2.33, length.out = 800))
+  problem <- extend_problem(toy$fit, theta_new, refine_sim(theta_new),
+                            list(box = box, n = 800L, source = "simulator", error = NULL),
+                            NULL)
+  state <- refine_state(problem)
+  tab <- state$table
+  width <- tab$upper - tab$lower
+  # interior: the box's edge is several interval widths past the interval,
+  # yet within a tenth of the box's width
+  expect_gt(2.33 - tab$upper, width)
+  expect_lt(2.33 - tab$upper, 0.1 * (2.33 - 1.2))
+  expect_false(any(truncated_sides(state)))
+})
