@@ -98,7 +98,8 @@
 #'   weighed equally a priori (no `run_weights`) or by an earlier `refine()`.
 #' @param simulator `NULL`, or a function of a data.frame of \eqn{\theta}
 #'   rows (and `...`) that returns their outputs: see Details.
-#' @param max_runs The most runs to add, over all rounds. The default, 4000,
+#' @param max_runs The most runs to add (or, with a simulator, to simulate in
+#'   place of predicted ones), over all rounds. The default, 4000,
 #'   resolved each of twelve 2- and 3-parameter trials in
 #'   `bench/refine-max-runs.R` (2 parameters took 400 to 800 runs, 3
 #'   parameters 1600 to 2800).
@@ -116,7 +117,8 @@
 #'   class `refined_library`, usable wherever a library is), with the settings
 #'   of `fit` (correlation grids, prior, update, iterations, chains), and an
 #'   element `refinement`: a list with `runs_added`, `rounds`, `reason` (why
-#'   it stopped: `"resolved"` or `"max_runs"`), `source` (`"simulator"` or
+#'   it stopped: `"resolved"` or `"max_runs"`; `"stopped"` in the `fit` of
+#'   an error when the simulator failed), `source` (`"simulator"` or
 #'   `"emulator"`), `history`, the per-parameter resolution table after
 #'   each round, and `emulation_error` (without a simulator; see Details). A
 #'   fit that is already resolved (and, with a simulator, rests on simulated
