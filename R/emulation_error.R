@@ -172,37 +172,17 @@ emulated_block <- function(wood, P_BB, pos) {
 }
 
 # Which runs of a library were predicted, and the error model of each (NULL
-# when none was): diagnose_gap()'s checks take those runs under their own
-# covariance.
+# when none was): diagnose_gap()'s checks and the noise groups' forms take
+# those runs under their own covariance. See lib_prediction_errors().
 run_errors <- function(library) {
-  if (is.null(library)) return(NULL)
-  base <- if (inherits(library, "refined_library")) library$base else library
-  n0 <- lib_n_runs(base)
-  base_error <- emulated_base_error(base)
-  if (!inherits(library, "refined_library")) {
-    if (is.null(base_error)) return(NULL)
-    return(list(n_base = n0, base = base_error, round = integer(), kappa = numeric(),
-                errors = list()))
-  }
-  list(n_base = n0, base = base_error, round = library$added$round,
-       kappa = library$added$rel_var, errors = lapply(library$rounds, `[[`, "error"))
-}
-
-# An emulated library's error model at its noise plug-in and its shared
-# kappa, or NULL for any other library.
-emulated_base_error <- function(library) {
-  if (!inherits(library, "emulated_library") || is.null(library$error) ||
-      is.null(library$noise)) return(NULL)
-  err <- library$error
-  err$noise_var <- library$noise$noise_var
-  list(error = err, kappa = library$noise$kappa)
+  if (is.null(library)) NULL else lib_prediction_errors(library)
 }
 
 # The prediction error of run j as V (data points x rank, S = R_g + V V'
 # over the observed points `obs`), or NULL when the run was simulated. One
 # noise variance over the points: the groups' pooled (noise_var_pooled()).
 run_emulation <- function(emulation, j, obs) {
-  if (is.null(emulation)) return(NULL)
+  if (is.null(emulation) || j %in% emulation$replaced) return(NULL)
   if (j <= emulation$n_base) {
     if (is.null(emulation$base)) return(NULL)
     err <- emulation$base$error
@@ -230,12 +210,14 @@ run_group_forms <- function(problem, runs, g) {
   Ck <- group_quad_forms(lib_outputs(library, runs), problem$y_field, problem$setup, g)
   em <- run_errors(library)
   if (is.null(em)) return(Ck)
+  # a run a simulator replaced keeps its plain forms
+  runs[runs %in% em$replaced] <- NA_integer_
   in_base <- which(runs <= em$n_base)
   if (!is.null(em$base) && length(in_base) > 0L) {
     Ck[in_base, ] <- forms(in_base, lib_outputs(library, runs[in_base]), em$base$error,
                            rep(em$base$kappa, length(in_base)))
   }
-  added <- runs > em$n_base
+  added <- !is.na(runs) & runs > em$n_base
   for (r in unique(em$round[runs[added] - em$n_base])) {
     err <- em$errors[[r]]
     if (is.null(err)) next
@@ -302,35 +284,16 @@ reference_noise_var <- function(setup, s2, C) {
 restate_noise_var <- function(state, times = 3L) {
   for (i in seq_len(times)) {
     problem <- state$problem
-    library <- problem$library
+    old <- lib_noise_var(problem$library)
+    if (length(old) == 0L) return(state)
     s2 <- posterior_noise_var(state)
-    emulated <- which(vapply(library$rounds, function(r) !is.null(r$error), logical(1)))
-    base_emulated <- inherits(library$base, "emulated_library")
-    if (length(emulated) == 0L && !base_emulated) return(state)
-    old <- vapply(library$rounds[emulated], function(r) r$error$noise_var, s2)
-    if (base_emulated) {
-      base_s2 <- library$base$noise$noise_var
-      old <- c(old, if (length(base_s2) == length(s2)) base_s2 else rep(NA_real_, length(s2)))
-    }
-    if (all(!is.na(old) & abs(old - s2) <= 0.01 * s2)) return(state)
-    if (base_emulated) {
-      # the shared kappa the library found for these data (emulated_noise_var())
-      kappa <- library$base$noise$kappa
-      if (is.null(kappa)) kappa <- mean(library$base$rel_var)
-      library$base$noise <- list(y_field = problem$y_field, noise_var = s2, kappa = kappa)
-      problem$C[seq_len(lib_n_runs(library$base)), ] <- fold_extra_logdet(
-        emulated_library_forms(library$base, problem$y_field, problem$setup, s2, kappa),
-        problem$prior, problem$n_obs)
-    }
-    for (r in emulated) library$rounds[[r]]$error$noise_var <- s2
-    which <- which(library$added$round %in% emulated)
-    rows <- lib_n_runs(library$base) + which
-    if (length(which) > 0L) {
-      problem$C[rows, ] <- fold_extra_logdet(
-        added_quad_forms(library, which, problem$y_field, problem$setup),
-        problem$prior, problem$n_obs)
-    }
-    problem$library <- library
+    same <- length(old) %% length(s2) == 0L && !anyNA(old) && all(abs(old - s2) <= 0.01 * s2)
+    if (same) return(state)
+    problem$library <- lib_with_noise_var(problem$library, s2, problem$y_field)
+    rows <- which(lib_predicted(problem$library))
+    problem$C[rows, ] <- fold_extra_logdet(
+      lib_run_quad_forms(problem$library, rows, problem$y_field, problem$setup),
+      problem$prior, problem$n_obs)
     state <- refine_state(problem)
   }
   state

@@ -298,3 +298,37 @@ emulated_library_mean <- function(gp, th) {
   th <- matrix(th, ncol = length(gp$theta_names), dimnames = list(NULL, gp$theta_names))
   design_gp_predict(gp, th)$mean
 }
+
+# ---- what refine() reads (see library_interface.R) -----------------------------
+
+#' @exportS3Method
+lib_predicted.emulated_library <- function(library) rep(TRUE, lib_n_runs(library))
+
+#' @exportS3Method
+lib_simulated.emulated_library <- function(library) NULL
+
+#' @exportS3Method
+lib_noise_var.emulated_library <- function(library) {
+  if (is.null(library$noise)) NA_real_ else library$noise$noise_var
+}
+
+# The shared kappa stays what the library found for these data (see
+# emulation_error.R): only the noise scale is restated.
+#' @exportS3Method
+lib_with_noise_var.emulated_library <- function(library, noise_var, y_field) {
+  kappa <- library$noise$kappa
+  if (is.null(kappa)) kappa <- mean(library$rel_var)
+  library$noise <- list(y_field = y_field, noise_var = noise_var, kappa = kappa)
+  library
+}
+
+# The error model at the library's noise plug-in and its shared kappa, for
+# every run (see run_errors()); NULL before the library has met field data.
+#' @exportS3Method
+lib_prediction_errors.emulated_library <- function(library) {
+  if (is.null(library$error) || is.null(library$noise)) return(NULL)
+  err <- library$error
+  err$noise_var <- library$noise$noise_var
+  list(n_base = lib_n_runs(library), base = list(error = err, kappa = library$noise$kappa),
+       round = integer(), kappa = numeric(), errors = list(), replaced = integer())
+}

@@ -69,29 +69,22 @@ lib_check_rows <- function(library, rows) {
 # ---- chunked backends ------------------------------------------------------
 
 # C of a library read in pieces: one plain_quad_forms() call per piece, mapped
-# over the future plan's workers in waves of one piece per worker, each wave's
-# results copied into C at once, so memory holds C and one wave of pieces.
-# `pieces` is a list of read specifications (see read_piece()), `rows` the
-# number of runs in each, in library order. Workers need griddy installed,
-# and share griddy_threads() between them.
+# over the future plan's workers (griddy_map()) in waves of one piece per
+# worker, each wave's results copied into C at once, so memory holds C and one
+# wave of pieces. `pieces` is a list of read specifications (see
+# read_piece()), `rows` the number of runs in each, in library order. Workers
+# need griddy installed, and share griddy_threads() between them.
 chunked_quad_forms <- function(pieces, rows, y_field, setup) {
   piece_C <- function(piece, y_field, setup, threads) {
     plain_quad_forms(read_piece(piece), y_field, setup, threads)
   }
   environment(piece_C) <- asNamespace("griddy")
-  parallel <- requireNamespace("future.apply", quietly = TRUE)
-  map <- if (parallel) {
-    function(...) future.apply::future_lapply(..., future.seed = NULL,
-                                              future.packages = "griddy")
-  } else {
-    lapply
-  }
-  per_wave <- if (parallel) max(1L, as.integer(future::nbrOfWorkers())) else 1L
+  per_wave <- griddy_workers()
   ends <- cumsum(rows)
   C <- matrix(0, sum(rows), n_grid_points(setup))
   for (wave in split(seq_along(pieces), (seq_along(pieces) - 1L) %/% per_wave)) {
-    out <- map(pieces[wave], piece_C, y_field = y_field, setup = setup,
-               threads = threads_per_worker(per_wave))
+    out <- griddy_map(pieces[wave], piece_C, y_field = y_field, setup = setup,
+                      threads = threads_per_worker(per_wave))
     for (j in seq_along(wave)) {
       k <- wave[j]
       C[ends[k] - rows[k] + seq_len(rows[k]), ] <- out[[j]]
@@ -160,4 +153,140 @@ check_library_parts <- function(library, n_runs, n_out, what,
                  "library holds ", n_out, ". ", fix, class = "shape")
   }
   invisible(library)
+}
+
+# ---- what refine() reads of a library ---------------------------------------
+#
+# refine() adds runs round by round (a refined library, library_refined.R),
+# predicts them from the library when it has no simulator, and replaces
+# predicted runs with simulated ones when it has. It reads a library only
+# through these functions.
+
+# The library refine() started from: the base of a refined library, else the
+# library itself. Its range is the prior's.
+lib_base <- function(library) UseMethod("lib_base")
+
+#' @exportS3Method
+lib_base.default <- function(library) library
+
+# refine()'s rounds: a list of list(box, n, source, error), one per round (box
+# a 2 x p matrix of lower and upper bounds, n its runs, source "simulator" or
+# "emulator", error its emulation-error model or NULL); none for a library
+# refine() has not touched.
+lib_rounds <- function(library) UseMethod("lib_rounds")
+
+#' @exportS3Method
+lib_rounds.default <- function(library) list()
+
+# Which runs were predicted by an emulator (logical, one per run) rather than
+# simulated.
+lib_predicted <- function(library) UseMethod("lib_predicted")
+
+#' @exportS3Method
+lib_predicted.default <- function(library) logical(lib_n_runs(library))
+
+# The simulated runs as a plain library (for an emulator to learn from), or
+# NULL when there are none.
+lib_simulated <- function(library) UseMethod("lib_simulated")
+
+#' @exportS3Method
+lib_simulated.default <- function(library) library
+
+# The quadratic forms C of library rows `rows` (runs x grid points), with the
+# emulation error of predicted runs and its extra log-determinant as
+# attribute "extra_logdet" (see lib_quad_forms()); the rows a refinement
+# adds are computed without the rest.
+lib_run_quad_forms <- function(library, rows, y_field, setup) {
+  UseMethod("lib_run_quad_forms")
+}
+
+#' @exportS3Method
+lib_run_quad_forms.default <- function(library, rows, y_field, setup) {
+  plain_quad_forms(lib_outputs(library, rows), y_field, setup)
+}
+
+# The library with its predicted runs' error put on the scale of plug-in
+# noise variance `noise_var` (one per noise group) for field data `y_field`.
+# A library without predicted runs is returned as it is.
+lib_with_noise_var <- function(library, noise_var, y_field) UseMethod("lib_with_noise_var")
+
+#' @exportS3Method
+lib_with_noise_var.default <- function(library, noise_var, y_field) library
+
+# The plug-in noise variances the predicted runs' error is on now: one value
+# per noise group for each part with predicted runs (an emulated base, each
+# round of predicted runs), NA for a part that holds none yet; numeric(0)
+# when no run is predicted. With lib_with_noise_var() and
+# lib_run_quad_forms() of the predicted runs, what restating the noise
+# variance needs.
+lib_noise_var <- function(library) UseMethod("lib_noise_var")
+
+#' @exportS3Method
+lib_noise_var.default <- function(library) numeric()
+
+# Which runs were predicted and the error model of each: list(n_base = the
+# base library's runs, base = list(error, kappa) for a predicted base (an
+# emulated library: its error model at its plug-in noise variance, its
+# shared kappa) or NULL, round = each added run's round, kappa = each added
+# run's relative variance, errors = each round's error model or NULL,
+# replaced = runs a simulator replaced, now plain), or NULL when no run was
+# predicted. What the noise groups' forms (run_group_forms()) and the gap
+# diagnosis's leave-block pieces need.
+lib_prediction_errors <- function(library) UseMethod("lib_prediction_errors")
+
+#' @exportS3Method
+lib_prediction_errors.default <- function(library) NULL
+
+# A sim_library of any number of runs (one is enough), unchecked: a piece of
+# runs to write to a file (write_library(append = TRUE)) whose runs were
+# checked where they came from.
+runs_piece <- function(theta, y, x, t) {
+  structure(list(theta = as.data.frame(theta), y = y, x = x, t = t), class = "sim_library")
+}
+
+# ---- the emulation-error contract --------------------------------------------
+#
+# refine() without a simulator predicts its runs; the emulators and their
+# error model live in library_emulator*.R, library_emulated.R and (the
+# error model) emulation_error.R. refine() reaches them only through these
+# two functions:
+#
+# * lib_emulator(library, region): an emulator of the library's runs over
+#   `region` (a 2 x p data.frame of bounds inside the library's range),
+#   list(refine_region = the region it answers in (2 x p matrix), loo = its
+#   leave-one-out residuals (runs x outputs), loo_theta = their runs (runs x
+#   p matrix), method, ...).
+# * lib_predict(emulator, theta_new, noise_var): the runs at the rows of
+#   theta_new, list(y = outputs (rows x outputs, library layout), rel_var =
+#   kappa of each, the prediction's relative variance (0 at a simulated run),
+#   error = the error model at plug-in noise variance `noise_var` (NULL for
+#   none), which lib_run_quad_forms() of a refined library applies).
+lib_emulator <- function(library, region) UseMethod("lib_emulator")
+
+#' @exportS3Method
+lib_emulator.default <- function(library, region) {
+  emulator <- library_emulator(library, region = region)
+  loo <- emulator_loo(emulator)
+  if (!all(is.finite(loo$residuals))) {
+    # a Gaussian process too near singular to predict its own runs: the
+    # local fit does
+    emulator <- library_emulator(library, region = region, method = "local")
+    loo <- emulator_loo(emulator)
+  }
+  emulator$refine_region <- as.matrix(region)
+  emulator$loo <- loo$residuals
+  emulator$loo_theta <- as.matrix(lib_theta(library)[loo$rows, , drop = FALSE])
+  emulator
+}
+
+#' @exportS3Method
+lib_emulator.emulated_library <- function(library, region) emulated_round_emulator(library)
+
+lib_predict <- function(emulator, theta_new, noise_var) {
+  if (identical(emulator$method, "emulated_library")) {
+    return(emulated_library_batch(emulator$library, theta_new, noise_var))
+  }
+  pred <- emulator_predict(emulator, theta_new)
+  list(y = pred$outputs, rel_var = pred$rel_var,
+       error = emulation_error_model(emulator$loo, noise_var))
 }

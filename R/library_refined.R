@@ -24,13 +24,21 @@
 #   tau^-1 (R_g + kappa_i V / s2): still conjugate in tau, so the engine is
 #   unchanged. See emulated_quad_forms().
 
-new_refined_library <- function(base, theta, y, rounds, round_of, rel_var) {
+# `replaced` holds the runs whose predicted outputs a simulator replaced:
+# their rows (of the whole library) and outputs. The design is unchanged
+# (same theta), so are the prior weights; the runs lose their emulation
+# error (an added run's kappa becomes 0).
+new_refined_library <- function(base, theta, y, rounds, round_of, rel_var,
+                                replaced = no_replaced(lib_n_out(base))) {
   structure(
     list(theta = theta, x = lib_x(base), t = lib_t(base), base = base,
-         added = list(y = y, round = round_of, rel_var = rel_var), rounds = rounds),
+         added = list(y = y, round = round_of, rel_var = rel_var), rounds = rounds,
+         replaced = replaced),
     class = "refined_library"
   )
 }
+
+no_replaced <- function(n_out) list(rows = integer(), y = matrix(0, 0, n_out))
 
 #' @export
 print.refined_library <- function(x, ...) {
@@ -41,7 +49,9 @@ print.refined_library <- function(x, ...) {
                 " parameter(s): ", n0, " of the base library (", class(x$base)[1], ") + ",
                 lib_n_runs(x) - n0, " added in ", length(x$rounds), " round(s) (",
                 sum(runs[sources == "simulator"]), " simulated, ",
-                sum(runs[sources == "emulator"]), " predicted)")
+                sum(runs[sources == "emulator"]), " predicted)",
+                if (length(x$replaced$rows) > 0L) paste0("; ", length(x$replaced$rows),
+                                                         " predicted run(s) since simulated"))
   ranges <- vapply(x$theta, function(v) {
     paste0(format(min(v), digits = 4), " to ", format(max(v), digits = 4))
   }, "")
@@ -58,13 +68,28 @@ add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {
     library <- new_refined_library(library, lib_theta(library), matrix(0, 0, lib_n_out(library)),
                                    rounds = list(), round_of = integer(), rel_var = numeric())
   }
+  if (is.null(round)) return(library)
   if (is.null(rel_var)) rel_var <- numeric(nrow(theta_new))
   r <- length(library$rounds) + 1L
   new_refined_library(
     library$base, rbind(library$theta, theta_new), rbind(library$added$y, y_new),
     rounds = c(library$rounds, list(round)),
     round_of = c(library$added$round, rep(r, nrow(theta_new))),
-    rel_var = c(library$added$rel_var, rel_var))
+    rel_var = c(library$added$rel_var, rel_var), replaced = library$replaced)
+}
+
+# Replace predicted runs `rows` (of the whole library) by the simulator's
+# outputs `y` at the same theta.
+replace_runs <- function(library, rows, y) {
+  if (!inherits(library, "refined_library")) library <- add_runs(library, NULL, NULL, NULL)
+  n0 <- lib_n_runs(library$base)
+  added <- rows > n0
+  library$added$y[rows[added] - n0, ] <- y[added, , drop = FALSE]
+  library$added$rel_var[rows[added] - n0] <- 0
+  keep <- !library$replaced$rows %in% rows
+  library$replaced <- list(rows = c(library$replaced$rows[keep], rows),
+                           y = rbind(library$replaced$y[keep, , drop = FALSE], y))
+  library
 }
 
 # ---- the interface ----------------------------------------------------------
@@ -77,6 +102,8 @@ lib_outputs.refined_library <- function(library, rows = NULL) {
   in_base <- rows <= n0
   if (any(in_base)) out[in_base, ] <- lib_outputs(library$base, rows[in_base])
   if (any(!in_base)) out[!in_base, ] <- library$added$y[rows[!in_base] - n0, , drop = FALSE]
+  hit <- match(rows, library$replaced$rows)
+  if (any(!is.na(hit))) out[!is.na(hit), ] <- library$replaced$y[hit[!is.na(hit)], , drop = FALSE]
   out
 }
 
@@ -91,9 +118,103 @@ lib_quad_forms.refined_library <- function(library, y_field, setup) {
   base <- lib_quad_forms(library$base, y_field, setup)
   added <- added_quad_forms(library, seq_len(nrow(library$added$y)), y_field, setup)
   C <- rbind(base, added)
-  attr(C, "extra_logdet") <- rbind(matrix(0, nrow(base), ncol(base)),
-                                   attr(added, "extra_logdet"))
+  base_extra <- attr(base, "extra_logdet")
+  if (is.null(base_extra)) base_extra <- matrix(0, nrow(base), ncol(base))
+  extra <- rbind(base_extra, attr(added, "extra_logdet"))
+  replaced_forms(library, seq_len(nrow(C)), structure(C, extra_logdet = extra), y_field, setup)
+}
+
+# Forms of rows `rows` in `C` (with attribute "extra_logdet") made plain
+# where the run was replaced by a simulated one (an added run's are already:
+# its kappa is 0).
+replaced_forms <- function(library, rows, C, y_field, setup) {
+  hit <- match(rows, library$replaced$rows)
+  at <- which(!is.na(hit) & rows <= lib_n_runs(library$base))
+  if (length(at) == 0L) return(C)
+  C[at, ] <- plain_quad_forms(library$replaced$y[hit[at], , drop = FALSE], y_field, setup)
+  extra <- attr(C, "extra_logdet")
+  if (!is.null(extra)) {
+    extra[at, ] <- 0
+    attr(C, "extra_logdet") <- extra
+  }
   C
+}
+
+#' @exportS3Method
+lib_run_quad_forms.refined_library <- function(library, rows, y_field, setup) {
+  n0 <- lib_n_runs(library$base)
+  C <- matrix(0, length(rows), n_grid_points(setup))
+  extra <- C
+  in_base <- rows <= n0
+  # a replaced base run's forms are plain (replaced_forms())
+  from_base <- in_base & !rows %in% library$replaced$rows
+  if (any(from_base)) {
+    # a base library's forms may depend on all its runs (an emulated one's
+    # plug-in noise variance)
+    base <- lib_quad_forms(library$base, y_field, setup)
+    C[from_base, ] <- base[rows[from_base], , drop = FALSE]
+    if (!is.null(attr(base, "extra_logdet"))) {
+      extra[from_base, ] <- attr(base, "extra_logdet")[rows[from_base], , drop = FALSE]
+    }
+  }
+  if (any(!in_base)) {
+    added <- added_quad_forms(library, rows[!in_base] - n0, y_field, setup)
+    C[!in_base, ] <- added
+    extra[!in_base, ] <- attr(added, "extra_logdet")
+  }
+  replaced_forms(library, rows, structure(C, extra_logdet = extra), y_field, setup)
+}
+
+#' @exportS3Method
+lib_base.refined_library <- function(library) library$base
+
+#' @exportS3Method
+lib_rounds.refined_library <- function(library) library$rounds
+
+#' @exportS3Method
+lib_predicted.refined_library <- function(library) {
+  emulated_round <- vapply(library$rounds, function(r) !is.null(r$error), logical(1))
+  predicted <- c(lib_predicted(library$base), emulated_round[library$added$round])
+  predicted[library$replaced$rows] <- FALSE
+  predicted
+}
+
+#' @exportS3Method
+lib_simulated.refined_library <- function(library) {
+  rows <- which(!lib_predicted(library))
+  if (length(rows) == 0L) return(NULL)
+  sim_library(lib_theta(library)[rows, , drop = FALSE], lib_outputs(library, rows),
+              x = lib_x(library), t = lib_t(library))
+}
+
+# An emulated base library predicts with its own emulator of its design
+# runs; otherwise the emulator learns from the simulated runs.
+#' @exportS3Method
+lib_emulator.refined_library <- function(library, region) {
+  if (all(lib_predicted(library$base))) return(lib_emulator(library$base, region))
+  lib_emulator(lib_simulated(library), region)
+}
+
+#' @exportS3Method
+lib_noise_var.refined_library <- function(library) {
+  rounds <- Filter(function(r) !is.null(r$error), library$rounds)
+  c(unlist(lapply(rounds, function(r) r$error$noise_var)), lib_noise_var(library$base))
+}
+
+#' @exportS3Method
+lib_prediction_errors.refined_library <- function(library) {
+  list(n_base = lib_n_runs(library$base), base = lib_prediction_errors(library$base)$base,
+       round = library$added$round, kappa = library$added$rel_var,
+       errors = lapply(library$rounds, `[[`, "error"), replaced = library$replaced$rows)
+}
+
+#' @exportS3Method
+lib_with_noise_var.refined_library <- function(library, noise_var, y_field) {
+  library$base <- lib_with_noise_var(library$base, noise_var, y_field)
+  for (r in seq_along(library$rounds)) {
+    if (!is.null(library$rounds[[r]]$error)) library$rounds[[r]]$error$noise_var <- noise_var
+  }
+  library
 }
 
 # C of added runs `which` (positions among the added runs): plain quadratic
@@ -130,6 +251,13 @@ lib_check_integrity.refined_library <- function(library) {
   if (!all(is.finite(library$added$y))) {
     griddy_abort("The refined library has been edited: its added outputs are not all ",
                  "finite.", class = "shape")
+  }
+  rep <- library$replaced
+  if (!is.list(rep) || !is.matrix(rep$y) || nrow(rep$y) != length(rep$rows) ||
+      ncol(rep$y) != lib_n_out(library$base) || !all(is.finite(rep$y)) ||
+      any(!rep$rows %in% seq_len(lib_n_runs(library)))) {
+    griddy_abort("The refined library has been edited: its replaced runs do not fit ",
+                 "together; refine the fit again.", class = "shape")
   }
   invisible(library)
 }

@@ -18,9 +18,10 @@
 #' one, at least one step of a grid) or a quarter of its width, whichever is
 #' larger, and kept inside the library's range, receives a Latin hypercube of
 #' `runs_per_round` new runs. A collapsed posterior thus zooms in around its
-#' run; a spread one is filled in. When the posterior's 95% interval reaches
-#' the outer tenth of the last round's box (and that box stops short of the
-#' library's range), the posterior is cut off by where the dense runs end,
+#' run; a spread one is filled in. When the posterior's 95% interval comes
+#' within a tenth of the last round's box, and an eighth of the interval's
+#' width, of the box's edge (and that box stops short of the library's
+#' range), the posterior is cut off by where the dense runs end,
 #' not by the data: the next box then reaches a whole box width further, so
 #' a box that missed the truth finds it in a few rounds.
 #'
@@ -51,6 +52,25 @@
 #' installed (a `multisession` plan, or cluster workers through
 #' future.batchtools), in chunks, with a progress bar; each chunk gets its
 #' own random stream, so a stochastic simulator is reproducible with `seed`.
+#' Runs of the library that were predicted rather than simulated (an
+#' [emulated_library()], or rounds of `refine()` without a simulator) are
+#' simulated first where the posterior has its mass, at their own
+#' \eqn{\theta}, so resolution is judged on simulated runs: `refine(fit,
+#' simulator)` on a fit over an emulated library replaces the emulated runs
+#' near the posterior with simulated ones, even when the fit was resolved.
+#'
+#' **Nothing is lost.** Every chunk of runs the simulator finishes joins the
+#' refined library at once. When the simulator fails or is interrupted, the
+#' error (class `griddy_error_simulator`, or `griddy_error_interrupted`)
+#' carries the fit refined with every run finished so far as `e$fit` (also
+#' `rlang::last_error()$fit`), and `refine(e$fit, simulator)` carries on.
+#' With `file`, every finished chunk is also appended to an HDF5 library
+#' ([write_library()], with its safe appends and lock; needs hdf5r) and the
+#' rounds listed beside it in `<file>.rounds.csv`; `refine(fit, simulator,
+#' file = file)` with the same file, after a failure or in a new session,
+#' first takes the runs in the file that `fit` does not hold, so no run is
+#' simulated twice. The file is a library like any other:
+#' `hdf5_library(file)` opens the simulated runs.
 #'
 #' **Without a simulator**, new runs are predicted from the library itself
 #' (tensor-product cubic interpolation on a full-factorial grid; a Gaussian
@@ -78,11 +98,18 @@
 #'   weighed equally a priori (no `run_weights`) or by an earlier `refine()`.
 #' @param simulator `NULL`, or a function of a data.frame of \eqn{\theta}
 #'   rows (and `...`) that returns their outputs: see Details.
-#' @param max_runs The most runs to add, over all rounds.
+#' @param max_runs The most runs to add (or, with a simulator, to simulate in
+#'   place of predicted ones), over all rounds. The default, 4000,
+#'   resolved each of twelve 2- and 3-parameter trials in
+#'   `bench/refine-max-runs.R` (2 parameters took 400 to 800 runs, 3
+#'   parameters 1600 to 2800).
 #' @param ... Further arguments to `simulator`.
 #' @param runs_per_round Runs added per round; `NULL` is
 #'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters, at most
 #'   `max_runs`.
+#' @param file `NULL`, or the path of an HDF5 file that keeps every simulated
+#'   run as it finishes (with a simulator only), and from which a later
+#'   `refine()` resumes: see Details.
 #' @param seed `NULL`, or a seed for this call only; either way the result is
 #'   reproducible with [set.seed()].
 #' @param progress Show progress (the simulator's runs and the sampling).
@@ -90,9 +117,12 @@
 #'   class `refined_library`, usable wherever a library is), with the settings
 #'   of `fit` (correlation grids, prior, update, iterations, chains), and an
 #'   element `refinement`: a list with `runs_added`, `rounds`, `reason` (why
-#'   it stopped: `"resolved"` or `"max_runs"`), `source` (`"simulator"` or
+#'   it stopped: `"resolved"` or `"max_runs"`; `"stopped"` in the `fit` of
+#'   an error when the simulator failed), `source` (`"simulator"` or
 #'   `"emulator"`), `history`, the per-parameter resolution table after
-#'   each round, and `emulation_error` (without a simulator; see Details). A fit that is already resolved is returned as it was.
+#'   each round, and `emulation_error` (without a simulator; see Details). A
+#'   fit that is already resolved (and, with a simulator, rests on simulated
+#'   runs) is returned as it was.
 #' @seealso [calibrate()], [summary.griddy_fit()], [posterior_exact()]
 #' @references Ritter, C. and Tanner, M. A. (1992). Facilitating the Gibbs
 #'   sampler: the Gibbs stopper and the griddy-Gibbs sampler. Journal of the
@@ -110,8 +140,8 @@
 #' refined$refinement$reason
 #' summary(refined)
 #' @export
-refine <- function(fit, simulator = NULL, max_runs = 1000, ..., runs_per_round = NULL,
-                   seed = NULL, progress = interactive()) {
+refine <- function(fit, simulator = NULL, max_runs = 4000, ..., runs_per_round = NULL,
+                   file = NULL, seed = NULL, progress = interactive()) {
   call <- match.call()
   check_refinable(fit)
   if (!is.null(simulator) && !is.function(simulator)) {
@@ -126,8 +156,17 @@ refine <- function(fit, simulator = NULL, max_runs = 1000, ..., runs_per_round =
   }
   seed <- assert_seed(seed)
   progress <- assert_flag(progress, "progress")
+  if (!is.null(file)) {
+    file <- assert_string(file, "file")
+    if (is.null(simulator)) {
+      griddy_abort("`file` keeps the runs a simulator makes, but `simulator` is NULL; give ",
+                   "the simulator, or leave `file` out.")
+    }
+    require_package("hdf5r", "to keep refine()'s runs in `file`")
+  }
+  store <- refine_store(file, fit$library)
   if (!is.null(simulator)) simulator <- simulator_caller(simulator, list(...))
-  with_seed(seed, refine_fit(fit, simulator, max_runs, runs_per_round, progress, call))
+  with_seed(seed, refine_fit(fit, simulator, max_runs, runs_per_round, progress, call, store))
 }
 
 check_refinable <- function(fit) {
@@ -146,12 +185,19 @@ default_runs_per_round <- function(theta) {
   100L * 2L^(max(p, 1L) - 1L)
 }
 
-# The rounds, then one calibration of the refined library with the fit's
-# settings.
-refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call) {
-  rounds <- refine_rounds(fit, simulator, max_runs, runs_per_round, progress,
-                          previous = unfinished_round(fit))
+# The runs in `store` that the fit lacks, the rounds, then one calibration of
+# the refined library with the fit's settings. A simulator that failed or
+# was interrupted stops the rounds; the fit of every run finished travels
+# with the error (stop_refinement()).
+refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call, store) {
+  resumed <- store_resume(store, fit)
+  # runs from the file are a round: judged against the fit they refine
+  previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
+  rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
+                          previous = previous, store = store)
+  rounds$runs_added <- rounds$runs_added + resumed$n
   if (rounds$runs_added == 0L) {
+    if (!is.null(rounds$failure)) stop_refinement(rounds$failure, fit, store)
     cli::cli_inform(c(i = "The posterior is already resolved: nothing to refine."),
                     class = "griddy_message_resolved")
     return(fit)
@@ -159,9 +205,30 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call)
   out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
   out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history",
                              "emulation_error")]
+  if (!is.null(rounds$failure)) stop_refinement(rounds$failure, out, store)
   if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
   warn_emulation(rounds$emulation_error)
   out
+}
+
+# The simulator failed or was interrupted: an error that carries the fit of
+# every run finished (`fit`) and says how to carry on. A griddy error of the
+# simulator's output (shape, non-finite values) keeps its class.
+stop_refinement <- function(failure, fit, store) {
+  interrupted <- inherits(failure, "interrupt")
+  kept <- if (is.null(fit$refinement)) 0L else fit$refinement$runs_added
+  where <- if (is.null(store)) "" else paste0(" and in ", store$file)
+  rlang::abort(
+    paste0(if (interrupted) "refine() was interrupted" else "The simulator failed",
+           " in a round of refine(). The ", kept, " run(s) it simulated before are kept in ",
+           "the error's `fit` (`e$fit`, or `rlang::last_error()$fit`)", where,
+           ": `refine(e$fit, simulator)`",
+           if (!is.null(store)) paste0(" (or `refine(fit, simulator, file = \"", store$file,
+                                       "\")` in a new session)"),
+           " carries on from there."),
+    class = c(if (interrupted) "griddy_error_interrupted" else "griddy_error_simulator",
+              grep("^griddy_error_", class(failure), value = TRUE), "griddy_error"),
+    fit = fit, parent = if (!interrupted) failure, call = NULL)
 }
 
 # Said plainly when the library cannot stand in for the simulator: see
@@ -189,311 +256,15 @@ warn_unresolved <- function(state, rounds) {
          ifelse(cut, "its interval reaches the edge of the refined region",
          ifelse(moved, "its interval still moved in the last round", NA)))
   bad <- !is.na(why)
+  if (rounds$source == "simulator" && predicted_mass(state) > predicted_tol) {
+    why <- c(why[bad], "the posterior still rests on predicted runs")
+    tab <- data.frame(parameter = c(tab$parameter[bad], "all"))
+    bad <- rep(TRUE, length(why))
+  }
   griddy_warn("refine() stopped after ", rounds$runs_added, " runs (`max_runs`) before the ",
               "posterior was resolved, so its intervals show the library's resolution and ",
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
               class = "resolution")
-}
-
-# A fit from a refine() that ran out of runs carries on where it stopped: its
-# last round is compared with the round before, as if the rounds had not
-# been interrupted.
-unfinished_round <- function(fit) {
-  r <- fit$refinement
-  if (is.null(r) || r$reason == "resolved") return(NULL)
-  r$history[[max(1L, length(r$history) - 1L)]]
-}
-
-# Add runs to a problem (a fit is one) round by round until its posterior is
-# resolved or `max_runs` are spent; with `simulator = NULL` the runs are
-# predicted from the library. Returns the refined problem, the runs added,
-# the number of rounds, why it stopped and the resolution table after each
-# round (the first is the problem's own).
-refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
-                          previous = NULL) {
-  state <- refine_state(problem)
-  history <- list(state$table)
-  source <- if (is.null(simulator)) "emulator" else "simulator"
-  emulator <- NULL
-  added <- 0L
-  reason <- "resolved"
-  while (!is_resolved(state$table, if (added > 0L) history[[length(history) - 1L]] else
-                      previous) ||
-         any(truncated_sides(state))) {
-    if (added >= max_runs) {
-      reason <- "max_runs"
-      break
-    }
-    n_new <- min(runs_per_round, max_runs - added)
-    box <- refine_box(state)
-    theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
-    if (is.null(simulator)) {
-      if (is.null(emulator) || !box_inside(box, emulator$refine_region)) {
-        emulator <- round_emulator(state, box)
-      }
-      batch <- emulated_batch(emulator, theta_new, state)
-    } else {
-      batch <- list(y = simulator(theta_new, lib_n_out(problem$library), progress),
-                    error = NULL, rel_var = NULL)
-    }
-    round <- list(box = box, n = n_new, source = source, error = batch$error)
-    state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
-                                         batch$rel_var))
-    if (is.null(simulator)) state <- restate_noise_var(state)
-    added <- added + n_new
-    history[[length(history) + 1L]] <- state$table
-  }
-  list(problem = state$problem, runs_added = added, rounds = length(history) - 1L,
-       reason = reason, source = source, history = history,
-       emulation_error = if (!is.null(emulator)) emulation_error_ratio(emulator, state))
-}
-
-# The exact posterior over runs of a problem and its resolution table.
-refine_state <- function(problem) {
-  post <- grid_posterior(problem)
-  p <- post$run
-  list(problem = problem, joint = post$joint, p = p,
-       table = resolution_table(p, lib_theta(problem$library)))
-}
-
-# Resolved: no parameter limited by the library, and (after a round) no
-# interval bound moved by more than `interval_tol` of the interval's width.
-interval_tol <- 0.2
-
-is_resolved <- function(table, previous) {
-  # a parameter the library holds constant is not calibrated, nor refined
-  if (any(table$limited & table$library_values > 1L)) return(FALSE)
-  if (is.null(previous)) return(TRUE)
-  width <- pmax(table$upper - table$lower, previous$upper - previous$lower)
-  moved <- pmax(abs(table$lower - previous$lower), abs(table$upper - previous$upper))
-  all(moved <= interval_tol * width)
-}
-
-# ---- where the new runs go -------------------------------------------------------
-
-# The box of the marginal posteriors' central 99%, widened on each side by
-# the local spacing around the most probable run or a quarter of its width,
-# whichever is larger, inside the base library's range. (Central quantiles,
-# not the runs holding 99.9% of the mass: with few data the posterior's
-# tails are long, and a box around all of them spreads each round's runs
-# over the whole range. The tails keep the runs of earlier rounds.) A box only as wide
-# as the posterior's runs would cut off what the last round's runs could not
-# reach, and keep cutting it off; widening by a share of the width lets a
-# truncated posterior grow its box by half each round until it is whole.
-box_margin <- 0.25
-
-refine_box <- function(state) {
-  library <- state$problem$library
-  theta <- as.matrix(lib_theta(library))
-  range0 <- library_box(if (inherits(library, "refined_library")) library$base else library)
-  bounds <- apply(theta, 2, weighted_quantile, w = state$p, probs = c(0.005, 0.995))
-  lower <- bounds[1, ]
-  upper <- bounds[2, ]
-  margin <- pmax(local_spacing(theta, which.max(state$p), range0), box_margin * (upper - lower))
-  # a posterior cut off by the last round's box reaches for a whole box
-  # width beyond it, so a box that missed the truth finds it in a few rounds
-  cut <- truncated_sides(state)
-  if (any(cut)) {
-    last <- last_box(library)
-    width <- last[2, ] - last[1, ]
-    lower[cut[1, ]] <- pmin(lower, last[1, ] - width)[cut[1, ]]
-    upper[cut[2, ]] <- pmax(upper, last[2, ] + width)[cut[2, ]]
-  }
-  rbind(pmax(lower - margin, range0[1, ]), pmin(upper + margin, range0[2, ]))
-}
-
-# Sides (rows lower, upper; one column per parameter) on which the
-# posterior's 95% interval reaches the outer tenth of the last round's box
-# while the box stops short of the library's range: there the dense runs
-# end, and the posterior is cut off by them rather than by the data.
-truncated_sides <- function(state) {
-  library <- state$problem$library
-  p <- ncol(lib_theta(library))
-  last <- last_box(library)
-  if (is.null(last)) return(matrix(FALSE, 2, p))
-  range0 <- library_box(library$base)
-  band <- edge_band * (last[2, ] - last[1, ])
-  tab <- state$table
-  rbind(tab$lower <= last[1, ] + band & last[1, ] > range0[1, ] & band > 0,
-        tab$upper >= last[2, ] - band & last[2, ] < range0[2, ] & band > 0)
-}
-
-edge_band <- 0.1
-
-last_box <- function(library) {
-  if (!inherits(library, "refined_library") || length(library$rounds) == 0L) return(NULL)
-  library$rounds[[length(library$rounds)]]$box
-}
-
-# The library's spacing around run `centre`, per parameter: the spread of
-# the 2p runs nearest it (distances on columns scaled by the library's
-# range), the typical gap of a scattered design; and at least the gap to the
-# next distinct value of the column on either side, one step of a grid even
-# when the nearest runs all lie along other axes.
-local_spacing <- function(theta, centre, range0) {
-  width <- range0[2, ] - range0[1, ]
-  varies <- width > 0
-  scaled <- sweep(theta[, varies, drop = FALSE], 2, width[varies], "/")
-  d2 <- colSums((t(scaled) - scaled[centre, ])^2)
-  near <- order(d2)[seq_len(min(2L * sum(varies) + 1L, nrow(theta)))]
-  spacing <- numeric(ncol(theta))
-  spacing[varies] <- apply(abs(sweep(theta[near, varies, drop = FALSE], 2,
-                                     theta[centre, varies], "-")), 2, max)
-  for (j in which(varies)) {
-    gaps <- abs(unique(theta[, j]) - theta[centre, j])
-    spacing[j] <- max(spacing[j], min(gaps[gaps > 1e-9 * width[j]]))
-  }
-  spacing
-}
-
-box_inside <- function(box, region) {
-  all(box[1, ] >= region[1, ]) && all(box[2, ] <= region[2, ])
-}
-
-# n runs in `box` by a Latin hypercube (one run in each of n equal slices of
-# every parameter, at a uniform place in its slice), from R's random stream.
-latin_hypercube <- function(n, box, names) {
-  u <- vapply(seq_len(ncol(box)), function(j) (sample.int(n) - stats::runif(n)) / n,
-              numeric(n))
-  u <- matrix(u, n, ncol(box))
-  theta <- sweep(sweep(u, 2, box[2, ] - box[1, ], "*"), 2, box[1, ], "+")
-  stats::setNames(as.data.frame(theta), names)
-}
-
-# ---- new runs into the problem -------------------------------------------------
-
-# The problem with runs added: their quadratic forms appended to C, every
-# run's prior weight recomputed for the new design.
-extend_problem <- function(problem, theta_new, y_new, round, rel_var) {
-  library <- add_runs(problem$library, theta_new, y_new, round, rel_var)
-  n_added <- nrow(library$added$y)
-  which <- seq(n_added - nrow(theta_new) + 1L, n_added)
-  C_new <- fold_extra_logdet(added_quad_forms(library, which, problem$y_field, problem$setup),
-                             problem$prior, problem$n_obs)
-  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
-                     problem$setup, C = rbind(problem$C, C_new))
-}
-
-# ---- runs from the simulator -------------------------------------------------------
-
-# A function(theta, n_out, progress) that runs the user's simulator over the
-# rows of theta in chunks, on the future plan's workers when there are any,
-# and checks what comes back.
-#
-# Each chunk runs with its own seed, that of its first row among seeds drawn
-# for every row from R's stream, so the stream moves on by the same amount
-# under any plan, and a deterministic simulator gives the same library under
-# any plan (a stochastic one, under plans with the same number of workers).
-simulator_caller <- function(simulator, dots) {
-  force(simulator)
-  function(theta, n_out, progress) {
-    chunks <- simulator_chunks(nrow(theta))
-    seeds <- sample.int(.Machine$integer.max, nrow(theta))
-    bar <- if (progress) cli::cli_progress_bar("Simulating", total = nrow(theta),
-                                               .envir = environment())
-    call_chunk <- function(rows) {
-      with_seed(seeds[rows[1]], do.call(simulator, c(list(theta[rows, , drop = FALSE]), dots)))
-    }
-    map <- simulator_map()
-    out <- vector("list", length(chunks))
-    for (wave in split(seq_along(chunks), (seq_along(chunks) - 1L) %/% map$per_wave)) {
-      out[wave] <- map$apply(chunks[wave], call_chunk)
-      if (progress) cli::cli_progress_update(inc = sum(lengths(chunks[wave])), id = bar)
-    }
-    do.call(rbind, Map(check_simulated, out, chunks, MoreArgs = list(theta = theta,
-                                                                     n_out = n_out)))
-  }
-}
-
-# Chunks of rows: about four per worker, and at least ten for the progress
-# bar, so a slow run holds up little.
-simulator_chunks <- function(n) {
-  workers <- if (parallel_plan()) future::nbrOfWorkers() else 1L
-  k <- min(n, max(10L, 4L * workers))
-  unname(split(seq_len(n), cut(seq_len(n), k, labels = FALSE)))
-}
-
-simulator_map <- function() {
-  if (parallel_plan()) {
-    list(per_wave = future::nbrOfWorkers(),
-         apply = function(x, f) {
-           future.apply::future_lapply(x, f, future.seed = NULL, future.packages = "griddy")
-         })
-  } else {
-    list(per_wave = 1L, apply = function(x, f) lapply(x, f))
-  }
-}
-
-check_simulated <- function(y, rows, theta, n_out) {
-  if (is.numeric(y) && is.null(dim(y)) && length(rows) == 1L) y <- matrix(y, 1L)
-  if (!is.matrix(y) || !is.numeric(y) || nrow(y) != length(rows) || ncol(y) != n_out) {
-    griddy_abort("`simulator` must return a numeric matrix with one row per theta row and ",
-                 n_out, " columns (the library's outputs); for rows ",
-                 show_some(rows), " it returned ",
-                 if (is.matrix(y)) paste0("a ", nrow(y), " x ", ncol(y), " ", typeof(y),
-                                          " matrix") else class(y)[1], ".", class = "shape")
-  }
-  if (!all(is.finite(y))) {
-    bad <- rows[!apply(is.finite(y), 1, all)]
-    griddy_abort("`simulator` returned non-finite outputs for theta ",
-                 paste0(names(theta), " = ", format(unlist(theta[bad[1], ]), digits = 4),
-                        collapse = ", "), " (", length(bad), " run(s)).", class = "numeric")
-  }
-  storage.mode(y) <- "double"
-  y
-}
-
-# ---- runs from the library itself -------------------------------------------------------
-
-# The emulator of a round: built from the library's simulated runs over a
-# region that leaves room for the boxes of later rounds (half the box's
-# width on each side, inside the library's range).
-round_emulator <- function(state, box) {
-  library <- state$problem$library
-  # an emulated library predicts with its own emulator of the design runs,
-  # not one of its predicted runs
-  base <- if (inherits(library, "refined_library")) library$base else library
-  if (inherits(base, "emulated_library")) return(emulated_round_emulator(base))
-  source <- simulated_runs(library)
-  range0 <- library_box(source)
-  pad <- (box[2, ] - box[1, ]) / 2
-  region <- rbind(pmax(box[1, ] - pad, range0[1, ]), pmin(box[2, ] + pad, range0[2, ]))
-  emulator <- library_emulator(source, region = as.data.frame(region))
-  loo <- emulator_loo(emulator)
-  if (!all(is.finite(loo$residuals))) {
-    # a Gaussian process too near singular to predict its own runs: the
-    # local fit does
-    emulator <- library_emulator(source, region = as.data.frame(region), method = "local")
-    loo <- emulator_loo(emulator)
-  }
-  emulator$refine_region <- region
-  emulator$loo <- loo$residuals
-  emulator$loo_theta <- as.matrix(lib_theta(source)[loo$rows, , drop = FALSE])
-  emulator
-}
-
-# The runs of a library that were simulated (not predicted): the library
-# itself, the base of a refined library, or those with the runs a simulator
-# added.
-simulated_runs <- function(library) {
-  if (!inherits(library, "refined_library")) return(library)
-  simulated <- which(library$added$rel_var == 0 & vapply(
-    library$added$round, function(r) is.null(library$rounds[[r]]$error), logical(1)))
-  if (length(simulated) == 0L) return(library$base)
-  rows <- c(seq_len(lib_n_runs(library$base)), lib_n_runs(library$base) + simulated)
-  sim_library(lib_theta(library)[rows, , drop = FALSE], lib_outputs(library, rows),
-              x = lib_x(library), t = lib_t(library))
-}
-
-# Predicted outputs, their relative variances and the round's error model
-# (on the scale of the round's posterior mean noise variance).
-emulated_batch <- function(emulator, theta_new, state) {
-  if (identical(emulator$method, "emulated_library")) {
-    return(emulated_library_batch(emulator$library, theta_new, posterior_noise_var(state)))
-  }
-  pred <- emulator_predict(emulator, theta_new)
-  list(y = pred$outputs, rel_var = pred$rel_var,
-       error = emulation_error_model(emulator$loo, posterior_noise_var(state)))
 }

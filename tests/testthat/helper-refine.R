@@ -23,3 +23,25 @@ refine_toy_reference <- function(toy) {
   cdf <- cumsum(p)
   dense$k[c(which(cdf >= 0.025)[1], which(cdf >= 0.975)[1])]
 }
+
+# refine_sim() that records every theta it is given (in `seen`) and, at its
+# `fail_at`-th call, stops with `fail` (a function signalling a condition).
+refine_sim_failing <- function(fail_at = Inf, fail = function() stop("the solver diverged")) {
+  env <- new.env()
+  env$calls <- 0L
+  env$seen <- NULL
+  env$sim <- function(theta) {
+    env$calls <- env$calls + 1L
+    if (env$calls == fail_at) fail()
+    env$seen <- rbind(env$seen, theta)
+    refine_sim(theta)
+  }
+  env
+}
+
+# A stand-in for the user's interrupt (Ctrl-C): the condition R signals.
+signal_interrupt <- function() {
+  signalCondition(structure(class = c("interrupt", "condition"),
+                            list(message = "", call = NULL)))
+  stop("an interrupt is not caught")
+}

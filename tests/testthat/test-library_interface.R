@@ -80,3 +80,50 @@ test_that("lib_outputs() rejects rows outside the library", {
   expect_error(lib_outputs(toy$library, c(0, 11)), "whole numbers in 1..10; received 0, 11",
                class = "griddy_error_shape")
 })
+
+test_that("a plain library tells refine() it has no rounds, no predicted runs, no error models", {
+  toy <- refine_toy()
+  lib <- toy$lib
+  expect_identical(lib_base(lib), lib)
+  expect_identical(lib_rounds(lib), list())
+  expect_identical(lib_predicted(lib), logical(lib_n_runs(lib)))
+  expect_identical(lib_simulated(lib), lib)
+  expect_identical(lib_noise_var(lib), numeric())
+  expect_null(lib_prediction_errors(lib))
+  expect_identical(lib_with_noise_var(lib, 0.1, 1), lib)
+  setup <- toy$fit$setup
+  y <- toy$fit$y_field
+  expect_equal(lib_run_quad_forms(lib, 2:3, y, setup), lib_quad_forms(lib, y, setup)[2:3, , drop = FALSE])
+})
+
+test_that("a refined library's interface: rounds, predicted runs, replacements, noise scale", {
+  toy <- refine_toy()
+  ref <- suppressWarnings(refine(toy$fit, max_runs = 100, runs_per_round = 50, seed = 1))
+  lib <- ref$library
+  setup <- ref$setup
+  y <- ref$y_field
+  expect_identical(lib_base(lib), toy$lib)
+  expect_length(lib_rounds(lib), 2L)
+  expect_identical(lib_predicted(lib), rep(c(FALSE, TRUE), c(7L, 100L)))
+  expect_equal(lib_theta(lib_simulated(lib)), lib_theta(toy$lib), ignore_attr = TRUE)
+  expect_length(lib_noise_var(lib), 2L)
+  half <- lib_with_noise_var(lib, lib_noise_var(lib)[1] / 2, y)
+  expect_equal(lib_noise_var(half), rep(lib_noise_var(lib)[1] / 2, 2))
+  expect_equal(lib_prediction_errors(lib)$round, rep(1:2, each = 50))
+  # forms of some rows agree with those of the whole library
+  all_C <- lib_quad_forms(lib, y, setup)
+  rows <- c(3L, 20L, 90L)
+  some <- lib_run_quad_forms(lib, rows, y, setup)
+  expect_equal(unclass(some)[, , drop = FALSE], all_C[rows, , drop = FALSE], ignore_attr = TRUE)
+  expect_equal(attr(some, "extra_logdet"), attr(all_C, "extra_logdet")[rows, , drop = FALSE])
+  # a replaced run is simulated: its outputs, plain forms, no longer predicted
+  sim_y <- refine_sim(lib_theta(lib)[20, , drop = FALSE])
+  rep_lib <- replace_runs(lib, 20L, sim_y)
+  expect_equal(lib_outputs(rep_lib, 20L), sim_y, ignore_attr = TRUE)
+  expect_false(lib_predicted(rep_lib)[20])
+  expect_equal(lib_run_quad_forms(rep_lib, 20L, y, setup)[1, ],
+               plain_quad_forms(sim_y, y, setup)[1, ], ignore_attr = TRUE)
+  expect_equal(lib_log_prior(rep_lib), lib_log_prior(lib))
+  expect_equal(run_group_forms(list(library = rep_lib, y_field = y, setup = setup), 20L, 1L),
+               group_quad_forms(sim_y, y, setup, 1L), ignore_attr = TRUE)
+})

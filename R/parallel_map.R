@@ -1,0 +1,35 @@
+# One parallel map under one policy. griddy goes parallel only when the user
+# has chosen a future plan with more than one worker (future loaded, so a
+# plan can have been set; future.apply installed to map over it); otherwise
+# it maps in this process. Asking for workers never loads future: loading it
+# costs more than most maps.
+
+# The number of workers of the user's plan, 1 when griddy maps sequentially.
+griddy_workers <- function() {
+  if (!isNamespaceLoaded("future") || !requireNamespace("future.apply", quietly = TRUE)) {
+    return(1L)
+  }
+  max(1L, as.integer(future::nbrOfWorkers()))
+}
+
+# lapply(X, FUN, ...) on the plan's workers when griddy_workers() > 1, else
+# in this process. With `seeds` (one integer per element of X), element i
+# runs with set.seed(seeds[i]) (R's stream restored after), so a stochastic
+# FUN gives the same results under any plan; without, FUN must not draw
+# random numbers. Workers need griddy installed.
+griddy_map <- function(X, FUN, ..., seeds = NULL) {
+  if (!is.null(seeds)) {
+    stopifnot(length(seeds) == length(X))
+    fun <- FUN
+    FUN <- function(x, seed, ...) with_seed(seed, fun(x, ...))
+    X <- Map(list, X, seeds)
+    call <- function(pair, ...) FUN(pair[[1]], pair[[2]], ...)
+  } else {
+    call <- FUN
+  }
+  if (griddy_workers() > 1L) {
+    future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy")
+  } else {
+    lapply(X, call, ...)
+  }
+}

@@ -1,0 +1,152 @@
+# refine()'s rounds: the state of a refinement (the exact posterior over runs
+# and its resolution table), the test of resolution, and the loop that adds
+# runs (or replaces predicted ones) until the posterior is resolved.
+
+# A fit from a refine() that ran out of runs or was stopped carries on where
+# it stopped: its last round is compared with the round before, as if the
+# rounds had not been interrupted.
+unfinished_round <- function(fit) {
+  r <- fit$refinement
+  if (is.null(r) || r$reason == "resolved") return(NULL)
+  r$history[[max(1L, length(r$history) - 1L)]]
+}
+
+# Add runs to a problem (a fit is one) round by round until its posterior is
+# resolved or `max_runs` are spent; with `simulator = NULL` the runs are
+# predicted from the library. With a simulator, predicted runs near the
+# posterior are first simulated (see runs_to_replace()). Every finished run
+# is kept: when the simulator fails or is interrupted the rounds stop there
+# with reason "stopped" and the condition as `failure`, and the problem holds
+# the runs simulated until then (also written to `store`, see
+# refine_store()). Returns the refined problem, the runs added, the number
+# of rounds, why it stopped and the resolution table after each round (the
+# first is the problem's own).
+refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
+                          previous = NULL, store = NULL) {
+  state <- refine_state(problem)
+  history <- list(state$table)
+  source <- if (is.null(simulator)) "emulator" else "simulator"
+  emulator <- NULL
+  added <- 0L
+  reason <- "resolved"
+  failure <- NULL
+  while (needs_round(state, if (added > 0L) history[[length(history) - 1L]] else previous,
+                     !is.null(simulator))) {
+    if (added >= max_runs) {
+      reason <- "max_runs"
+      break
+    }
+    n_new <- min(runs_per_round, max_runs - added)
+    if (is.null(simulator)) {
+      box <- refine_box(state)
+      theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
+      if (is.null(emulator) || !box_inside(box, emulator$refine_region)) {
+        emulator <- round_emulator(state, box)
+      }
+      batch <- emulated_batch(emulator, theta_new, state)
+      round <- list(box = box, n = n_new, source = source, error = batch$error)
+      state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
+                                           batch$rel_var))
+      state <- restate_noise_var(state)
+      n_done <- n_new
+    } else {
+      step <- simulated_round(state, simulator, n_new, progress, store)
+      state <- step$state
+      n_done <- step$n
+      failure <- step$failure
+    }
+    added <- added + n_done
+    if (n_done > 0L) history[[length(history) + 1L]] <- state$table
+    if (!is.null(failure)) {
+      reason <- "stopped"
+      break
+    }
+  }
+  list(problem = state$problem, runs_added = added, rounds = length(history) - 1L,
+       reason = reason, source = source, history = history, failure = failure,
+       emulation_error = if (!is.null(emulator)) emulation_error_ratio(emulator, state))
+}
+
+# Another round is needed while the posterior is not resolved (against the
+# table of the round before, `previous`), is cut off by the last round's box,
+# or, with a simulator, rests on predicted runs.
+needs_round <- function(state, previous, simulating) {
+  !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
+    (simulating && predicted_mass(state) > predicted_tol)
+}
+
+# One round with the simulator: predicted runs near the posterior simulated
+# at their theta, or else a Latin hypercube of new runs in the round's box.
+# Returns list(state, n = the runs simulated, failure), the state with every
+# run that finished.
+simulated_round <- function(state, simulator, n, progress, store) {
+  problem <- state$problem
+  library <- problem$library
+  n_out <- lib_n_out(library)
+  if (predicted_mass(state) > predicted_tol) {
+    rows <- runs_to_replace(state, n)
+    store_round(store, "replace", NULL)
+    sim <- simulate_runs(simulator, lib_theta(library)[rows, , drop = FALSE], n_out, progress,
+                         keep = store_keeper(store))
+    if (length(sim$rows) > 0L) problem <- replace_in_problem(problem, rows[sim$rows], sim$y)
+  } else {
+    box <- refine_box(state)
+    theta_new <- latin_hypercube(n, box, names(lib_theta(library)))
+    store_round(store, "add", box)
+    sim <- simulate_runs(simulator, theta_new, n_out, progress, keep = store_keeper(store))
+    if (length(sim$rows) > 0L) {
+      round <- list(box = box, n = length(sim$rows), source = "simulator", error = NULL)
+      problem <- extend_problem(problem, theta_new[sim$rows, , drop = FALSE], sim$y, round,
+                                NULL)
+    }
+  }
+  list(state = if (length(sim$rows) > 0L) refine_state(problem) else state,
+       n = length(sim$rows), failure = sim$failure)
+}
+
+# The exact posterior over runs of a problem and its resolution table.
+refine_state <- function(problem) {
+  post <- grid_posterior(problem)
+  p <- post$run
+  list(problem = problem, joint = post$joint, p = p,
+       table = resolution_table(p, lib_theta(problem$library)))
+}
+
+# Resolved: no parameter limited by the library, and (after a round) no
+# interval bound moved by more than `interval_tol` of the interval's width.
+interval_tol <- 0.2
+
+is_resolved <- function(table, previous) {
+  # a parameter the library holds constant is not calibrated, nor refined
+  if (any(table$limited & table$library_values > 1L)) return(FALSE)
+  if (is.null(previous)) return(TRUE)
+  width <- pmax(table$upper - table$lower, previous$upper - previous$lower)
+  moved <- pmax(abs(table$lower - previous$lower), abs(table$upper - previous$upper))
+  all(moved <= interval_tol * width)
+}
+
+# ---- new runs into the problem -------------------------------------------------
+
+# The problem with runs added (a round of a refined library): their quadratic
+# forms appended to C, every run's prior weight recomputed for the new design.
+extend_problem <- function(problem, theta_new, y_new, round, rel_var) {
+  library <- add_runs(problem$library, theta_new, y_new, round, rel_var)
+  rows <- lib_n_runs(problem$library) + seq_len(nrow(theta_new))
+  C_new <- fold_extra_logdet(lib_run_quad_forms(library, rows, problem$y_field, problem$setup),
+                             problem$prior, problem$n_obs)
+  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
+                     problem$setup, C = rbind(problem$C, C_new))
+}
+
+# The problem with predicted runs `rows` replaced by simulated outputs `y` at
+# the same theta: their rows of C recomputed; the design, so the prior
+# weights, unchanged.
+replace_in_problem <- function(problem, rows, y) {
+  library <- replace_runs(problem$library, rows, y)
+  C <- problem$C
+  C[rows, ] <- fold_extra_logdet(lib_run_quad_forms(library, rows, problem$y_field,
+                                                    problem$setup),
+                                 problem$prior, problem$n_obs)
+  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
+                     problem$setup, C = C)
+}

@@ -1,0 +1,55 @@
+test_that("refine(file =) keeps every finished run on disk and resumes from it in a new session", {
+  skip_if_not_installed("hdf5r")
+  toy <- refine_toy()
+  file <- withr::local_tempfile(fileext = ".h5")
+  withr::defer(unlink(paste0(file, ".rounds.csv")))
+  s <- refine_sim_failing(fail_at = 14L)
+  e <- tryCatch(refine(toy$fit, s$sim, max_runs = 400, runs_per_round = 20, file = file,
+                       seed = 1), error = function(e) e)
+  expect_s3_class(e, "griddy_error_simulator")
+  expect_match(conditionMessage(e), file, fixed = TRUE)
+  on_disk <- hdf5_library(file)
+  expect_equal(lib_theta(on_disk)$k, s$seen$k)
+  expect_equal(lib_outputs(on_disk), refine_sim(lib_theta(on_disk)))
+  # a new session has only the fit it started from: the file's runs are taken,
+  # not simulated again
+  s2 <- refine_sim_failing()
+  ref <- refine(toy$fit, s2$sim, max_runs = 400, runs_per_round = 20, file = file, seed = 2)
+  expect_false(any(s2$seen$k %in% s$seen$k))
+  expect_true(all(s$seen$k %in% lib_theta(ref$library)$k))
+  # the prior weights see the file's rounds as they were
+  expect_equal(sapply(lib_rounds(ref$library), `[[`, "n")[1:2], c(20, 6))
+  expect_equal(lib_rounds(ref$library)[[1]]$box, lib_rounds(e$fit$library)[[1]]$box,
+               ignore_attr = TRUE)
+  # and the file holds every run of the refinement
+  expect_setequal(lib_theta(hdf5_library(file))$k, lib_theta(ref$library)$k[-(1:7)])
+  expect_equal(ref$refinement$reason, "resolved")
+})
+
+test_that("after an interrupt, refine(e$fit, file =) takes nothing twice", {
+  skip_if_not_installed("hdf5r")
+  toy <- refine_toy()
+  file <- withr::local_tempfile(fileext = ".h5")
+  withr::defer(unlink(paste0(file, ".rounds.csv")))
+  s <- refine_sim_failing(fail_at = 13L, fail = signal_interrupt)
+  e <- tryCatch(refine(toy$fit, s$sim, max_runs = 400, runs_per_round = 20, file = file,
+                       seed = 1), error = function(e) e)
+  expect_s3_class(e, "griddy_error_interrupted")
+  expect_equal(lib_n_runs(hdf5_library(file)), 24L)
+  s2 <- refine_sim_failing()
+  ref <- refine(e$fit, s2$sim, max_runs = 400, runs_per_round = 20, file = file, seed = 2)
+  k <- lib_theta(ref$library)$k
+  expect_false(anyDuplicated(k) > 0)
+  expect_false(any(s2$seen$k %in% s$seen$k))
+})
+
+test_that("refine(file =) refuses a file without a simulator and a file of other runs", {
+  skip_if_not_installed("hdf5r")
+  toy <- refine_toy()
+  file <- withr::local_tempfile(fileext = ".h5")
+  expect_error(refine(toy$fit, file = file), class = "griddy_error_input")
+  other <- sim_library(data.frame(a = 1:3 + 0), matrix(stats::rnorm(120), 3), t = toy$lib$t)
+  write_library(other, file)
+  expect_error(refine(toy$fit, refine_sim, file = file, max_runs = 20),
+               class = "griddy_error_library")
+})
