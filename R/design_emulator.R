@@ -104,18 +104,13 @@ gp_scale <- function(gp, inputs) {
 # Predictions at the rows of theta (a matrix in the design's columns) at
 # every wanted setting: list(mean = n x (n_x n_t), the library's layout; var
 # = n x n_x, the predictive variance relative to an output's GP variance,
-# shared by the outputs). Chunks of rows go to the future plan's workers when
-# one is set.
+# shared by the outputs). Chunks of rows go to the future plan's workers
+# (griddy_map()).
 design_gp_predict <- function(gp, theta, chunk = 10000L) {
   chunks <- split(seq_len(nrow(theta)), (seq_len(nrow(theta)) - 1L) %/% chunk)
   one <- function(rows, gp, theta) design_gp_predict_chunk(gp, theta[rows, , drop = FALSE])
   environment(one) <- asNamespace("griddy")
-  out <- if (length(chunks) > 1L && parallel_plan()) {
-    future.apply::future_lapply(chunks, one, gp = gp, theta = theta, future.seed = NULL,
-                                future.packages = c("griddy", "RobustGaSP"))
-  } else {
-    lapply(chunks, one, gp = gp, theta = theta)
-  }
+  out <- griddy_map(chunks, one, gp = gp, theta = theta)
   list(mean = do.call(rbind, lapply(out, `[[`, "mean")),
        var = do.call(rbind, lapply(out, `[[`, "var")))
 }
