@@ -127,3 +127,12 @@ brute_replicates <- function(toy, prior, groups = rep(1, 15)) {
     }, numeric(1)))
   }, numeric(1)) - log(nrow(toy$Y))
 }
+
+# Snapshot transform for printed objects that name temporary files or times:
+# the session's temporary directory and elapsed seconds vary between runs.
+scrub_print <- function(lines) {
+  lines <- gsub(normalizePath(tempdir(), mustWork = FALSE), "<tempdir>", lines, fixed = TRUE)
+  lines <- gsub(tempdir(), "<tempdir>", lines, fixed = TRUE)
+  lines <- gsub("<tempdir>/[^ ]+", "<tempdir>/<file>", lines)
+  gsub("[0-9]+(\\.[0-9]+)? s\\b", "<t> s", lines)
+}

@@ -222,3 +222,10 @@ test_that("an .rds directory of 1 run is a classed error (issue 22)", {
   expect_error(disk_library(dir, trust = TRUE), "holds 1 run",
                class = "griddy_error_library_size")
 })
+
+test_that("print.disk_library() shows the runs and the chunks", {
+  toy <- toy_xt(n_per_dim = 4)
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(toy$library, dir, chunk_size = 10)
+  expect_snapshot(print(disk_library(dir, trust = TRUE)), transform = scrub_print)
+})

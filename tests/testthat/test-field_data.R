@@ -216,3 +216,9 @@ test_that("a long table's column spelled like `sd` is not read as an x setting (
   expect_error(field_data(long), "`SD`, which would be read as x settings",
                class = "griddy_error_input")
 })
+
+test_that("print.griddy_field() shows the measurements, their layout and range", {
+  expect_snapshot(print(toy_xt(n_per_dim = 4)$field))
+  expect_snapshot(print(toy_missing()$field))
+  expect_snapshot(print(toy_replicates()$field))
+})

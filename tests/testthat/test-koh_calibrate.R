@@ -180,3 +180,15 @@ test_that("the sampler's NaN warnings become one classed warning; others pass", 
   expect_identical(out, 7)
   expect_warning(koh_numerics(warning("something else")), "something else")
 })
+
+test_that("print.griddy_koh() and its summary's print are stable", {
+  set.seed(1)
+  draws <- data.frame(iteration = 1:400, h = stats::rnorm(400, 1510, 30),
+                      k = stats::runif(400, 0.4, 0.6), sigma2 = stats::rexp(400))
+  koh <- structure(list(draws = draws, parameters = c("h", "k"), discrepancy = "GaSP",
+                        n_runs = 40L, control = list(n_iter = 1000L),
+                        acceptance = c(theta = 0.31, kernel = 0.52),
+                        runtime = c(tuning = 0.4, sampling = 1.5)), class = "griddy_koh")
+  expect_snapshot(print(summary(koh), width = 80))
+  expect_snapshot(print(koh), transform = scrub_print)
+})

@@ -143,3 +143,8 @@ test_that("emulated_library() checks its arguments", {
   expect_error(emulated_library(d$theta[1:4, ], d$y[1:4, ], x = data.frame(x = d$x[1:4])),
                "at least 6 design runs")
 })
+
+test_that("print.emulated_library() shows the design, the emulator and the error", {
+  skip_if_not_installed("RobustGaSP")
+  expect_snapshot(print(emulated_toy_library(n_runs = 300)))
+})

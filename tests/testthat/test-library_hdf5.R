@@ -302,3 +302,12 @@ test_that("an HDF5 library of 0 runs is a classed error (issue 22)", {
   expect_error(suppressWarnings(hdf5_library(own)), "committed runs\\) holds 0 runs",
                class = "griddy_error_library_size")
 })
+
+test_that("print.hdf5_library() shows the runs, the dataset and the chunks", {
+  toy <- toy_xt(n_per_dim = 4)
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_user_h5(toy$library, file)
+  h5 <- hdf5_library(file, theta = "params", outputs = "sim/out", x = toy$library$x,
+                     t = "sim/time", chunk_size = 7)
+  expect_snapshot(print(h5), transform = scrub_print)
+})

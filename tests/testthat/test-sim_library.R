@@ -58,3 +58,8 @@ test_that("a library of 0 or 1 runs is a classed error saying how many (issue 22
   expect_error(sim_library(data.frame(k = 1), matrix(1:3, 1)), "holds 1 run",
                class = "griddy_error_library_size")
 })
+
+test_that("print.sim_library() shows runs, parameters, settings and outputs", {
+  expect_snapshot(print(toy_xt(n_per_dim = 4)$library))
+  expect_snapshot(print(toy_ar1(n_runs = 30, n_t = 5)$library))
+})
