@@ -1,0 +1,34 @@
+test_that("griddy_control() holds validated whole numbers and a flag", {
+  control <- griddy_control(n_iter = 400, burn_in = 100, thin = 3, chains = 2,
+                            max_runs = 50, runs_per_round = 10, progress = FALSE)
+  expect_s3_class(control, "griddy_control")
+  expect_identical(control$n_iter, 400L)
+  expect_identical(control$burn_in, 100L)
+  expect_identical(control$thin, 3L)
+  expect_identical(control$chains, 2L)
+  expect_identical(control$max_runs, 50L)
+  expect_identical(control$runs_per_round, 10L)
+  expect_false(control$progress)
+  expect_null(griddy_control()$runs_per_round)
+})
+
+test_that("griddy_control() refuses settings that keep no draw, with classed errors", {
+  expect_error(griddy_control(n_iter = 100, burn_in = 100), "smaller than `n_iter`",
+               class = "griddy_error_input")
+  expect_error(griddy_control(n_iter = 100, burn_in = 50, thin = 60), "keeps no draw",
+               class = "griddy_error_input")
+  expect_error(griddy_control(max_runs = 0), "max_runs", class = "griddy_error_input")
+  expect_error(griddy_control(progress = NA), "progress", class = "griddy_error_input")
+  expect_error(griddy_control(chains = 1.5), "chains", class = "griddy_error_input")
+})
+
+test_that("assert_control() names what it received", {
+  expect_error(assert_control(list(n_iter = 10)), "griddy_control\\(\\); received list",
+               class = "griddy_error_input")
+})
+
+test_that("print.griddy_control() shows every setting", {
+  expect_snapshot(print(griddy_control(n_iter = 4000, burn_in = 1000, chains = 2,
+                                       progress = FALSE)))
+  expect_snapshot(print(griddy_control(runs_per_round = 25, progress = FALSE)))
+})
