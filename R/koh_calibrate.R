@@ -52,6 +52,8 @@
 #'   silent by default outside interactive sessions.
 #' @param quiet Deprecated: use `progress = !quiet`. Still honoured, with a
 #'   warning of class `griddy_warning_deprecated`.
+#' @param control Settings shared by the calibrating functions, from
+#'   [griddy_control()]; an argument given in the call overrides its field.
 #'
 #' @section Library size: The emulator estimates a range parameter per
 #'   parameter besides its mean and variance, so a library of `p` parameters
@@ -90,9 +92,12 @@
 #' summary(koh)
 #' @export
 koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "none"),
-                          n_iter = 35000, burn_in = 15000, proposal_sd = NULL,
+                          n_iter = control$n_iter, burn_in = control$burn_in,
+                          proposal_sd = NULL,
                           tune_rounds = 3, tune_iter = 1000, kernel = "matern_5_2",
-                          seed = NULL, progress = interactive(), quiet) {
+                          seed = NULL, progress = control$progress, quiet,
+                          control = griddy_control()) {
+  control <- assert_control(control)
   for (pkg in c("RobustCalibration", "RobustGaSP")) {
     if (!requireNamespace(pkg, quietly = TRUE)) {
       griddy_abort("koh_calibrate() needs the package '", pkg,

@@ -99,7 +99,7 @@
 #' @param simulator `NULL`, or a function of a data.frame of \eqn{\theta}
 #'   rows (and `...`) that returns their outputs: see Details.
 #' @param max_runs The most runs to add (or, with a simulator, to simulate in
-#'   place of predicted ones), over all rounds. The default, 4000,
+#'   place of predicted ones), over all rounds. The default (`control`'s), 4000,
 #'   resolved each of twelve 2- and 3-parameter trials in
 #'   `bench/refine-max-runs.R` (2 parameters took 400 to 800 runs, 3
 #'   parameters 1600 to 2800).
@@ -113,6 +113,8 @@
 #' @param seed `NULL`, or a seed for this call only; either way the result is
 #'   reproducible with [set.seed()].
 #' @param progress Show progress (the simulator's runs and the sampling).
+#' @param control Settings shared by the calibrating functions, from
+#'   [griddy_control()]; an argument given in the call overrides its field.
 #' @return A `griddy_fit` calibrated on the refined library (a library of
 #'   class `refined_library`, usable wherever a library is), with the settings
 #'   of `fit` (correlation grids, prior, update, iterations, chains), and an
@@ -140,9 +142,11 @@
 #' refined$refinement$reason
 #' summary(refined)
 #' @export
-refine <- function(fit, simulator = NULL, max_runs = 4000, ..., runs_per_round = NULL,
-                   file = NULL, seed = NULL, progress = interactive()) {
+refine <- function(fit, simulator = NULL, max_runs = control$max_runs, ...,
+                   runs_per_round = control$runs_per_round, file = NULL, seed = NULL,
+                   progress = control$progress, control = griddy_control()) {
   call <- match.call()
+  control <- assert_control(control)
   check_refinable(fit)
   if (!is.null(simulator) && !is.function(simulator)) {
     griddy_abort("`simulator` must be NULL or a function of a data.frame of theta rows; ",

@@ -32,3 +32,18 @@ test_that("print.griddy_control() shows every setting", {
                                        progress = FALSE)))
   expect_snapshot(print(griddy_control(runs_per_round = 25, progress = FALSE)))
 })
+
+test_that("refine() and koh_calibrate() take their defaults from `control`", {
+  expect_error(refine(list(), control = list()), "griddy_control", class = "griddy_error_input")
+  expect_error(koh_calibrate(NULL, NULL, control = "fast"), "griddy_control",
+               class = "griddy_error_input")
+  # an argument given in the call wins over the control's field
+  expect_identical(formals(refine)$max_runs, quote(control$max_runs))
+  fit <- refine_toy()$fit
+  few <- suppressWarnings(refine(fit, refine_sim, seed = 1,
+                                 control = griddy_control(max_runs = 20, progress = FALSE)))
+  expect_lte(few$refinement$runs_added, 20L)
+  more <- suppressWarnings(refine(fit, refine_sim, seed = 1, max_runs = 40,
+                                  control = griddy_control(max_runs = 20, progress = FALSE)))
+  expect_gt(more$refinement$runs_added, 20L)
+})

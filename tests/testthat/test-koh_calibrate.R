@@ -162,7 +162,8 @@ test_that("koh_calibrate() refuses a library too small for its emulator (it prin
 test_that("koh_calibrate() says `progress`; `quiet` still works, with a deprecation warning", {
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy()
-  expect_identical(formals(koh_calibrate)$progress, quote(interactive()))
+  expect_identical(formals(koh_calibrate)$progress, quote(control$progress))
+  expect_identical(formals(griddy_control)$progress, quote(interactive()))
   expect_silent(a <- koh_calibrate(toy$library, toy$field, discrepancy = "none", n_iter = 300,
                                    burn_in = 100, tune_iter = 100, seed = 1, progress = FALSE))
   expect_warning(b <- koh_calibrate(toy$library, toy$field, discrepancy = "none", n_iter = 300,
