@@ -59,8 +59,8 @@
 #'   columns `parameter`, `lower` and `upper` (the interval of the exact
 #'   marginal, over library values), `effective_values`,
 #'   `distinct_in_interval` (distinct values with positive mass in the
-#'   interval), `limited`, `mass_at_min`, `mass_at_max` and `library_values`
-#'   (distinct values in the library); `effective_runs` (exact) and
+#'   interval), `limited`, `mass_at_min`, `mass_at_max` and `constant`
+#'   (`TRUE` when the library holds the parameter at one value); `effective_runs` (exact) and
 #'   `effective_runs_sampled`; `tv_distance`, `tv_reference` (its Monte
 #'   Carlo reference) and `effective_draws` (the effective number of draws of
 #'   the run index it uses); and `emulation_error`, for a
