@@ -138,9 +138,16 @@ fit_description <- function(fit) {
          " runs x ", nrow(fit$grid), " correlation grid point(s); ", fit$n_obs,
          " data points", missing_description(fit), "; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",
-         format(sum(fit$runtime), digits = 3), " s\nMemory: ",
+         runtime_description(fit$runtime), "\nMemory: ",
          memory_statement(fit$library, nrow(fit$grid), fit$update),
          refinement_description(fit$refinement))
+}
+
+# The whole call's time, then its parts (those of an older fit: precompute
+# and sampling only).
+runtime_description <- function(runtime) {
+  paste0(format(sum(runtime), digits = 3), " s in all (",
+         paste(names(runtime), vapply(runtime, format, "", digits = 2), collapse = ", "), ")")
 }
 
 missing_description <- function(fit) {

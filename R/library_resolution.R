@@ -94,7 +94,7 @@ value_groups <- function(v, tol) {
 
 # The resolution table of a fit, from its exact posterior over runs.
 resolution_limited <- function(fit, level = 0.95) {
-  resolution_table(exact_from_problem(fit, joint = FALSE)$run, lib_theta(fit$library), level)
+  resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level)
 }
 
 # Posterior probability of each run: sampled frequencies, and exact values
@@ -102,7 +102,7 @@ resolution_limited <- function(fit, level = 0.95) {
 run_probabilities <- function(fit) {
   n_runs <- lib_n_runs(fit$library)
   sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
-  exact <- exact_from_problem(fit, joint = FALSE)$run
+  exact <- exact_margins(fit)$run
   list(sampled = sampled, exact = exact)
 }
 
@@ -132,7 +132,7 @@ emulation_error <- function(fit) {
 
 # calibrate()'s warning. A constant column is left out: sim_library() has
 # warned about it, and more runs cannot resolve it.
-warn_resolution <- function(fit, exact_run = exact_from_problem(fit, joint = FALSE)$run) {
+warn_resolution <- function(fit, exact_run = exact_margins(fit)$run) {
   tab <- resolution_table(exact_run, lib_theta(fit$library))
   tab <- tab[tab$limited & !tab$constant, , drop = FALSE]
   if (nrow(tab) == 0L) {
