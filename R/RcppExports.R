@@ -61,3 +61,7 @@ tyre_patch_length_cpp <- function(k, settings) {
     .Call(`_griddy_tyre_patch_length_cpp`, k, settings)
 }
 
+value_range_cpp <- function(v) {
+    .Call(`_griddy_value_range_cpp`, v)
+}
+

@@ -155,8 +155,10 @@
 #'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
 #'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
 #'   then the exact posterior's margins `exact` (a [posterior_exact()] result
-#'   without its `joint` table, computed once for `summary()`, `logLik()` and
-#'   the checks), the settings of the call (`update`, `control`, `call`), the
+#'   without its `joint` table) and the chains' `diagnostics` (per parameter
+#'   the columns `ess_bulk`, `ess_tail`, `rhat` and `mcse` of
+#'   [summary()][summary.griddy_fit], and the effective number of draws of
+#'   the run index), each computed once for the methods and the checks, the settings of the call (`update`, `control`, `call`), the
 #'   chains' `seeds`, the `runtime` of the whole call in seconds, in parts
 #'   that add up to it (`precompute`: validation, the quadratic forms and the
 #'   sampler's tables; `sampling`; `checks`: the exact margins and the
@@ -194,7 +196,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
   fit <- sample_problem(problem, update, control, seed, call, start)
   checks_start <- proc.time()[["elapsed"]]
   warn_resolution(fit)
-  warn_convergence(fit, fit$exact$run)
+  warn_convergence(fit)
   fit$runtime[["checks"]] <- fit$runtime[["checks"]] + proc.time()[["elapsed"]] - checks_start
   fit
 }
@@ -373,9 +375,9 @@ group_tau_draws <- function(problem, chains) {
 }
 
 # The fit is the problem (library, field, grid, setup, C, priors: each held
-# once) plus the draws, the settings of the call and the exact posterior's
-# margins (exact_margins()), computed here once for every method that reads
-# them. `runtime` holds the seconds of the parts of the call: its
+# once) plus the draws, the settings of the call, the exact posterior's
+# margins (exact_margins()) and the chains' diagnostics (fit_diagnostics()),
+# computed here once for every method that reads them. `runtime` holds the seconds of the parts of the call: its
 # "checks" part grows by the time the margins take here.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
@@ -387,15 +389,16 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   draws <- as.data.frame(draws)
   if (!is.null(out$group_tau)) draws <- cbind(draws[names(draws) != "tau"], out$group_tau)
   start <- proc.time()[["elapsed"]]
-  exact <- exact_from_problem(problem, joint = FALSE)
-  runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
-  structure(
+  fit <- structure(
     c(list(draws = draws), problem,
-      list(exact = exact, update = update, control = control, seeds = out$seeds,
-           call = call, runtime = runtime,
+      list(exact = exact_from_problem(problem, joint = FALSE), update = update,
+           control = control, seeds = out$seeds, call = call, runtime = runtime,
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
     class = "griddy_fit"
   )
+  fit$diagnostics <- fit_diagnostics(fit)
+  fit$runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
+  fit
 }
 
 # The exact posterior's margins of a fit (a griddy_exact without the joint

@@ -48,27 +48,45 @@ chain_rhat <- function(m) {
   if (is.na(r)) Inf else r
 }
 
-# R-hat of every sampled parameter of a fit (NA for a constant one).
-fit_rhat <- function(fit) {
+# The chain diagnostics of every sampled parameter of a fit (a data.frame
+# with a column `parameter` and those of chain_diagnostics()), and the
+# effective number of draws of the run index (run_effective_draws()). They
+# do not depend on the interval's level: new_griddy_fit() computes them once,
+# for calibrate()'s warning and summary().
+fit_diagnostics <- function(fit) {
   draws <- parameter_draws(fit)
-  vapply(draws, function(v) {
-    chain_rhat(chain_matrix(v, fit$draws$chain))
-  }, numeric(1))
+  parameters <- do.call(rbind, lapply(draws, function(v) {
+    chain_diagnostics(chain_matrix(v, fit$draws$chain))
+  }))
+  parameters <- cbind(data.frame(parameter = names(draws)), parameters)
+  rownames(parameters) <- NULL
+  ess <- stats::setNames(parameters$ess_bulk, parameters$parameter)
+  list(parameters = parameters,
+       effective_draws = run_effective_draws(fit, exact_margins(fit)$run, ess))
+}
+
+# A fit's diagnostics: stored, or computed for a fit saved before they were.
+stored_diagnostics <- function(fit) {
+  if (!is.null(fit$diagnostics)) return(fit$diagnostics)
+  fit_diagnostics(fit)
 }
 
 # The effective number of draws of the run index: the smallest bulk ESS of
 # the run's exact log probability and of each theta column that moves, at
 # most the number of draws. When nothing moves (every draw on one run) the
 # draws are taken as independent, so a chain stuck off the posterior's mass
-# is far beyond the reference.
-run_effective_draws <- function(fit, exact_run) {
+# is far beyond the reference. `known`: bulk ESS already computed, by
+# parameter name (a theta column's is that of its draws).
+run_effective_draws <- function(fit, exact_run, known = NULL) {
   n <- nrow(fit$draws)
+  theta <- lib_theta(fit$library)
   cols <- c(list(log_p = log(exact_run[fit$draws$run])),
-            lapply(lib_theta(fit$library), `[`, fit$draws$run))
+            lapply(theta[setdiff(names(theta), names(known))], `[`, fit$draws$run))
   ess <- vapply(cols, function(v) {
     m <- chain_matrix(v, fit$draws$chain)
     if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else quiet_cap(posterior::ess_bulk(m))
   }, numeric(1))
+  ess <- c(ess, known[intersect(names(theta), names(known))])
   if (all(is.na(ess))) return(n)
   min(n, ess, na.rm = TRUE)
 }
@@ -120,12 +138,16 @@ format_convergence <- function(problems, tv, reference) {
     })
 }
 
-# calibrate()'s warning (class griddy_warning_convergence).
-warn_convergence <- function(fit, exact_run) {
+# calibrate()'s warning (class griddy_warning_convergence), from the fit's
+# stored margins and diagnostics.
+warn_convergence <- function(fit) {
+  exact_run <- exact_margins(fit)$run
+  diagnostics <- stored_diagnostics(fit)
   tv <- sum(abs(tabulate(fit$draws$run, nbins = length(exact_run)) / nrow(fit$draws) -
                   exact_run)) / 2
-  reference <- expected_tv(exact_run, run_effective_draws(fit, exact_run))
-  problems <- convergence_problems(fit_rhat(fit), tv, reference)
+  reference <- expected_tv(exact_run, diagnostics$effective_draws)
+  rhat <- stats::setNames(diagnostics$parameters$rhat, diagnostics$parameters$parameter)
+  problems <- convergence_problems(rhat, tv, reference)
   lines <- format_convergence(problems, tv, reference)
   if (length(lines) == 0L) return(invisible(NULL))
   griddy_warn("The chains may not have converged. ", paste(lines, collapse = " "),

@@ -96,7 +96,8 @@
 #' @export
 summary.griddy_fit <- function(object, level = 0.95, ...) {
   assert_level(level)
-  out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1)
+  out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1,
+                       diagnostics = stored_diagnostics(object)$parameters)
   adequacy <- library_adequacy(object, level)
   tab <- adequacy$parameters
   out$resolution <- ifelse(tab$limited, "limited", "resolved")[match(out$parameter,
@@ -108,12 +109,17 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
 
 # summary()'s rows for a data.frame of draws (one column per parameter) from
 # the chains `chain`: the estimates and interval of draws_estimates() and the
-# chain diagnostics.
-draws_summary <- function(draws, chain, level, type) {
+# chain diagnostics, computed here or taken from `diagnostics` (a fit's
+# stored ones, fit_diagnostics()).
+draws_summary <- function(draws, chain, level, type, diagnostics = NULL) {
   do.call(rbind, lapply(names(draws), function(p) {
     v <- draws[[p]]
-    data.frame(parameter = p, draws_estimates(v, level, type),
-               chain_diagnostics(chain_matrix(v, chain)))
+    chain_diag <- if (is.null(diagnostics)) {
+      chain_diagnostics(chain_matrix(v, chain))
+    } else {
+      diagnostics[diagnostics$parameter == p, names(diagnostics) != "parameter"]
+    }
+    data.frame(parameter = p, draws_estimates(v, level, type), chain_diag, row.names = NULL)
   }))
 }
 

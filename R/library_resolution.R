@@ -61,7 +61,7 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
 # One column of resolution_table(): `v` the column, `support` the runs with
 # positive probability and `mass` their probabilities.
 marginal_resolution <- function(mass, v, support, level, min_values) {
-  span <- range(v)
+  span <- value_range_cpp(as.double(v))
   tol <- value_tolerance * (span[2] - span[1])
   vs <- v[support]
   group <- value_groups(vs, tol)
@@ -112,7 +112,7 @@ run_probabilities <- function(fit) {
 # error alone would give at the draws' effective number (see convergence.R).
 library_adequacy <- function(fit, level = 0.95) {
   p <- run_probabilities(fit)
-  effective_draws <- run_effective_draws(fit, p$exact)
+  effective_draws <- stored_diagnostics(fit)$effective_draws
   list(parameters = resolution_table(p$exact, lib_theta(fit$library), level),
        effective_runs = 1 / sum(p$exact^2),
        effective_runs_sampled = 1 / sum(p$sampled^2),

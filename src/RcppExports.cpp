@@ -219,6 +219,17 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// value_range_cpp
+Rcpp::NumericVector value_range_cpp(Rcpp::NumericVector v);
+RcppExport SEXP _griddy_value_range_cpp(SEXP vSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type v(vSEXP);
+    rcpp_result_gen = Rcpp::wrap(value_range_cpp(v));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
@@ -236,6 +247,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
     {"_griddy_tyre_patch_length_cpp", (DL_FUNC) &_griddy_tyre_patch_length_cpp, 2},
+    {"_griddy_value_range_cpp", (DL_FUNC) &_griddy_value_range_cpp, 1},
     {NULL, NULL, 0}
 };
 

@@ -103,6 +103,25 @@ test_that("the fit stores the exact margins that its methods read", {
   expect_identical(exact_margins(old), exact)
 })
 
+test_that("the fit stores its chains' diagnostics, the same as computed afresh", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 300,
+                                    burn_in = 50, chains = 2, seed = 1))
+  old <- fit
+  old$diagnostics <- NULL
+  expect_identical(fit$diagnostics, fit_diagnostics(old))
+  expect_identical(summary(fit), summary(old))
+  fresh <- draws_summary(parameter_draws(fit), fit$draws$chain, 0.95, type = 1)
+  expect_identical(as.data.frame(summary(fit))[names(fresh)], fresh)
+  expect_identical(fit$diagnostics$effective_draws,
+                   run_effective_draws(fit, fit$exact$run))
+  # the stored ones are read: changed ones show through
+  old$diagnostics <- fit$diagnostics
+  old$diagnostics$parameters$rhat[] <- 2
+  expect_warning(warn_convergence(old), class = "griddy_warning_convergence")
+  expect_identical(unique(summary(old)$rhat), 2)
+})
+
 test_that("with_seed() draws what the hand-written one of c2e9769 drew", {
   old_with_seed <- function(seed, code) {
     if (is.null(seed)) {
