@@ -19,15 +19,17 @@ chain_matrix <- function(v, chain) {
 # Rank-normalised diagnostics of one parameter from a matrix of draws,
 # iterations x chains: bulk and tail ESS, R-hat (over split chains, so one
 # chain has one too) and the Monte Carlo standard error of the mean. All NA
-# for a parameter whose kept draws are all one value.
-chain_diagnostics <- function(m) {
+# for a parameter whose kept draws are all one value. `rhat` and `ess_bulk`,
+# when given, are those already computed (a fit's stored ones).
+chain_diagnostics <- function(m, rhat = NULL, ess_bulk = NULL) {
   if (all(m == m[1])) {
     return(data.frame(ess_bulk = NA_real_, ess_tail = NA_real_, rhat = NA_real_,
                       mcse = NA_real_))
   }
-  data.frame(ess_bulk = quiet_cap(posterior::ess_bulk(m)),
+  data.frame(ess_bulk = if (is.null(ess_bulk)) quiet_cap(posterior::ess_bulk(m)) else ess_bulk,
              ess_tail = quiet_cap(posterior::ess_tail(m)),
-             rhat = chain_rhat(m), mcse = quiet_cap(posterior::mcse_mean(m)))
+             rhat = if (is.null(rhat)) chain_rhat(m) else rhat,
+             mcse = quiet_cap(posterior::mcse_mean(m)))
 }
 
 # posterior caps an ESS at n log10(n) (antithetic chains) and says so each
@@ -48,21 +50,18 @@ chain_rhat <- function(m) {
   if (is.na(r)) Inf else r
 }
 
-# The chain diagnostics of every sampled parameter of a fit (a data.frame
-# with a column `parameter` and those of chain_diagnostics()), and the
-# effective number of draws of the run index (run_effective_draws()). They
-# do not depend on the interval's level: new_griddy_fit() computes them once,
-# for calibrate()'s warning and summary().
+# What calibrate()'s convergence check needs of a fit's draws, computed once
+# by new_griddy_fit() and kept for summary(): the R-hat of every sampled
+# parameter (NA for a constant one), the bulk ESS of the run's exact log
+# probability and of each theta column (NA for one that does not move), and
+# the effective number of draws of the run index (run_effective_draws()).
+# The tail ESS and MCSE only summary() reports, so it computes them.
 fit_diagnostics <- function(fit) {
-  draws <- parameter_draws(fit)
-  parameters <- do.call(rbind, lapply(draws, function(v) {
-    chain_diagnostics(chain_matrix(v, fit$draws$chain))
-  }))
-  parameters <- cbind(data.frame(parameter = names(draws)), parameters)
-  rownames(parameters) <- NULL
-  ess <- stats::setNames(parameters$ess_bulk, parameters$parameter)
-  list(parameters = parameters,
-       effective_draws = run_effective_draws(fit, exact_margins(fit)$run, ess))
+  rhat <- vapply(parameter_draws(fit), function(v) {
+    chain_rhat(chain_matrix(v, fit$draws$chain))
+  }, numeric(1))
+  ess <- run_ess(fit, exact_margins(fit)$run)
+  list(rhat = rhat, ess_bulk = ess, effective_draws = run_effective_draws(nrow(fit$draws), ess))
 }
 
 # A fit's diagnostics: stored, or computed for a fit saved before they were.
@@ -71,22 +70,22 @@ stored_diagnostics <- function(fit) {
   fit_diagnostics(fit)
 }
 
-# The effective number of draws of the run index: the smallest bulk ESS of
-# the run's exact log probability and of each theta column that moves, at
-# most the number of draws. When nothing moves (every draw on one run) the
-# draws are taken as independent, so a chain stuck off the posterior's mass
-# is far beyond the reference. `known`: bulk ESS already computed, by
-# parameter name (a theta column's is that of its draws).
-run_effective_draws <- function(fit, exact_run, known = NULL) {
-  n <- nrow(fit$draws)
-  theta <- lib_theta(fit$library)
+# The bulk ESS of the run's exact log probability (`log_p`) and of each theta
+# column over the draws; NA for one that does not move.
+run_ess <- function(fit, exact_run) {
   cols <- c(list(log_p = log(exact_run[fit$draws$run])),
-            lapply(theta[setdiff(names(theta), names(known))], `[`, fit$draws$run))
-  ess <- vapply(cols, function(v) {
+            lapply(lib_theta(fit$library), `[`, fit$draws$run))
+  vapply(cols, function(v) {
     m <- chain_matrix(v, fit$draws$chain)
     if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else quiet_cap(posterior::ess_bulk(m))
   }, numeric(1))
-  ess <- c(ess, known[intersect(names(theta), names(known))])
+}
+
+# The effective number of draws of the run index: the smallest of run_ess(),
+# at most the number of draws `n`. When nothing moves (every draw on one
+# run) the draws are taken as independent, so a chain stuck off the
+# posterior's mass is far beyond the reference.
+run_effective_draws <- function(n, ess) {
   if (all(is.na(ess))) return(n)
   min(n, ess, na.rm = TRUE)
 }
@@ -146,8 +145,7 @@ warn_convergence <- function(fit) {
   tv <- sum(abs(tabulate(fit$draws$run, nbins = length(exact_run)) / nrow(fit$draws) -
                   exact_run)) / 2
   reference <- expected_tv(exact_run, diagnostics$effective_draws)
-  rhat <- stats::setNames(diagnostics$parameters$rhat, diagnostics$parameters$parameter)
-  problems <- convergence_problems(rhat, tv, reference)
+  problems <- convergence_problems(diagnostics$rhat, tv, reference)
   lines <- format_convergence(problems, tv, reference)
   if (length(lines) == 0L) return(invisible(NULL))
   griddy_warn("The chains may not have converged. ", paste(lines, collapse = " "),

@@ -97,7 +97,7 @@
 summary.griddy_fit <- function(object, level = 0.95, ...) {
   assert_level(level)
   out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1,
-                       diagnostics = stored_diagnostics(object)$parameters)
+                       known = stored_diagnostics(object))
   adequacy <- library_adequacy(object, level)
   tab <- adequacy$parameters
   out$resolution <- ifelse(tab$limited, "limited", "resolved")[match(out$parameter,
@@ -109,19 +109,20 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
 
 # summary()'s rows for a data.frame of draws (one column per parameter) from
 # the chains `chain`: the estimates and interval of draws_estimates() and the
-# chain diagnostics, computed here or taken from `diagnostics` (a fit's
-# stored ones, fit_diagnostics()).
-draws_summary <- function(draws, chain, level, type, diagnostics = NULL) {
+# chain diagnostics, with the R-hat and bulk ESS in `known` (a fit's stored
+# diagnostics, fit_diagnostics(): named vectors `rhat` and `ess_bulk`) taken
+# from there.
+draws_summary <- function(draws, chain, level, type, known = NULL) {
   do.call(rbind, lapply(names(draws), function(p) {
     v <- draws[[p]]
-    chain_diag <- if (is.null(diagnostics)) {
-      chain_diagnostics(chain_matrix(v, chain))
-    } else {
-      diagnostics[diagnostics$parameter == p, names(diagnostics) != "parameter"]
-    }
-    data.frame(parameter = p, draws_estimates(v, level, type), chain_diag, row.names = NULL)
+    data.frame(parameter = p, draws_estimates(v, level, type),
+               chain_diagnostics(chain_matrix(v, chain), rhat = value_of(known$rhat, p),
+                                 ess_bulk = value_of(known$ess_bulk, p)))
   }))
 }
+
+# The element `name` of a named vector, NULL when it has none.
+value_of <- function(x, name) if (name %in% names(x)) x[[name]] else NULL
 
 # The point estimates and central interval (quantiles of `type`) of one
 # parameter's draws. `estimate` is the mean, unless the mean lies outside the
