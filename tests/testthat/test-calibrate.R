@@ -12,7 +12,7 @@ test_that("the collapsed sampler reproduces the exact posterior over runs and rh
   # with the draw count halved for autocorrelation (the collapsed theta draw
   # is exact given rho, so its integrated autocorrelation time is near 1).
   expect_lt(tv_distance(runs, exact$run), 3 * expected_tv_iid(exact$run, m / 2))
-  expect_lt(tv_distance(rhos, exact$rho$prob), 3 * expected_tv_iid(exact$rho$prob, m / 2))
+  expect_lt(tv_distance(rhos, exact$grid$prob), 3 * expected_tv_iid(exact$grid$prob, m / 2))
 })
 
 test_that("the thesis update targets the same posterior when it mixes", {
