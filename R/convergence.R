@@ -90,6 +90,24 @@ run_effective_draws <- function(n, ess) {
   min(n, ess, na.rm = TRUE)
 }
 
+# The runs the draws `run` visit and their frequencies (a library's runs
+# are many, the draws' few: no vector as long as the library).
+sampled_frequencies <- function(run) {
+  runs <- unique(run)
+  list(run = runs, freq = tabulate(match(run, runs), length(runs)) / length(run))
+}
+
+# The total-variation distance between the frequencies of the draws `run`
+# and the exact posterior over runs, over the runs that either gives mass
+# (elsewhere both are 0).
+run_tv_distance <- function(run, exact_run) {
+  sampled <- sampled_frequencies(run)
+  runs <- union(sampled$run, which(exact_run > 0))
+  freq <- numeric(length(runs))
+  freq[seq_along(sampled$run)] <- sampled$freq
+  sum(abs(freq - exact_run[runs])) / 2
+}
+
 # Expected total-variation distance between p and the empirical frequencies
 # of m independent draws from p: (1/2) sum_i E|X_i/m - p_i| with
 # X_i ~ Binomial(m, p_i), whose mean absolute deviation is De Moivre's
@@ -142,8 +160,7 @@ format_convergence <- function(problems, tv, reference) {
 warn_convergence <- function(fit) {
   exact_run <- exact_margins(fit)$run
   diagnostics <- stored_diagnostics(fit)
-  tv <- sum(abs(tabulate(fit$draws$run, nbins = length(exact_run)) / nrow(fit$draws) -
-                  exact_run)) / 2
+  tv <- run_tv_distance(fit$draws$run, exact_run)
   reference <- expected_tv(exact_run, diagnostics$effective_draws)
   problems <- convergence_problems(diagnostics$rhat, tv, reference)
   lines <- format_convergence(problems, tv, reference)

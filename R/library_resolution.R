@@ -97,27 +97,18 @@ resolution_limited <- function(fit, level = 0.95) {
   resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level)
 }
 
-# Posterior probability of each run: sampled frequencies, and exact values
-# from the stored quadratic forms.
-run_probabilities <- function(fit) {
-  n_runs <- lib_n_runs(fit$library)
-  sampled <- tabulate(fit$draws$run, nbins = n_runs) / nrow(fit$draws)
-  exact <- exact_margins(fit)$run
-  list(sampled = sampled, exact = exact)
-}
-
 # What summary() reports: the resolution table (exact posterior), the
 # effective number of runs (exact and sampled), the total-variation distance
 # between the sampled and the exact posterior over runs, and what Monte Carlo
 # error alone would give at the draws' effective number (see convergence.R).
 library_adequacy <- function(fit, level = 0.95) {
-  p <- run_probabilities(fit)
+  exact <- exact_margins(fit)$run
   effective_draws <- stored_diagnostics(fit)$effective_draws
-  list(parameters = resolution_table(p$exact, lib_theta(fit$library), level),
-       effective_runs = 1 / sum(p$exact^2),
-       effective_runs_sampled = 1 / sum(p$sampled^2),
-       tv_distance = sum(abs(p$sampled - p$exact)) / 2,
-       tv_reference = expected_tv(p$exact, effective_draws),
+  list(parameters = resolution_table(exact, lib_theta(fit$library), level),
+       effective_runs = 1 / sum(exact^2),
+       effective_runs_sampled = 1 / sum(sampled_frequencies(fit$draws$run)$freq^2),
+       tv_distance = run_tv_distance(fit$draws$run, exact),
+       tv_reference = expected_tv(exact, effective_draws),
        effective_draws = effective_draws,
        emulation_error = emulation_error(fit))
 }
