@@ -155,7 +155,9 @@
 #'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
 #'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
 #'   then the exact posterior's margins `exact` (a [posterior_exact()] result
-#'   without its `joint` table) and the chains' `diagnostics` (per parameter
+#'   without its `joint` table), their `resolution` table (the `parameters`
+#'   of `attr(summary(fit), "adequacy")` at level 0.95), the chains'
+#'   `diagnostics` (per parameter
 #'   the columns `ess_bulk`, `ess_tail`, `rhat` and `mcse` of
 #'   [summary()][summary.griddy_fit], and the effective number of draws of
 #'   the run index), each computed once for the methods and the checks, the settings of the call (`update`, `control`, `call`), the
@@ -376,8 +378,9 @@ group_tau_draws <- function(problem, chains) {
 
 # The fit is the problem (library, field, grid, setup, C, priors: each held
 # once) plus the draws, the settings of the call, the exact posterior's
-# margins (exact_margins()) and the chains' diagnostics (fit_diagnostics()),
-# computed here once for every method that reads them. `runtime` holds the seconds of the parts of the call: its
+# margins (exact_margins()), their resolution table (resolution_limited())
+# and the chains' diagnostics (fit_diagnostics()), computed here once for
+# every method that reads them. `runtime` holds the seconds of the parts of the call: its
 # "checks" part grows by the time the margins take here.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
@@ -396,6 +399,7 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
     class = "griddy_fit"
   )
+  fit$resolution <- resolution_table(fit$exact$run, lib_theta(problem$library))
   fit$diagnostics <- fit_diagnostics(fit)
   fit$runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
   fit

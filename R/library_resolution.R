@@ -93,7 +93,10 @@ value_groups <- function(v, tol) {
 }
 
 # The resolution table of a fit, from its exact posterior over runs.
+# new_griddy_fit() stores the table at the default level, which calibrate()'s
+# warning and a default summary() read.
 resolution_limited <- function(fit, level = 0.95) {
+  if (level == 0.95 && !is.null(fit$resolution)) return(fit$resolution)
   resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level)
 }
 
@@ -104,7 +107,7 @@ resolution_limited <- function(fit, level = 0.95) {
 library_adequacy <- function(fit, level = 0.95) {
   exact <- exact_margins(fit)$run
   effective_draws <- stored_diagnostics(fit)$effective_draws
-  list(parameters = resolution_table(exact, lib_theta(fit$library), level),
+  list(parameters = resolution_limited(fit, level),
        effective_runs = 1 / sum(exact^2),
        effective_runs_sampled = 1 / sum(sampled_frequencies(fit$draws$run)$freq^2),
        tv_distance = run_tv_distance(fit$draws$run, exact),
@@ -123,8 +126,8 @@ emulation_error <- function(fit) {
 
 # calibrate()'s warning. A constant column is left out: sim_library() has
 # warned about it, and more runs cannot resolve it.
-warn_resolution <- function(fit, exact_run = exact_margins(fit)$run) {
-  tab <- resolution_table(exact_run, lib_theta(fit$library))
+warn_resolution <- function(fit) {
+  tab <- resolution_limited(fit)
   tab <- tab[tab$limited & !tab$constant, , drop = FALSE]
   if (nrow(tab) == 0L) {
     return(invisible(NULL))

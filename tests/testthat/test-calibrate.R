@@ -96,7 +96,14 @@ test_that("the fit stores the exact margins that its methods read", {
   expect_identical(as.numeric(logLik(changed)), -1)
   expect_identical(glance(changed)$effective_runs, 1)
   expect_identical(glance(changed)$log_evidence, -1)
+  changed$resolution <- NULL
   expect_identical(resolution_limited(changed)$lower, unlist(toy$library$theta[7, ], use.names = FALSE))
+  # the stored resolution table is that of the margins, read at level 0.95
+  expect_identical(fit$resolution, resolution_table(exact$run, toy$library$theta))
+  changed$resolution <- fit$resolution[0, ]
+  expect_identical(nrow(resolution_limited(changed)), 0L)
+  expect_identical(nrow(resolution_limited(changed, level = 0.9)), 1L)
+  expect_identical(nrow(attr(summary(changed), "adequacy")$parameters), 0L)
   # a fit saved before the margins were stored recomputes them
   old <- fit
   old$exact <- NULL
