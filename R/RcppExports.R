@@ -25,6 +25,10 @@ ar1_colour_rows_cpp <- function(Z, phi, n_x) {
     .Call(`_griddy_ar1_colour_rows_cpp`, Z, phi, n_x)
 }
 
+memory_pass_cpp <- function(y) {
+    .Call(`_griddy_memory_pass_cpp`, y)
+}
+
 piston_precompute_cpp <- function(n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells) {
     .Call(`_griddy_piston_precompute_cpp`, n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells)
 }
@@ -55,5 +59,9 @@ tyre_static_deflection_cpp <- function(k, settings) {
 
 tyre_patch_length_cpp <- function(k, settings) {
     .Call(`_griddy_tyre_patch_length_cpp`, k, settings)
+}
+
+value_range_cpp <- function(v) {
+    .Call(`_griddy_value_range_cpp`, v)
 }
 

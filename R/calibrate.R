@@ -154,8 +154,17 @@
 #'   `grid`, and the precomputed problem: `n_obs`, the `prior`, the log prior
 #'   weights of the runs and grid points (`log_prior_run`, `log_prior_grid`),
 #'   the correlation `setup` and the quadratic forms `C` (runs x grid points);
-#'   then the settings of the call (`update`, `control`, `call`), the chains'
-#'   `seeds`, the `runtime` in seconds (`precompute` and `sampling`) and
+#'   then the exact posterior's margins `exact` (a [posterior_exact()] result
+#'   without its `joint` table), their `resolution` table (the `parameters`
+#'   of `attr(summary(fit), "adequacy")` at level 0.95), the chains'
+#'   `diagnostics` (per parameter
+#'   the columns `ess_bulk`, `ess_tail`, `rhat` and `mcse` of
+#'   [summary()][summary.griddy_fit], and the effective number of draws of
+#'   the run index), each computed once for the methods and the checks, the settings of the call (`update`, `control`, `call`), the
+#'   chains' `seeds`, the `runtime` of the whole call in seconds, in parts
+#'   that add up to it (`precompute`: validation, the quadratic forms and the
+#'   sampler's tables; `sampling`; `checks`: the exact margins and the
+#'   resolution and convergence checks), and
 #'   `head_length`, the mean head length of each chain's \eqn{\theta} draws
 #'   (see Details). Each object is held once, so `saveRDS(fit)` writes the
 #'   library once. Use [summary()][summary.griddy_fit],
@@ -178,18 +187,19 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
                       update = c("collapsed", "thesis"), seed = NULL,
                       progress = interactive(), x_power = 2, run_weights = NULL,
                       noise_groups = NULL) {
+  start <- proc.time()[["elapsed"]]
   call <- match.call()
   seed <- assert_seed(seed)
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
-  start <- proc.time()[["elapsed"]]
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
                                  noise_groups, update)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
-  exact_run <- exact_from_problem(fit, joint = FALSE)$run
-  warn_resolution(fit, exact_run)
-  warn_convergence(fit, exact_run)
+  checks_start <- proc.time()[["elapsed"]]
+  warn_resolution(fit)
+  warn_convergence(fit)
+  fit$runtime[["checks"]] <- fit$runtime[["checks"]] + proc.time()[["elapsed"]] - checks_start
   fit
 }
 
@@ -206,7 +216,7 @@ n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 
 # Draw the posterior of a calibration problem (validated inputs, C): the
 # sampler half of calibrate(), shared with refine(). `start` is the elapsed
-# time at which the problem's precomputation began.
+# time at which the call began (validation and precompute count from there).
 sample_problem <- function(problem, update, control, seed, call,
                            start = proc.time()[["elapsed"]]) {
   tables <- sampler_tables(problem, update)
@@ -217,9 +227,9 @@ sample_problem <- function(problem, update, control, seed, call,
     list(seeds = seeds, chains = chains, group_tau = group_tau_draws(problem, chains))
   }
   out <- with_seed(seed, run_all())
+  sampling <- proc.time()[["elapsed"]] - start - precompute
   new_griddy_fit(problem, out, update, control, call,
-                 runtime = c(precompute = precompute,
-                             sampling = proc.time()[["elapsed"]] - start - precompute))
+                 runtime = c(precompute = precompute, sampling = sampling, checks = 0))
 }
 
 sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
@@ -367,7 +377,11 @@ group_tau_draws <- function(problem, chains) {
 }
 
 # The fit is the problem (library, field, grid, setup, C, priors: each held
-# once) plus the draws and the settings of the call.
+# once) plus the draws, the settings of the call, the exact posterior's
+# margins (exact_margins()), their resolution table (resolution_limited())
+# and the chains' diagnostics (fit_diagnostics()), computed here once for
+# every method that reads them. `runtime` holds the seconds of the parts of the call: its
+# "checks" part grows by the time the margins take here.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
   draws <- data.table::rbindlist(lapply(seq_along(out$chains), function(ch) {
@@ -377,28 +391,31 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   }))
   draws <- as.data.frame(draws)
   if (!is.null(out$group_tau)) draws <- cbind(draws[names(draws) != "tau"], out$group_tau)
-  structure(
+  start <- proc.time()[["elapsed"]]
+  fit <- structure(
     c(list(draws = draws), problem,
-      list(update = update, control = control, seeds = out$seeds, call = call,
-           runtime = runtime,
+      list(exact = exact_from_problem(problem, joint = FALSE), update = update,
+           control = control, seeds = out$seeds, call = call, runtime = runtime,
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
     class = "griddy_fit"
   )
+  fit$resolution <- resolution_table(fit$exact$run, lib_theta(problem$library))
+  fit$diagnostics <- fit_diagnostics(fit)
+  fit$runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
+  fit
+}
+
+# The exact posterior's margins of a fit (a griddy_exact without the joint
+# table): stored by new_griddy_fit(); recomputed for a fit saved before they
+# were.
+exact_margins <- function(fit) {
+  if (!is.null(fit$exact)) return(fit$exact)
+  exact_from_problem(fit, joint = FALSE)
 }
 
 # Evaluate `code` with the random number stream seeded by `seed`, leaving the
-# caller's stream as it was; with `seed = NULL`, in the caller's stream.
+# caller's stream as it was (withr::with_seed()); with `seed = NULL`, in the
+# caller's stream.
 with_seed <- function(seed, code) {
-  if (is.null(seed)) {
-    return(code)
-  }
-  had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
-  if (had_seed) old <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
-  on.exit(if (had_seed) {
-    assign(".Random.seed", old, envir = globalenv())
-  } else if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
-    rm(".Random.seed", envir = globalenv())
-  })
-  set.seed(seed)
-  code
+  if (is.null(seed)) code else withr::with_seed(seed, code)
 }

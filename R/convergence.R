@@ -19,15 +19,17 @@ chain_matrix <- function(v, chain) {
 # Rank-normalised diagnostics of one parameter from a matrix of draws,
 # iterations x chains: bulk and tail ESS, R-hat (over split chains, so one
 # chain has one too) and the Monte Carlo standard error of the mean. All NA
-# for a parameter whose kept draws are all one value.
-chain_diagnostics <- function(m) {
+# for a parameter whose kept draws are all one value. `rhat` and `ess_bulk`,
+# when given, are those already computed (a fit's stored ones).
+chain_diagnostics <- function(m, rhat = NULL, ess_bulk = NULL) {
   if (all(m == m[1])) {
     return(data.frame(ess_bulk = NA_real_, ess_tail = NA_real_, rhat = NA_real_,
                       mcse = NA_real_))
   }
-  data.frame(ess_bulk = quiet_cap(posterior::ess_bulk(m)),
+  data.frame(ess_bulk = if (is.null(ess_bulk)) quiet_cap(posterior::ess_bulk(m)) else ess_bulk,
              ess_tail = quiet_cap(posterior::ess_tail(m)),
-             rhat = chain_rhat(m), mcse = quiet_cap(posterior::mcse_mean(m)))
+             rhat = if (is.null(rhat)) chain_rhat(m) else rhat,
+             mcse = quiet_cap(posterior::mcse_mean(m)))
 }
 
 # posterior caps an ESS at n log10(n) (antithetic chains) and says so each
@@ -48,29 +50,62 @@ chain_rhat <- function(m) {
   if (is.na(r)) Inf else r
 }
 
-# R-hat of every sampled parameter of a fit (NA for a constant one).
-fit_rhat <- function(fit) {
-  draws <- parameter_draws(fit)
-  vapply(draws, function(v) {
+# What calibrate()'s convergence check needs of a fit's draws, computed once
+# by new_griddy_fit() and kept for summary(): the R-hat of every sampled
+# parameter (NA for a constant one), the bulk ESS of the run's exact log
+# probability and of each theta column (NA for one that does not move), and
+# the effective number of draws of the run index (run_effective_draws()).
+# The tail ESS and MCSE only summary() reports, so it computes them.
+fit_diagnostics <- function(fit) {
+  rhat <- vapply(parameter_draws(fit), function(v) {
     chain_rhat(chain_matrix(v, fit$draws$chain))
   }, numeric(1))
+  ess <- run_ess(fit, exact_margins(fit)$run)
+  list(rhat = rhat, ess_bulk = ess, effective_draws = run_effective_draws(nrow(fit$draws), ess))
 }
 
-# The effective number of draws of the run index: the smallest bulk ESS of
-# the run's exact log probability and of each theta column that moves, at
-# most the number of draws. When nothing moves (every draw on one run) the
-# draws are taken as independent, so a chain stuck off the posterior's mass
-# is far beyond the reference.
-run_effective_draws <- function(fit, exact_run) {
-  n <- nrow(fit$draws)
+# A fit's diagnostics: stored, or computed for a fit saved before they were.
+stored_diagnostics <- function(fit) {
+  if (!is.null(fit$diagnostics)) return(fit$diagnostics)
+  fit_diagnostics(fit)
+}
+
+# The bulk ESS of the run's exact log probability (`log_p`) and of each theta
+# column over the draws; NA for one that does not move.
+run_ess <- function(fit, exact_run) {
   cols <- c(list(log_p = log(exact_run[fit$draws$run])),
             lapply(lib_theta(fit$library), `[`, fit$draws$run))
-  ess <- vapply(cols, function(v) {
+  vapply(cols, function(v) {
     m <- chain_matrix(v, fit$draws$chain)
     if (all(m == m[1]) || !all(is.finite(m))) NA_real_ else quiet_cap(posterior::ess_bulk(m))
   }, numeric(1))
+}
+
+# The effective number of draws of the run index: the smallest of run_ess(),
+# at most the number of draws `n`. When nothing moves (every draw on one
+# run) the draws are taken as independent, so a chain stuck off the
+# posterior's mass is far beyond the reference.
+run_effective_draws <- function(n, ess) {
   if (all(is.na(ess))) return(n)
   min(n, ess, na.rm = TRUE)
+}
+
+# The runs the draws `run` visit and their frequencies (a library's runs
+# are many, the draws' few: no vector as long as the library).
+sampled_frequencies <- function(run) {
+  runs <- unique(run)
+  list(run = runs, freq = tabulate(match(run, runs), length(runs)) / length(run))
+}
+
+# The total-variation distance between the frequencies of the draws `run`
+# and the exact posterior over runs, over the runs that either gives mass
+# (elsewhere both are 0).
+run_tv_distance <- function(run, exact_run) {
+  sampled <- sampled_frequencies(run)
+  runs <- union(sampled$run, which(exact_run > 0))
+  freq <- numeric(length(runs))
+  freq[seq_along(sampled$run)] <- sampled$freq
+  sum(abs(freq - exact_run[runs])) / 2
 }
 
 # Expected total-variation distance between p and the empirical frequencies
@@ -120,12 +155,14 @@ format_convergence <- function(problems, tv, reference) {
     })
 }
 
-# calibrate()'s warning (class griddy_warning_convergence).
-warn_convergence <- function(fit, exact_run) {
-  tv <- sum(abs(tabulate(fit$draws$run, nbins = length(exact_run)) / nrow(fit$draws) -
-                  exact_run)) / 2
-  reference <- expected_tv(exact_run, run_effective_draws(fit, exact_run))
-  problems <- convergence_problems(fit_rhat(fit), tv, reference)
+# calibrate()'s warning (class griddy_warning_convergence), from the fit's
+# stored margins and diagnostics.
+warn_convergence <- function(fit) {
+  exact_run <- exact_margins(fit)$run
+  diagnostics <- stored_diagnostics(fit)
+  tv <- run_tv_distance(fit$draws$run, exact_run)
+  reference <- expected_tv(exact_run, diagnostics$effective_draws)
+  problems <- convergence_problems(diagnostics$rhat, tv, reference)
   lines <- format_convergence(problems, tv, reference)
   if (length(lines) == 0L) return(invisible(NULL))
   griddy_warn("The chains may not have converged. ", paste(lines, collapse = " "),

@@ -107,7 +107,7 @@ as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 #'   all chains), `log_evidence` (`NA` with an improper prior),
 #'   `effective_runs` (\eqn{1 / \sum p_i^2} over the exact posterior of the
 #'   runs), `effective_runs_sampled` (the same over the sampled frequencies)
-#'   and `runtime` (seconds).
+#'   and `runtime` (seconds: the whole [calibrate()] call, see its `runtime`).
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100,
@@ -189,7 +189,7 @@ logLik.griddy_fit <- function(object, ...) {
                  "improper (`prior$rate` = 0). Fit with a positive rate to compare models.",
                  class = "improper_prior")
   }
-  structure(exact_from_problem(object, joint = FALSE)$log_evidence,
+  structure(exact_margins(object)$log_evidence,
             df = ncol(parameter_draws(object)), nobs = nobs(object),
             class = "logLik")
 }
@@ -225,7 +225,7 @@ draws_tidy <- function(draws, conf.int, conf.level, point, type) {
 #' @method glance griddy_fit
 #' @export
 glance.griddy_fit <- function(x, ...) {
-  exact <- exact_from_problem(x, joint = FALSE)
+  exact <- exact_margins(x)
   sampled <- tabulate(x$draws$run, nbins = length(exact$run)) / nrow(x$draws)
   data.frame(n_obs = nobs(x), n_missing = sum(is.na(x$y_field)),
              n_runs = lib_n_runs(x$library), n_grid = nrow(x$grid),

@@ -59,8 +59,8 @@
 #'   columns `parameter`, `lower` and `upper` (the interval of the exact
 #'   marginal, over library values), `effective_values`,
 #'   `distinct_in_interval` (distinct values with positive mass in the
-#'   interval), `limited`, `mass_at_min`, `mass_at_max` and `library_values`
-#'   (distinct values in the library); `effective_runs` (exact) and
+#'   interval), `limited`, `mass_at_min`, `mass_at_max` and `constant`
+#'   (`TRUE` when the library holds the parameter at one value); `effective_runs` (exact) and
 #'   `effective_runs_sampled`; `tv_distance`, `tv_reference` (its Monte
 #'   Carlo reference) and `effective_draws` (the effective number of draws of
 #'   the run index it uses); and `emulation_error`, for a
@@ -96,7 +96,8 @@
 #' @export
 summary.griddy_fit <- function(object, level = 0.95, ...) {
   assert_level(level)
-  out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1)
+  out <- draws_summary(parameter_draws(object), object$draws$chain, level, type = 1,
+                       known = stored_diagnostics(object))
   adequacy <- library_adequacy(object, level)
   tab <- adequacy$parameters
   out$resolution <- ifelse(tab$limited, "limited", "resolved")[match(out$parameter,
@@ -108,14 +109,20 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
 
 # summary()'s rows for a data.frame of draws (one column per parameter) from
 # the chains `chain`: the estimates and interval of draws_estimates() and the
-# chain diagnostics.
-draws_summary <- function(draws, chain, level, type) {
+# chain diagnostics, with the R-hat and bulk ESS in `known` (a fit's stored
+# diagnostics, fit_diagnostics(): named vectors `rhat` and `ess_bulk`) taken
+# from there.
+draws_summary <- function(draws, chain, level, type, known = NULL) {
   do.call(rbind, lapply(names(draws), function(p) {
     v <- draws[[p]]
     data.frame(parameter = p, draws_estimates(v, level, type),
-               chain_diagnostics(chain_matrix(v, chain)))
+               chain_diagnostics(chain_matrix(v, chain), rhat = value_of(known$rhat, p),
+                                 ess_bulk = value_of(known$ess_bulk, p)))
   }))
 }
+
+# The element `name` of a named vector, NULL when it has none.
+value_of <- function(x, name) if (name %in% names(x)) x[[name]] else NULL
 
 # The point estimates and central interval (quantiles of `type`) of one
 # parameter's draws. `estimate` is the mean, unless the mean lies outside the
@@ -138,9 +145,16 @@ fit_description <- function(fit) {
          " runs x ", nrow(fit$grid), " correlation grid point(s); ", fit$n_obs,
          " data points", missing_description(fit), "; ", ctrl$chains, " chain(s) x ", ctrl$n_iter, " iterations (burn-in ",
          ctrl$burn_in, ", thin ", ctrl$thin, "); ",
-         format(sum(fit$runtime), digits = 3), " s\nMemory: ",
+         runtime_description(fit$runtime), "\nMemory: ",
          memory_statement(fit$library, nrow(fit$grid), fit$update),
          refinement_description(fit$refinement))
+}
+
+# The whole call's time, then its parts (those of an older fit: precompute
+# and sampling only).
+runtime_description <- function(runtime) {
+  paste0(format(sum(runtime), digits = 3), " s in all (",
+         paste(names(runtime), vapply(runtime, format, "", digits = 2), collapse = ", "), ")")
 }
 
 missing_description <- function(fit) {

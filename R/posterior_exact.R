@@ -28,8 +28,9 @@
 #' @return A list of class `griddy_exact` with elements
 #'   * `run`: the posterior probability of each library row (summed over the
 #'     correlation grid);
-#'   * `rho`: a data.frame of the correlation grid (see [rho_grid()]) with a
-#'     column `prob`;
+#'   * `grid`: the correlation grid, one row per grid point (the `grid` of a
+#'     [calibrate()] fit, see [rho_grid()]), with a column `prob`: the
+#'     posterior probability of each grid point;
 #'   * `joint`: the runs x grid points matrix of joint probabilities (`NULL`
 #'     with `joint = FALSE`);
 #'   * `log_evidence`: the log marginal likelihood under the stated priors
@@ -44,7 +45,7 @@
 #' exact$log_evidence
 #' # the margins only, without the table as large as C
 #' margins <- posterior_exact(ex$library, ex$field, rho_t = c(0, 0.5), joint = FALSE)
-#' margins$rho
+#' margins$grid
 #' @export
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
                             prior = NULL,
@@ -64,7 +65,7 @@ exact_from_problem <- function(problem, joint = TRUE) {
   grid <- problem$grid
   grid$prob <- post$grid
   structure(
-    list(run = post$run, rho = grid, joint = post$joint, log_evidence = post$log_evidence),
+    list(run = post$run, grid = grid, joint = post$joint, log_evidence = post$log_evidence),
     class = "griddy_exact"
   )
 }
@@ -73,7 +74,7 @@ exact_from_problem <- function(problem, joint = TRUE) {
 print.griddy_exact <- function(x, ...) {
   top <- order(x$run, decreasing = TRUE)[seq_len(min(5L, length(x$run)))]
   cli::cat_line("<griddy_exact> exact posterior over ", length(x$run), " runs x ",
-                nrow(x$rho), " correlation grid point(s)")
+                nrow(x$grid), " correlation grid point(s)")
   cli::cat_line("  effective number of runs: ", format(1 / sum(x$run^2), digits = 3))
   cli::cat_line("  most probable runs: ", paste0(top, " (", format(x$run[top], digits = 3),
                                                  ")", collapse = ", "))

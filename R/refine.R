@@ -255,7 +255,7 @@ warn_unresolved <- function(state, rounds) {
   cut <- colSums(truncated_sides(state)) > 0
   moved <- pmax(abs(tab$lower - previous$lower), abs(tab$upper - previous$upper)) >
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
-  why <- ifelse(tab$limited & tab$library_values > 1L,
+  why <- ifelse(tab$limited & !tab$constant,
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
          ifelse(moved, "its interval still moved in the last round", NA)))

@@ -118,7 +118,7 @@ interval_tol <- 0.2
 
 is_resolved <- function(table, previous) {
   # a parameter the library holds constant is not calibrated, nor refined
-  if (any(table$limited & table$library_values > 1L)) return(FALSE)
+  if (any(table$limited & !table$constant)) return(FALSE)
   if (is.null(previous)) return(TRUE)
   width <- pmax(table$upper - table$lower, previous$upper - previous$lower)
   moved <- pmax(abs(table$lower - previous$lower), abs(table$upper - previous$upper))

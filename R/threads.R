@@ -6,8 +6,15 @@
 #' says how many.
 #'
 #' Set the number with `options(griddy.threads = n)`. Without the option,
-#' griddy uses every logical CPU the OpenMP runtime reports, as
-#' `data.table::setDTthreads(0)` does. Either way the number is at most
+#' griddy uses the processor's physical cores that other work leaves idle:
+#' the logical CPUs less the tasks of other processes that are running or
+#' waiting to run (on Linux, from `/proc/loadavg`: the tasks runnable now,
+#' and the one-minute load average, each less this process; the larger
+#' counts), at most the physical cores, and at least one. Threads that find
+#' no idle core do not speed up a computation that reads memory once: they
+#' wait for each other (OpenMP's threads spin while they wait), and on a
+#' busy machine the default of every logical CPU made the precompute 4.9
+#' times slower than one thread. Either way the number is at most
 #' * the logical CPUs,
 #' * the environment variables `OMP_THREAD_LIMIT` and `OMP_NUM_THREADS`, when
 #'   set (CRAN's check machines set `OMP_THREAD_LIMIT` to 2), and
@@ -36,7 +43,7 @@ griddy_threads <- function() {
   check <- Sys.getenv("_R_CHECK_LIMIT_CORES_")
   if (nzchar(check) && !identical(tolower(check), "false")) cap <- min(cap, 2L)
   wanted <- getOption("griddy.threads")
-  if (is.null(wanted)) return(as.integer(max(1L, cap)))
+  if (is.null(wanted)) return(as.integer(max(1L, min(cap, idle_cores(limits[1])))))
   wanted <- tryCatch(assert_count(wanted, "griddy.threads"), griddy_error = function(e) {
     griddy_abort("Option `griddy.threads` must be a whole number >= 1 (or NULL for the ",
                  "default); received ", paste(format(wanted), collapse = ", "), ".")
@@ -56,3 +63,32 @@ env_count <- function(name) {
 threads_per_worker <- function(workers) {
   as.integer(max(1L, griddy_threads() %/% max(1L, workers)))
 }
+
+# The default's share of the machine: the physical cores (counted once per
+# session), and the logical CPUs (`logical`) less the tasks of other
+# processes that are runnable now or on average over the last minute
+# (`loadavg`, the line of /proc/loadavg, counts this process too: one task
+# less). Without /proc/loadavg, the physical cores.
+idle_cores <- function(logical, physical = physical_cores(), loadavg = read_loadavg()) {
+  load <- strsplit(loadavg, " ")[[1]]
+  if (length(load) < 4L) return(physical)
+  runnable <- suppressWarnings(as.numeric(sub("/.*", "", load[4])))
+  average <- suppressWarnings(as.numeric(load[1]))
+  others <- max(0, runnable - 1, floor(average) - 1, na.rm = TRUE)
+  min(physical, logical - others)
+}
+
+read_loadavg <- function() {
+  tryCatch(readLines("/proc/loadavg", n = 1L, warn = FALSE)[1],
+           error = function(e) "", warning = function(w) "")
+}
+
+physical_cores <- function() {
+  if (is.null(thread_cache$physical)) {
+    n <- suppressWarnings(parallel::detectCores(logical = FALSE))
+    thread_cache$physical <- if (is.na(n) || n < 1L) Inf else n
+  }
+  thread_cache$physical
+}
+
+thread_cache <- new.env(parent = emptyenv())

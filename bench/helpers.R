@@ -8,6 +8,19 @@ time_it <- function(expr) {
   proc.time()[["elapsed"]] - t0
 }
 
+# One pass over memory as a plain C++ read loop: griddy's unexported
+# memory_pass_cpp() (src/memory_pass.cpp), or for a griddy without it (the
+# old code of a side-by-side run) the same source compiled here. R's sum()
+# reads about 3 times slower (it adds in long double), so passes counted in
+# sum() understate how many times a computation reads its memory.
+read_loop_fn <- function() {
+  fn <- get0("memory_pass_cpp", envir = asNamespace("griddy"), inherits = FALSE)
+  if (!is.null(fn)) return(fn)
+  env <- new.env()
+  Rcpp::sourceCpp("src/memory_pass.cpp", env = env)
+  env$memory_pass_cpp
+}
+
 # Peak resident memory of this R process so far, in MB (Linux).
 peak_mb <- function() {
   s <- readLines("/proc/self/status")

@@ -130,7 +130,7 @@ fit_record <- function(fit, warnings, rho_t) {
     rho_post <- data.table::data.table(
       rho_t = fit$grid$rho_t, phi = fit$grid$rho_t^(1 / 499),
       sampled = tabulate(fit$draws$grid_point, nbins = nrow(fit$grid)) / nrow(fit$draws),
-      exact = exact$rho$prob)
+      exact = exact$grid$prob)
   }
   ppc <- data.table::as.data.table(predict(fit, ndraws = 1000, seed = seeds[["ppc"]]))
   ppc[, c("observed", "mean", "lower", "upper", "pred_lower", "pred_upper") :=
@@ -231,7 +231,7 @@ refined_record <- function(fit, warnings, elapsed) {
        sigma = stats::quantile(sigma, c(0.025, 0.5, 0.975), names = TRUE),
        rho_post = if (!is.null(fit$grid$rho_t)) {
          data.table::data.table(rho_t = fit$grid$rho_t, phi = fit$grid$rho_t^(1 / 499),
-                                exact = exact$rho$prob)
+                                exact = exact$grid$prob)
        },
        run_prob = run_prob, elapsed = elapsed, runtime = fit$runtime)
 }

@@ -98,6 +98,17 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// memory_pass_cpp
+double memory_pass_cpp(Rcpp::NumericMatrix y);
+RcppExport SEXP _griddy_memory_pass_cpp(SEXP ySEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericMatrix >::type y(ySEXP);
+    rcpp_result_gen = Rcpp::wrap(memory_pass_cpp(y));
+    return rcpp_result_gen;
+END_RCPP
+}
 // piston_precompute_cpp
 Rcpp::List piston_precompute_cpp(int n, int bw, const arma::uvec& pair_i, const arma::uvec& pair_j, const arma::vec& pair_g, const arma::vec& diag_fixed, const arma::vec& rhs_fixed, const arma::uvec& s_cells);
 RcppExport SEXP _griddy_piston_precompute_cpp(SEXP nSEXP, SEXP bwSEXP, SEXP pair_iSEXP, SEXP pair_jSEXP, SEXP pair_gSEXP, SEXP diag_fixedSEXP, SEXP rhs_fixedSEXP, SEXP s_cellsSEXP) {
@@ -208,6 +219,17 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// value_range_cpp
+Rcpp::NumericVector value_range_cpp(Rcpp::NumericVector v);
+RcppExport SEXP _griddy_value_range_cpp(SEXP vSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type v(vSEXP);
+    rcpp_result_gen = Rcpp::wrap(value_range_cpp(v));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
@@ -216,6 +238,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
+    {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
@@ -224,6 +247,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
     {"_griddy_tyre_patch_length_cpp", (DL_FUNC) &_griddy_tyre_patch_length_cpp, 2},
+    {"_griddy_value_range_cpp", (DL_FUNC) &_griddy_value_range_cpp, 1},
     {NULL, NULL, 0}
 };
 

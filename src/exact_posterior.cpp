@@ -6,7 +6,7 @@
 //
 // log p(i, g, y) - const = log pi_i + log pi_g - log|R_g| / 2
 //                          - (a + n/2) log(b + C_ig / 2)
-// (collapsed_log_fit() and grid_log_prior() of grid_posterior.h).
+// (collapsed_log_fit() and grid_log_weight() of grid_posterior.h).
 //
 // The log joint falls with C_ig, so its bound
 // log pi_max + log pi_g - log|R_g|/2 - (a + n/2) log(b + C_ig/2) is a
@@ -59,7 +59,7 @@ Rcpp::List grid_posterior_cpp(const arma::mat& C, double shape_post, double rate
   const double lp_max = *std::max_element(lpr, lpr + N);
   std::vector<double> grid_term(G);
   for (arma::uword g = 0; g < G; ++g) {
-    grid_term[g] = griddy::grid_log_prior(log_prior_grid[g], logdet[g]);
+    grid_term[g] = griddy::grid_log_weight(log_prior_grid[g], logdet[g]);
   }
   auto log_joint = [&](arma::uword i, arma::uword g, double c) {
     return grid_term[g] + lpr[i] + griddy::collapsed_log_fit(c, shape_post, rate);

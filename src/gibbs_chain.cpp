@@ -162,7 +162,7 @@ void draw_grid(const arma::mat& C, const SamplerOptions& o, RunRows& rows,
     const double c = kept ? kept[g] : C(st.run, g);
     const double fit = o.collapsed ? collapsed_log_fit(c, o.shape_post, o.rate)
                                    : given_tau_log_fit(c, st.tau);
-    log_w[g] = grid_log_prior(o.log_prior_grid[g], o.logdet[g]) + fit;
+    log_w[g] = grid_log_weight(o.log_prior_grid[g], o.logdet[g]) + fit;
   }
   double* cdf = (o.collapsed && row) ? row : work.data();
   cumulative_weights(log_w.data(), n_grid, cdf);

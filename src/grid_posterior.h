@@ -21,9 +21,11 @@ inline double given_tau_log_fit(double C, double tau) {
   return -0.5 * tau * C;
 }
 
-// Log weight of grid point g given the run, apart from the misfit term:
+// Log weight of grid point g given the run, apart from the misfit term (the
+// same for every run; not the log prior weight log pi_g alone, which R calls
+// log_prior_grid and computes in grid_log_prior()):
 // log pi_g - log|R_g| / 2.
-inline double grid_log_prior(double log_prior_grid, double logdet) {
+inline double grid_log_weight(double log_prior_grid, double logdet) {
   return log_prior_grid - 0.5 * logdet;
 }
 

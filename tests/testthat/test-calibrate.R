@@ -12,7 +12,7 @@ test_that("the collapsed sampler reproduces the exact posterior over runs and rh
   # with the draw count halved for autocorrelation (the collapsed theta draw
   # is exact given rho, so its integrated autocorrelation time is near 1).
   expect_lt(tv_distance(runs, exact$run), 3 * expected_tv_iid(exact$run, m / 2))
-  expect_lt(tv_distance(rhos, exact$rho$prob), 3 * expected_tv_iid(exact$rho$prob, m / 2))
+  expect_lt(tv_distance(rhos, exact$grid$prob), 3 * expected_tv_iid(exact$grid$prob, m / 2))
 })
 
 test_that("the thesis update targets the same posterior when it mixes", {
@@ -56,8 +56,123 @@ test_that("burn-in and thinning keep the right iterations", {
     classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
   expect_identical(fit$draws$iteration, rep(seq(47L, 100L, by = 7L), 3))
   expect_identical(fit$draws$chain, rep(1:3, each = 8))
-  expect_true(all(fit$draws$tau > 0))
-  expect_identical(fit$runtime[["precompute"]] >= 0, TRUE)
+})
+
+test_that("each kept tau is drawn at its own run and grid point", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 3000, burn_in = 0, seed = 3),
+    classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
+  # tau | run, grid point ~ Gamma(a + n/2, b + C/2): scaled by its rate, a Gamma(shape, 1)
+  shape <- fit$prior$shape + fit$n_obs / 2
+  u <- fit$draws$tau * (fit$prior$rate + fit$C[cbind(fit$draws$run, fit$draws$grid_point)] / 2)
+  expect_equal(mean(u) / shape, 1, tolerance = 6 / sqrt(shape * length(u)))
+  expect_equal(stats::var(u) / shape, 1, tolerance = 0.15)
+})
+
+test_that("the runtime covers the whole call, in parts", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  elapsed <- system.time(fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 200, burn_in = 50, seed = 1)))[["elapsed"]]
+  expect_named(fit$runtime, c("precompute", "sampling", "checks"))
+  expect_true(all(is.finite(fit$runtime) & fit$runtime >= 0))
+  # the parts do not overlap: together no more than the call took
+  expect_lte(sum(fit$runtime), elapsed + 0.01)
+  expect_match(fit_description(fit), paste0(format(sum(fit$runtime), digits = 3),
+                                            " s in all (precompute "), fixed = TRUE)
+})
+
+test_that("the fit stores the exact margins that its methods read", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 200,
+                                    burn_in = 50, seed = 1))
+  exact <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.5), joint = FALSE)
+  expect_identical(fit$exact, exact)
+  expect_null(fit$exact$joint)
+  # the methods read the stored margins: changed ones show through
+  changed <- fit
+  changed$exact$log_evidence <- -1
+  changed$exact$run <- replace(numeric(30), 7, 1)
+  expect_identical(as.numeric(logLik(changed)), -1)
+  expect_identical(glance(changed)$effective_runs, 1)
+  expect_identical(glance(changed)$log_evidence, -1)
+  changed$resolution <- NULL
+  expect_identical(resolution_limited(changed)$lower, unlist(toy$library$theta[7, ], use.names = FALSE))
+  # the stored resolution table is that of the margins, read at level 0.95
+  expect_identical(fit$resolution, resolution_table(exact$run, toy$library$theta))
+  changed$resolution <- fit$resolution[0, ]
+  expect_identical(nrow(resolution_limited(changed)), 0L)
+  expect_identical(nrow(resolution_limited(changed, level = 0.9)), 1L)
+  expect_identical(nrow(attr(summary(changed), "adequacy")$parameters), 0L)
+  # a fit saved before the margins were stored recomputes them
+  old <- fit
+  old$exact <- NULL
+  expect_identical(exact_margins(old), exact)
+})
+
+test_that("the fit stores its chains' diagnostics, the same as computed afresh", {
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 300,
+                                    burn_in = 50, chains = 2, seed = 1))
+  old <- fit
+  old$diagnostics <- NULL
+  expect_identical(fit$diagnostics, fit_diagnostics(old))
+  expect_identical(summary(fit), summary(old))
+  fresh <- draws_summary(parameter_draws(fit), fit$draws$chain, 0.95, type = 1)
+  expect_identical(as.data.frame(summary(fit))[names(fresh)], fresh)
+  expect_identical(fit$diagnostics$effective_draws,
+                   min(nrow(fit$draws), fit$diagnostics$ess_bulk, na.rm = TRUE))
+  # the stored ones are read: changed ones show through
+  old$diagnostics <- fit$diagnostics
+  old$diagnostics$rhat[] <- 2
+  old$diagnostics$ess_bulk[] <- 7
+  expect_warning(warn_convergence(old), class = "griddy_warning_convergence")
+  expect_identical(unique(summary(old)$rhat), 2)
+  theta <- names(toy$library$theta)
+  expect_identical(unique(summary(old)$ess_bulk[summary(old)$parameter %in% theta]), 7)
+})
+
+test_that("with_seed() draws what the hand-written one of c2e9769 drew", {
+  old_with_seed <- function(seed, code) {
+    if (is.null(seed)) {
+      return(code)
+    }
+    had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
+    if (had_seed) old <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
+    on.exit(if (had_seed) {
+      assign(".Random.seed", old, envir = globalenv())
+    } else if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
+      rm(".Random.seed", envir = globalenv())
+    })
+    set.seed(seed)
+    code
+  }
+  draw <- function() list(sample.int(.Machine$integer.max, 3), stats::runif(2), stats::rgamma(2, 3))
+  for (seed in list(1, 123456L, .Machine$integer.max)) {
+    set.seed(8)
+    new <- with_seed(seed, draw())
+    after_new <- stats::runif(1)
+    set.seed(8)
+    old <- old_with_seed(seed, draw())
+    expect_identical(new, old)
+    expect_identical(after_new, stats::runif(1))
+  }
+  # NULL: the caller's stream
+  set.seed(9)
+  new <- with_seed(NULL, draw())
+  set.seed(9)
+  expect_identical(new, old_with_seed(NULL, draw()))
+  # no stream before: none after
+  withr::with_preserve_seed({
+    rm(".Random.seed", envir = globalenv())
+    with_seed(2, stats::runif(1))
+    expect_false(exists(".Random.seed", envir = globalenv(), inherits = FALSE))
+  })
+  # a fit's chain seeds are the old function's
+  toy <- toy_ar1(n_runs = 30, n_t = 10)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 100, burn_in = 10,
+                                    chains = 2, seed = 17))
+  expect_identical(fit$seeds, old_with_seed(17, sample.int(.Machine$integer.max, 2)))
 })
 
 test_that("runs with zero prior weight are never drawn", {

@@ -95,3 +95,14 @@ test_that("tv_beyond_reference needs both the ratio and the floor", {
   expect_false(tv_beyond_reference(0.3, 0.2))
   expect_false(tv_beyond_reference(0.3, NA))
 })
+
+test_that("the distance over the runs either posterior visits is the distance over all", {
+  set.seed(11)
+  exact <- c(0, 0.5, 0, 0.25, 0.25, 0, 0)
+  for (run in list(c(2, 2, 4, 5), c(2, 3, 3, 7, 2, 1), rep(6L, 3))) {
+    dense <- tabulate(run, nbins = length(exact)) / length(run)
+    expect_equal(run_tv_distance(run, exact), sum(abs(dense - exact)) / 2)
+    expect_equal(1 / sum(sampled_frequencies(run)$freq^2), 1 / sum(dense^2))
+  }
+  expect_equal(run_tv_distance(rep(6L, 3), exact), 1)
+})

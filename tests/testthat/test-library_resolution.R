@@ -4,7 +4,7 @@ test_that("resolution_table reports the marginal interval, effective values and 
   tab <- resolution_table(p, theta)
   expect_identical(names(tab), c("parameter", "lower", "upper", "effective_values",
                                  "distinct_in_interval", "limited", "mass_at_min",
-                                 "mass_at_max", "library_values"))
+                                 "mass_at_max", "constant"))
   expect_identical(tab$parameter, c("a", "b"))
   # a: masses 0.025, 0.95, 0.025 on 1, 2, 3; 0.025 + 0.95 rounds below 0.975
   expect_equal(tab$effective_values[1], 1 / (2 * 0.025^2 + 0.95^2))
@@ -17,13 +17,13 @@ test_that("resolution_table reports the marginal interval, effective values and 
   expect_equal(c(tab$mass_at_min[2], tab$mass_at_max[2]), c(0.75, 0.25))
   expect_identical(tab$limited, c(TRUE, TRUE))
   expect_identical(resolution_table(p, theta, min_values = 1.5)$limited, c(TRUE, FALSE))
-  expect_identical(tab$library_values, c(3L, 2L))
+  expect_identical(tab$constant, c(FALSE, FALSE))
+  expect_identical(resolution_table(p, cbind(theta, c = 7))$constant, c(FALSE, FALSE, TRUE))
 })
 
 test_that("values within 1e-9 of the range count as one value", {
   theta <- data.frame(a = c(0, 1e-12, 0.5, 0.5 + 1e-11, 1, 1 - 1e-10))
   tab <- resolution_table(rep(1 / 6, 6), theta)
-  expect_identical(tab$library_values, 3L)
   expect_equal(tab$effective_values, 3)
   expect_equal(c(tab$mass_at_min, tab$mass_at_max), c(1 / 3, 1 / 3))
   expect_identical(tab$distinct_in_interval, 3L)
@@ -117,4 +117,38 @@ test_that("a posterior pressed against the edge of a scattered design is at its 
   expect_lt(tab$mass_at_min[2], 0.05)
   expect_lt(tab$mass_at_max[2], 0.05)
   expect_match(format_edges(tab), "^a: .*library's minimum")
+})
+
+test_that("grouping only the runs with mass gives the table of every run", {
+  # the table as it was computed over every run (commit c2e9769)
+  every_run <- function(p, v, level = 0.95) {
+    tol <- value_tolerance * (max(v) - min(v))
+    group <- value_groups(v, tol)
+    o <- order(v)
+    values <- v[o][!duplicated(group[o])]
+    mass <- as.vector(rowsum(p, group))
+    bounds <- weighted_quantile(values, mass, c((1 - level) / 2, 1 - (1 - level) / 2))
+    band <- max(tol, edge_band_share * (bounds[2] - bounds[1]))
+    data.frame(lower = bounds[1], upper = bounds[2], effective_values = 1 / sum(mass^2),
+               distinct_in_interval = sum(mass > 0 & values >= bounds[1] & values <= bounds[2]),
+               mass_at_min = sum(p[v <= min(v) + band]), mass_at_max = sum(p[v >= max(v) - band]))
+  }
+  set.seed(6)
+  n <- 5000
+  scattered <- data.frame(a = stats::runif(n), b = stats::runif(n))
+  grid <- expand.grid(a = seq(0, 1, length.out = 50), b = seq(0, 1, length.out = 100))
+  for (theta in list(scattered, grid)) {
+    # most runs underflow to probability 0, as on a large library
+    lp <- -((theta$a - 0.3)^2 + (theta$b - 0.6)^2) / (2 * 0.002^2)
+    p <- exp(lp - max(lp))
+    p <- p / sum(p)
+    expect_gt(mean(p == 0), 0.5)
+    for (level in c(0.5, 0.95)) {
+      tab <- resolution_table(p, theta, level = level)
+      for (j in 1:2) {
+        expect_identical(tab[j, names(every_run(p, theta[[j]]))],
+                         `rownames<-`(every_run(p, theta[[j]], level), j))
+      }
+    }
+  }
 })

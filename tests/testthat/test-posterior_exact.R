@@ -20,16 +20,16 @@ test_that("the exact posterior matches numerical integration over tau", {
   expect_s3_class(ex, "griddy_exact")
   expect_equal(ex$run, marginal / sum(marginal), tolerance = 1e-7)
   expect_equal(ex$log_evidence, log(mean(marginal)), tolerance = 1e-7)
-  expect_equal(ex$rho$prob, 1)
+  expect_equal(ex$grid$prob, 1)
 })
 
 test_that("run and rho marginals sum to one and weights enter the prior", {
   toy <- toy_ar1(n_runs = 50, n_t = 20)
   ex <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2))
   expect_equal(sum(ex$run), 1)
-  expect_equal(sum(ex$rho$prob), 1)
+  expect_equal(sum(ex$grid$prob), 1)
   expect_equal(rowSums(ex$joint), ex$run)
-  expect_identical(names(ex$rho), c("rho_t", "prob"))
+  expect_identical(names(ex$grid), c("rho_t", "prob"))
   w <- rep(1, 50)
   w[which.max(ex$run)] <- 0
   exw <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.01, 0.2), run_weights = w)
@@ -45,7 +45,7 @@ test_that("joint = FALSE leaves out the joint table and keeps the same margins",
   # without the joint, entries below exp(-37) / (N G) of the largest are left
   # out (src/exact_posterior.cpp): together under the rounding of the total
   expect_equal(margins$run, full$run, tolerance = 1e-15)
-  expect_equal(margins$rho, full$rho, tolerance = 1e-15)
+  expect_equal(margins$grid, full$grid, tolerance = 1e-15)
   expect_equal(margins$log_evidence, full$log_evidence, tolerance = 1e-15)
   expect_error(posterior_exact(toy$library, toy$field, joint = NA), class = "griddy_error",
                regexp = "`joint` must be TRUE or FALSE")
