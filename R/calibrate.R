@@ -146,6 +146,10 @@
 #'   t (shared across x settings) or one per library output (`n_x * n_t`,
 #'   library order). See Details, Noise groups. Every group needs at least
 #'   one field measurement.
+#' @param control Settings shared by the calibrating functions, from
+#'   [griddy_control()]: the defaults of `n_iter`, `burn_in`, `thin`,
+#'   `chains` and `progress`; an argument given in the call overrides its
+#'   field.
 #' @return An object of class `griddy_fit`: a list holding the kept `draws`
 #'   (a data.frame with columns `chain`, `iteration`, `run` (the library row),
 #'   `grid_point` (the row of `grid`) and `tau`, or with noise groups one
@@ -181,14 +185,15 @@
 #' fit
 #' summary(fit)
 #' @export
-calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = 35000,
-                      burn_in = 15000, thin = 1, chains = 1,
-                      prior = NULL,
+calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_iter,
+                      burn_in = control$burn_in, thin = control$thin,
+                      chains = control$chains, prior = NULL,
                       update = c("collapsed", "thesis"), seed = NULL,
-                      progress = interactive(), x_power = 2, run_weights = NULL,
-                      noise_groups = NULL) {
+                      progress = control$progress, x_power = 2, run_weights = NULL,
+                      noise_groups = NULL, control = griddy_control()) {
   start <- proc.time()[["elapsed"]]
   call <- match.call()
+  control <- assert_control(control)
   seed <- assert_seed(seed)
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
@@ -233,19 +238,8 @@ sample_problem <- function(problem, update, control, seed, call,
 }
 
 sampler_control <- function(n_iter, burn_in, thin, chains, progress) {
-  n_iter <- assert_count(n_iter, "n_iter")
-  burn_in <- assert_count(burn_in, "burn_in", min = 0L)
-  thin <- assert_count(thin, "thin")
-  chains <- assert_count(chains, "chains")
-  if (burn_in >= n_iter) {
-    griddy_abort("`burn_in` (", burn_in, ") must be smaller than `n_iter` (", n_iter, ").")
-  }
-  if (thin > n_iter - burn_in) {
-    griddy_abort("`thin` (", thin, ") keeps no draw of the ", n_iter - burn_in,
-                 " after the burn-in.")
-  }
-  list(n_iter = n_iter, burn_in = burn_in, thin = thin, chains = chains,
-       progress = assert_flag(progress, "progress"))
+  c(sampler_settings(n_iter, burn_in, thin, chains),
+    list(progress = assert_flag(progress, "progress")))
 }
 
 # What the theta draws need besides C, computed once before any chain runs:
@@ -289,15 +283,14 @@ run_chains <- function(problem, tables, update, control, seeds) {
   inputs <- list(C = problem$C, tables = tables,
                  options = sampler_options(problem, update, control),
                  tau_start = 1 / stats::var(problem$y_field, na.rm = TRUE))
-  if (parallel_plan()) {
+  if (griddy_workers() > 1L) {
     # an interrupt here leaves the futures running: tell them to stop (see
     # ?calibrate, Interrupts)
     stop_file <- tempfile("griddy-stop-")
     done <- FALSE
     on.exit(if (!done) file.create(stop_file), add = TRUE)
-    out <- future.apply::future_lapply(seeds, run_chain, inputs = inputs,
-                                       control = control, bar = NULL, stop_file = stop_file,
-                                       future.seed = NULL, future.packages = "griddy")
+    out <- griddy_map(seeds, run_chain, inputs = inputs, control = control, bar = NULL,
+                      stop_file = stop_file)
     done <- TRUE
     return(out)
   }
@@ -306,14 +299,6 @@ run_chains <- function(problem, tables, update, control, seeds) {
                           .envir = environment())
   }
   lapply(seeds, run_chain, inputs = inputs, control = control, bar = bar)
-}
-
-# TRUE when future.apply is installed and the user's future plan has more
-# than one worker.
-parallel_plan <- function() {
-  # a plan needs future loaded: otherwise skip loading it (it takes time)
-  isNamespaceLoaded("future") && requireNamespace("future.apply", quietly = TRUE) &&
-    future::nbrOfWorkers() > 1L
 }
 
 # One chain: in one piece, or, with a progress bar or a stop file, in pieces

@@ -47,3 +47,20 @@ test_that("refine() and koh_calibrate() take their defaults from `control`", {
                                   control = griddy_control(max_runs = 20, progress = FALSE)))
   expect_gt(more$refinement$runs_added, 20L)
 })
+
+test_that("calibrate(control =) gives the draws of the same settings given one by one", {
+  toy <- toy_ar1(n_runs = 60, n_t = 10)
+  by_args <- calibrate(toy$library, toy$field, n_iter = 600, burn_in = 100, chains = 2,
+                       seed = 3, progress = FALSE)
+  by_control <- calibrate(toy$library, toy$field, seed = 3,
+                          control = griddy_control(n_iter = 600, burn_in = 100, chains = 2,
+                                                   progress = FALSE))
+  expect_identical(by_control$draws, by_args$draws)
+  expect_identical(by_control$control, by_args$control)
+  # an argument given in the call wins
+  mixed <- calibrate(toy$library, toy$field, n_iter = 800, seed = 3,
+                     control = griddy_control(n_iter = 600, burn_in = 100, progress = FALSE))
+  expect_identical(mixed$control$n_iter, 800L)
+  expect_error(calibrate(toy$library, toy$field, control = griddy_control), "griddy_control",
+               class = "griddy_error_input")
+})
