@@ -68,3 +68,10 @@ test_that("the folded misfit gives the exact Gamma-normal likelihood of the extr
   via_fold <- -(prior$shape + 5) * log(prior$rate + folded / 2)
   expect_equal(via_fold, direct)
 })
+
+test_that("print.refined_library() shows the base, the rounds and the runs added", {
+  toy <- refine_toy()
+  refined <- suppressWarnings(refine(toy$fit, refine_sim, max_runs = 40, seed = 1,
+                                     progress = FALSE))
+  expect_snapshot(print(refined$library))
+})

@@ -56,3 +56,8 @@ test_that("an improper prior gives no evidence", {
   expect_identical(posterior_exact(toy$library, toy$field, prior = list(shape = 1, rate = 0))$log_evidence,
                    NA_real_)
 })
+
+test_that("print.griddy_exact() shows the runs, the grid, the most probable runs and the evidence", {
+  toy <- toy_ar1(n_runs = 60, n_t = 10)
+  expect_snapshot(print(posterior_exact(toy$library, toy$field, rho_t = c(0, 0.5))))
+})
