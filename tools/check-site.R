@@ -11,9 +11,10 @@
 # Needs pkgdown >= 2.1.2 (the first that caches its CDN files, which the
 # offline build below relies on, and whose KaTeX includes the auto-render
 # part that renders the help pages' maths; tested with 2.2.1), chromote
-# (CRAN) and a Chrome or Chromium (Debian's `chromium`; chromote finds it, or
-# set CHROMOTE_CHROME). It stops at once on an older pkgdown. CI does not run
-# this.
+# (CRAN), the evaluate version pkgdown suggests (it runs the examples with
+# it), and a Chrome or Chromium (Debian's `chromium`; chromote finds it, or
+# set CHROMOTE_CHROME). It stops at once on an older pkgdown or evaluate.
+# CI does not run this.
 #
 # It builds the site with pkgdown::build_site() into --dest (default docs/,
 # which is git- and build-ignored): the build itself fails when a help topic
@@ -70,6 +71,21 @@ pkgdown_minimum <- "2.1.2"
 if (utils::packageVersion("pkgdown") < pkgdown_minimum) {
   stop("tools/check-site.R needs pkgdown >= ", pkgdown_minimum, " (installed: ",
        utils::packageVersion("pkgdown"), "): install.packages(\"pkgdown\")")
+}
+# pkgdown runs the help pages' examples with evaluate, which it only
+# suggests: an older evaluate fails every example ("argument "expr" is
+# missing"). The version pkgdown asks for, from its own DESCRIPTION:
+evaluate_needed <- local({
+  suggests <- utils::packageDescription("pkgdown")$Suggests %||% ""
+  m <- regmatches(suggests, regexec("evaluate \\(>= ([0-9.]+)\\)", suggests))[[1]]
+  if (length(m) == 2L) m[2] else "0"
+})
+if (!requireNamespace("evaluate", quietly = TRUE) ||
+    utils::packageVersion("evaluate") < evaluate_needed) {
+  stop("pkgdown ", utils::packageVersion("pkgdown"), " runs the examples with evaluate >= ",
+       evaluate_needed, " (installed: ",
+       tryCatch(format(utils::packageVersion("evaluate")), error = function(e) "none"),
+       "): install.packages(\"evaluate\")")
 }
 
 # --- the installed griddy is the one this tree describes -------------------
