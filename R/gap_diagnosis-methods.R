@@ -327,8 +327,9 @@ plot.gap_diagnosis <- function(x, ...) {
   wh <- x$where
   wh$setting <- factor(lab[wh$x], levels = lab)
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
+  # two lines, the verdict on the second: on one it ran past a vignette-width figure
   title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),
-                  " blocks flagged; ", verdict_label(x$verdict))
+                  " blocks flagged\n", paste(strwrap(verdict_label(x$verdict), 60), collapse = "\n"))
   if (length(x$t) == 1L) {
     map$flagged <- wh$flagged[match(map$x, wh$x)]
     return(ggplot2::ggplot(map, ggplot2::aes(.data$setting, .data$z, fill = .data$flagged)) +

@@ -61,13 +61,15 @@ as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 #' `tau_<label>`, and each correlation parameter whose grid has more than one
 #' value):
 #'
-#' * `coef()`: the posterior **median** of each parameter by default
-#'   (`point = "mean"` for the mean, `point = "estimate"` for `summary()`'s
-#'   `estimate`: the mean, or the median where the mean lies outside the 95%
-#'   interval). The \eqn{\theta} posterior is discrete, over the library's
+#' * `coef()`: by default the same point estimate as `summary()`'s
+#'   `estimate` column, so `coef()`, `tidy()` and `summary()` report one
+#'   number per parameter: the posterior mean where it lies within the 95%
+#'   interval, otherwise the median (`summary()` marks that case with `*`).
+#'   `point = "median"` or `point = "mean"` give the median or mean of every
+#'   parameter. The \eqn{\theta} posterior is discrete, over the library's
 #'   values: its median is a library value and always lies within the central
-#'   interval, while the mean may fall between runs and even outside the
-#'   interval.
+#'   interval, while the mean may fall between runs and, for a posterior on
+#'   one value with a few draws far off, even outside the interval.
 #' * `confint()`: central (equal-tailed) posterior intervals, the type-1
 #'   quantiles of the draws as in `summary()`, so \eqn{\theta} bounds are
 #'   library values.
@@ -86,10 +88,10 @@ as_draws.griddy_fit <- function(x, ...) as_draws_df.griddy_fit(x, ...)
 #' * `glance()` ([generics::glance()]): one row describing the fit.
 #'
 #' @param object,x A `griddy_fit` from [calibrate()] or [refine()].
-#' @param point `"median"` (the default) or `"mean"` of the draws, or
-#'   `"estimate"`: the mean where it lies within the central interval (of
-#'   probability 0.95 for `coef()`, `conf.level` for `tidy()`), otherwise the
-#'   median, as `summary()`'s `estimate`.
+#' @param point `"estimate"` (the default): `summary()`'s `estimate`, the
+#'   mean where it lies within the central interval (of probability 0.95 for
+#'   `coef()`, `conf.level` for `tidy()`), otherwise the median; or
+#'   `"median"` or `"mean"` of the draws.
 #' @param parm Parameters: names or positions among `names(coef(object))`;
 #'   all by default.
 #' @param level,conf.level Probability of the central interval.
@@ -124,12 +126,12 @@ NULL
 #' @rdname griddy_fit-methods
 #' @importFrom stats coef confint logLik nobs
 #' @export
-coef.griddy_fit <- function(object, point = c("median", "mean", "estimate"), ...) {
+coef.griddy_fit <- function(object, point = c("estimate", "median", "mean"), ...) {
   point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
   point_estimates(parameter_draws(object), point, level = 0.95, type = 1)
 }
 
-point_choices <- c("median", "mean", "estimate")
+point_choices <- c("estimate", "median", "mean")
 
 # One point estimate per column of draws, as summary() computes it.
 point_estimates <- function(draws, point, level, type) {
@@ -203,7 +205,7 @@ nobs.griddy_fit <- function(object, ...) as.integer(object$n_obs)
 #' @method tidy griddy_fit
 #' @export
 tidy.griddy_fit <- function(x, conf.int = TRUE, conf.level = 0.95,
-                            point = c("median", "mean", "estimate"), ...) {
+                            point = c("estimate", "median", "mean"), ...) {
   point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
   draws_tidy(parameter_draws(x), conf.int, conf.level, point, type = 1)
 }
@@ -249,8 +251,9 @@ generics::glance
 #' `coef()`, `confint()`, `nobs()` and `tidy()` for [koh_calibrate()]'s
 #' baseline, over its \eqn{\theta} parameters (not the discrepancy variance
 #' `sigma2`), as in [summary()][summary.griddy_koh]. The posterior is
-#' continuous, so intervals use R's default (type 7) quantiles and `coef()`
-#' gives the posterior median by default, as for a [calibrate()] fit.
+#' continuous, so intervals use R's default (type 7) quantiles. `coef()` and
+#' `tidy()` give `summary()`'s `estimate` by default, as for a [calibrate()]
+#' fit.
 #'
 #' @param object,x A `griddy_koh` from [koh_calibrate()].
 #' @inheritParams griddy_fit-methods
@@ -274,7 +277,7 @@ koh_draws <- function(object) object$draws[object$parameters]
 
 #' @rdname griddy_koh-methods
 #' @export
-coef.griddy_koh <- function(object, point = c("median", "mean", "estimate"), ...) {
+coef.griddy_koh <- function(object, point = c("estimate", "median", "mean"), ...) {
   point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
   point_estimates(koh_draws(object), point, level = 0.95, type = 7)
 }
@@ -293,7 +296,7 @@ nobs.griddy_koh <- function(object, ...) sum(!is.na(object$y_field))
 #' @method tidy griddy_koh
 #' @export
 tidy.griddy_koh <- function(x, conf.int = TRUE, conf.level = 0.95,
-                            point = c("median", "mean", "estimate"), ...) {
+                            point = c("estimate", "median", "mean"), ...) {
   point <- assert_choice(point, "point", point_choices, vector_default = TRUE)
   draws_tidy(koh_draws(x), conf.int, conf.level, point, type = 7)
 }

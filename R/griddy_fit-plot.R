@@ -7,13 +7,23 @@
 #'   library's distinct values (the thesis's figures), with the truth marked
 #'   when given; for a library from [refine()] or a scattered design (a
 #'   Latin hypercube, an [emulated_library()]: values that do not repeat), a
-#'   histogram of the draws.
+#'   density: the runs weighted by their exact posterior probability and
+#'   smoothed by a Gaussian kernel whose bandwidth is Silverman's rule of
+#'   thumb for the *effective* number of runs \eqn{1 / \sum_i p_i^2} (the
+#'   subtitle gives it), not for the number of draws. A resolved fit of a
+#'   scattered design can rest on some 20 effective runs out of 10,000; a
+#'   histogram of its draws shows those runs as spikes, which are the
+#'   library's sampling, not the posterior's shape. The density is cut at the
+#'   library's range (the posterior has no mass outside it) and drawn where
+#'   the runs with mass are.
 #' * `"ppc"`: posterior predictive check: the field data against the
 #'   simulator outputs at the drawn runs (mean and band) and the predictive
 #'   band with the fitted noise, per x setting.
 #' * `"pairs"`: the joint posterior of every pair of \eqn{\theta} columns,
 #'   the draws binned in two dimensions, so that ridges (parameters that
-#'   trade off) show; the truth is marked when given.
+#'   trade off) show; the truth is marked when given. With one pair the axes
+#'   are titled by the parameters' names; with several each panel is titled
+#'   "a (x), b (y)".
 #'
 #' @param x A `griddy_fit` from [calibrate()].
 #' @param type `"trace"`, `"posterior"`, `"ppc"` or `"pairs"`.
@@ -87,9 +97,11 @@ plot_pairs <- function(fit, truth) {
     ggplot2::geom_bin2d(bins = 40) +
     ggplot2::scale_fill_gradient(low = "grey90", high = "steelblue4", name = "Draws") +
     ggplot2::facet_wrap(ggplot2::vars(.data$pair), scales = "free") +
-    ggplot2::labs(x = "Value (x)", y = "Value (y)",
-                  title = "Joint posterior of pairs of parameters") +
-    ggplot2::theme_bw()
+    ggplot2::labs(x = if (length(pairs) == 1L) pairs[[1]][1] else "Value (x)",
+                  y = if (length(pairs) == 1L) pairs[[1]][2] else "Value (y)",
+                  title = if (length(pairs) == 1L) "Joint posterior" else
+                    "Joint posterior of pairs of parameters") +
+    posterior_theme()
   if (!is.null(truth)) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
     known <- Filter(function(pr) all(pr %in% names(truth)), pairs)
@@ -105,7 +117,7 @@ plot_pairs <- function(fit, truth) {
 
 plot_posterior <- function(fit, truth) {
   theta <- lib_theta(fit$library)
-  p <- if (scattered_library(fit$library)) posterior_histogram(fit, theta) else
+  p <- if (scattered_library(fit$library)) posterior_density(fit, theta) else
     posterior_bars(fit, theta)
   if (!is.null(truth)) {
     truth <- stats::setNames(assert_numeric_vector(truth, "truth"), names(truth))
@@ -132,17 +144,55 @@ scattered_library <- function(library) {
        any(vapply(theta, function(v) length(unique(v)) > nrow(theta) / 2, logical(1))))
 }
 
-posterior_histogram <- function(fit, theta) {
-  drawn <- do.call(rbind, lapply(names(theta), function(p) {
-    data.frame(parameter = factor(p, levels = names(theta)), value = theta[[p]][fit$draws$run])
+# The marginal posterior of each parameter of a scattered design, honestly
+# smooth: a kernel density over the library's runs, each weighted by its exact
+# posterior probability, with Silverman's bandwidth for the effective number
+# of runs 1 / sum(p_i^2) rather than the number of draws. A histogram of the
+# draws shows the spikes of the few runs that carry the mass (a resolved fit
+# can rest on some 20 effective runs out of 10,000) as if they were the shape.
+posterior_density <- function(fit, theta) {
+  weights <- exact_from_problem(fit, joint = FALSE)$run
+  n_eff <- 1 / sum(weights^2)
+  curves <- do.call(rbind, lapply(names(theta), function(p) {
+    d <- weighted_density(theta[[p]], weights, n_eff)
+    data.frame(parameter = factor(p, levels = names(theta)), value = d$x, density = d$y)
   }))
-  ggplot2::ggplot(drawn, ggplot2::aes(.data$value)) +
-    ggplot2::geom_histogram(ggplot2::aes(y = ggplot2::after_stat(density)), bins = 40,
-                            fill = "steelblue", colour = NA) +
+  ggplot2::ggplot(curves, ggplot2::aes(.data$value, .data$density)) +
+    ggplot2::geom_area(fill = "steelblue", alpha = 0.35) +
+    ggplot2::geom_line(colour = "steelblue4") +
     ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
-    ggplot2::labs(x = "Value", y = "Posterior density",
-                  title = "Posterior (histogram of the draws)") +
-    ggplot2::theme_bw()
+    ggplot2::labs(x = "Value", y = "Posterior density", title = "Posterior density",
+                  subtitle = paste0("Runs weighted by their exact posterior,\n",
+                                    "smoothed for ", format(n_eff, digits = 3),
+                                    " effective runs (Silverman's bandwidth)")) +
+    posterior_theme()
+}
+
+# stats::density() of values x weighted by w (summing to 1), with Silverman's
+# rule of thumb at n_eff observations, over the range of x (the posterior has
+# no mass outside the library).
+weighted_density <- function(x, w, n_eff) {
+  lib_range <- range(x)
+  keep <- w > 0
+  x <- x[keep]
+  w <- w[keep] / sum(w[keep])
+  spread <- sqrt(sum(w * (x - sum(w * x))^2))
+  o <- order(x)
+  quartiles <- x[o][pmin(findInterval(c(0.25, 0.75), cumsum(w[o])) + 1L, length(x))]
+  iqr <- diff(quartiles) / 1.34
+  bw <- 0.9 * (if (iqr > 0) min(spread, iqr) else spread) * n_eff^(-1 / 5)
+  # one run carries it all: a narrow bump at that run
+  if (!(bw > 0)) bw <- max(diff(lib_range), abs(x[1]), 1) * 1e-3
+  # drawn where the runs with mass are, three bandwidths either side
+  held <- range(x[w > max(w) * 1e-6])
+  stats::density(x, weights = w, bw = bw, from = max(lib_range[1], held[1] - 3 * bw),
+                 to = min(lib_range[2], held[2] + 3 * bw), n = 512)
+}
+
+# Room on the right for the last tick label of the rightmost panel, which
+# ggplot centres on its break and would otherwise cut at the figure's edge.
+posterior_theme <- function() {
+  ggplot2::theme_bw() + ggplot2::theme(plot.margin = ggplot2::margin(5.5, 16, 5.5, 5.5))
 }
 
 posterior_bars <- function(fit, theta) {
@@ -166,7 +216,7 @@ posterior_bars <- function(fit, theta) {
     ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
     ggplot2::labs(x = "Library value", y = "Posterior probability",
                   title = "Posterior over the library's values") +
-    ggplot2::theme_bw()
+    posterior_theme()
 }
 
 # The library's distinct values near the visited ones (two steps either side),

@@ -38,7 +38,12 @@
 #' one too; `Inf` when every chain half sits on one value but they differ)
 #' and `mcse` ([posterior::mcse_mean()]), the Monte Carlo standard error of
 #' the mean. All four are `NA` for a parameter whose kept draws are all one
-#' value. An R-hat above 1.01 is noted, and [calibrate()] warns. A discrete
+#' value. `ess_tail` alone is `NA` when the 95% quantile of the draws is
+#' their largest value, as when the largest library value drawn holds at
+#' least 5% of a discrete posterior: the tail ESS measures how well the
+#' chains place the 5% and 95% quantiles through the indicator of the draws
+#' at or below each, and that indicator is then constant (`print()` says so
+#' below the table). An R-hat above 1.01 is noted, and [calibrate()] warns. A discrete
 #' parameter that seldom changes value can still have a large ESS: the ESS
 #' is about its mean, and says nothing of the library's resolution (see
 #' above). [coda::as.mcmc.list()] gives the draws to coda.
@@ -74,7 +79,7 @@
 #'   values far off, the interval is that one value and the mean lies beside
 #'   it; the median is then a library value inside the interval, where the
 #'   mean is not. [coef()][coef.griddy_fit] and [tidy()][tidy.griddy_fit]
-#'   give this estimate with `point = "estimate"`. `print()` prints the
+#'   give this same estimate by default. `print()` prints the
 #'   table (the estimate, marked `*` where it is the median, the interval's
 #'   bounds named by their probabilities, and the diagnostics; `mean` and
 #'   `median` stay in the data.frame) and a line saying which estimate is
@@ -223,6 +228,21 @@ print_summary_table <- function(x, digits, width, level) {
   on.exit(options(old))
   print(tab, row.names = FALSE, right = TRUE)
   if (!is.null(x$estimate)) cat_wrapped(estimate_note(x$estimate_type, level), width)
+  cat_wrapped(ess_tail_note(x), width)
+}
+
+# Why a tail ESS is NA beside a bulk ESS: posterior::ess_tail() measures how
+# well the chains place the 5% and 95% quantiles, through the indicator of the
+# draws at or below each; when the 95% quantile is the largest value drawn (a
+# library value holding at least 5% of the draws) that indicator is constant
+# and there is nothing to measure.
+ess_tail_note <- function(x) {
+  if (is.null(x$ess_tail) || is.null(x$ess_bulk)) return(character())
+  at_edge <- x$parameter[is.na(x$ess_tail) & !is.na(x$ess_bulk)]
+  if (!length(at_edge)) return(character())
+  paste0("ess_tail NA: the 95% quantile of ", paste(at_edge, collapse = ", "),
+         " is its largest value drawn (a library value holding at least 5% of the draws), ",
+         "so the upper tail has no draws to measure; see ?summary.griddy_fit.")
 }
 
 # Each parameter's estimate and interval formatted on its own scale (a

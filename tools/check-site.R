@@ -8,8 +8,13 @@
 #   Rscript tools/check-site.R --no-build               # check an existing build
 #   Rscript tools/check-site.R --lazy                   # rebuild only what changed
 #
-# Needs pkgdown and chromote (CRAN) and a Chrome or Chromium (Debian's
-# `chromium`; chromote finds it, or set CHROMOTE_CHROME). CI does not run this.
+# Needs pkgdown >= 2.1.2 (the first that caches its CDN files, which the
+# offline build below relies on, and whose KaTeX includes the auto-render
+# part that renders the help pages' maths; tested with 2.2.1), chromote
+# (CRAN), the evaluate version pkgdown suggests (it runs the examples with
+# it), and a Chrome or Chromium (Debian's `chromium`; chromote finds it, or
+# set CHROMOTE_CHROME). It stops at once on an older pkgdown or evaluate.
+# CI does not run this.
 #
 # It builds the site with pkgdown::build_site() into --dest (default docs/,
 # which is git- and build-ignored): the build itself fails when a help topic
@@ -19,6 +24,7 @@
 #   - it renders: a non-empty body and <main>, no JavaScript exception, and no
 #     R error ("Error in ...", "Error: ...") in any output block (<pre>);
 #   - every figure loads: each <img> has naturalWidth > 0;
+#   - its maths is rendered: no \( or \[ left in the text outside code;
 #   - no link is broken: every internal <a href>, stylesheet and script
 #     resolves to a file of the site, and every #fragment to an element with
 #     that id on the target page. External (http/https/mailto) links are NOT
@@ -35,6 +41,10 @@
 # for its Bootstrap 3 template (an older version, same Toc.init() interface)
 # stands in, and the summary says so. These files live in a cache of this
 # script's own (R_USER_CACHE_DIR is pointed there), never in pkgdown's.
+# KaTeX (template.math-rendering in _pkgdown.yml) is loaded by the pages
+# themselves from a CDN: the script gets the same version from npm, checks
+# its hash against the one in pkgdown's template, and the browser is served
+# that copy for the CDN's addresses (the pages are not changed).
 
 args <- commandArgs(trailingOnly = TRUE)
 arg_value <- function(flag, default) {
@@ -57,6 +67,26 @@ for (p in c("pkgdown", "chromote", "jsonlite", "openssl")) {
   }
 }
 if (!file.exists("_pkgdown.yml")) stop("run tools/check-site.R from the package root")
+pkgdown_minimum <- "2.1.2"
+if (utils::packageVersion("pkgdown") < pkgdown_minimum) {
+  stop("tools/check-site.R needs pkgdown >= ", pkgdown_minimum, " (installed: ",
+       utils::packageVersion("pkgdown"), "): install.packages(\"pkgdown\")")
+}
+# pkgdown runs the help pages' examples with evaluate, which it only
+# suggests: an older evaluate fails every example ("argument "expr" is
+# missing"). The version pkgdown asks for, from its own DESCRIPTION:
+evaluate_needed <- local({
+  suggests <- utils::packageDescription("pkgdown")$Suggests %||% ""
+  m <- regmatches(suggests, regexec("evaluate \\(>= ([0-9.]+)\\)", suggests))[[1]]
+  if (length(m) == 2L) m[2] else "0"
+})
+if (!requireNamespace("evaluate", quietly = TRUE) ||
+    utils::packageVersion("evaluate") < evaluate_needed) {
+  stop("pkgdown ", utils::packageVersion("pkgdown"), " runs the examples with evaluate >= ",
+       evaluate_needed, " (installed: ",
+       tryCatch(format(utils::packageVersion("evaluate")), error = function(e) "none"),
+       "): install.packages(\"evaluate\")")
+}
 
 # --- the installed griddy is the one this tree describes -------------------
 check_installed_griddy <- function() {
@@ -166,6 +196,68 @@ fill_asset_cache <- function() {
   stand_ins
 }
 
+# --- KaTeX for the browser, offline ------------------------------------------
+# The KaTeX files pkgdown's template loads: their CDN prefix and the SRI hash
+# of katex.min.js, read from the installed pkgdown's template.
+katex_cdn <- function() {
+  head <- system.file("BS5", "templates", "head.html", package = "pkgdown")
+  lines <- if (nzchar(head)) readLines(head, warn = FALSE) else character()
+  js <- grep("katex@[0-9.]+/dist/katex\\.min\\.js", lines, value = TRUE)
+  if (!length(js)) return(NULL)
+  list(prefix = regmatches(js[1], regexpr("https://[^\"]*katex@[0-9.]+/dist/", js[1])),
+       version = sub(".*katex@([0-9.]+)/.*", "\\1", js[1]),
+       integrity = sub(".*integrity=\"([^\"]+)\".*", "\\1", js[1]))
+}
+
+# A local copy of KaTeX's dist/ folder, from npm, byte-identical to the CDN's
+# (same hash as the template's); NULL when it cannot be had.
+katex_local_copy <- function(cdn) {
+  if (is.null(cdn)) return(NULL)
+  dist <- file.path(cache_dir, "katex", cdn$version, "dist")
+  if (!file.exists(file.path(dist, "katex.min.js")) && nzchar(Sys.which("npm"))) {
+    work <- tempfile("npm-")
+    dir.create(work)
+    on.exit(unlink(work, recursive = TRUE))
+    tarball <- system2("npm", c("pack", "--silent", "--pack-destination", work,
+                                paste0("katex@", cdn$version)), stdout = TRUE, stderr = FALSE)
+    tarball <- file.path(work, utils::tail(tarball, 1L))
+    if (length(tarball) && file.exists(tarball)) {
+      utils::untar(tarball, exdir = work)
+      dir.create(dirname(dist), recursive = TRUE, showWarnings = FALSE)
+      file.copy(file.path(work, "package", "dist"), dirname(dist), recursive = TRUE)
+    }
+  }
+  if (has_integrity(file.path(dist, "katex.min.js"), cdn$integrity)) dist else NULL
+}
+
+content_types <- c(js = "application/javascript", css = "text/css", woff2 = "font/woff2",
+                   woff = "font/woff", ttf = "font/ttf")
+
+# Answer the browser's requests for the KaTeX CDN from the local copy; every
+# other request goes on as usual.
+serve_katex_locally <- function(session, cdn, dist) {
+  session$Fetch$enable(patterns = list(list(urlPattern = paste0(cdn$prefix, "*"))))
+  session$Fetch$requestPaused(callback_ = function(event) {
+    url <- sub("[?#].*$", "", event$request$url)
+    if (!startsWith(url, cdn$prefix)) {
+      return(session$Fetch$continueRequest(requestId = event$requestId, wait_ = FALSE))
+    }
+    path <- file.path(dist, substring(url, nchar(cdn$prefix) + 1L))
+    if (!file.exists(path)) {
+      return(session$Fetch$failRequest(requestId = event$requestId, errorReason = "FileNotFound",
+                                       wait_ = FALSE))
+    }
+    type <- content_types[tools::file_ext(path)]
+    session$Fetch$fulfillRequest(
+      requestId = event$requestId, responseCode = 200L,
+      responseHeaders = list(
+        list(name = "Content-Type", value = if (is.na(type)) "application/octet-stream" else unname(type)),
+        list(name = "Access-Control-Allow-Origin", value = "*")),
+      body = openssl::base64_encode(readBin(path, "raw", file.size(path)), linebreaks = FALSE),
+      wait_ = FALSE)
+  })
+}
+
 # pkgdown looks the package up on CRAN and Bioconductor for a "View on" link
 # in the home page's sidebar, and stops when it cannot reach them. Offline,
 # and griddy being on neither, that link is left out.
@@ -198,6 +290,12 @@ page_facts_js <- "(async () => {
     assets: all('link[rel=stylesheet][href], script[src]').map(e =>
       ({href: e.getAttribute('href') || e.getAttribute('src'), url: e.href || e.src})),
     ids: all('[id]').map(e => e.id).concat(all('a[name]').map(a => a.name)),
+    raw_math: (() => {
+      if (!main) return 0;
+      const prose = main.cloneNode(true);
+      prose.querySelectorAll('pre, code, .katex').forEach(e => e.remove());
+      return (prose.textContent.match(/\\\\[(\\[]/g) || []).length;
+    })(),
     r_errors: all('pre').map(p => p.innerText)
       .filter(t => /(^|\\n)(#>|##)?\\s*Error( in |:)/.test(t)).map(t => t.slice(0, 300)),
     r_warnings: all('pre').flatMap(p => p.innerText.split('\\n'))
@@ -214,6 +312,7 @@ open_browser <- function() {
   options(chromote.timeout = 60)
   session <- chromote::ChromoteSession$new(width = 1280, height = 1000)
   session$Runtime$enable()
+  if (!is.null(katex_dist)) serve_katex_locally(session, katex, katex_dist)
   session
 }
 
@@ -268,6 +367,10 @@ page_failures <- function(facts, page) {
   }
   for (e in facts$exceptions) failures <- c(failures, sprintf("%s: JavaScript exception: %s", page, e))
   for (e in facts$r_errors) failures <- c(failures, sprintf("%s: R error in output: %s", page, e))
+  if (isTRUE(facts$raw_math > 0)) {
+    failures <- c(failures, sprintf("%s: maths not rendered: %d formula(s) shown as LaTeX",
+                                    page, facts$raw_math))
+  }
   for (img in facts$images) {
     if (img$width == 0) failures <- c(failures, sprintf("%s: image does not load: %s", page, img$src))
   }
@@ -310,6 +413,11 @@ if (build) {
   stand_ins <- fill_asset_cache()
   if (skip_repository_lookup_offline()) stand_ins <- c(stand_ins, "no CRAN/Bioconductor look-up")
   build_site()
+}
+katex <- if (any(grepl("^\\s*math-rendering:\\s*katex", readLines("_pkgdown.yml")))) katex_cdn()
+katex_dist <- katex_local_copy(katex)
+if (!is.null(katex_dist)) {
+  stand_ins <- c(stand_ins, paste("KaTeX", katex$version, "served from its npm package (same hash)"))
 }
 pages <- normalizePath(list.files(dest, pattern = "\\.html$", recursive = TRUE, full.names = TRUE))
 if (!length(pages)) stop("no pages in ", dest)

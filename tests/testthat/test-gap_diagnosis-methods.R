@@ -128,3 +128,16 @@ test_that("the verdict label names a gap the blocks flag without a tiny probabil
   expect_identical(verdict_label(list(answer = "none", reason = "evidence", prob = 2e-4)),
                    "no gap (P < 0.1%)")
 })
+
+test_that("the gap map's title fits a vignette-width figure: the verdict on its own line", {
+  # "Gap map: 2 of 12 blocks flagged; best explained by ..." ran past the figure
+  toy <- toy_gap(0, bump = 0.3)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), windows = 6)
+  title <- plot(gap)$labels$title
+  lines <- strsplit(title, "\n", fixed = TRUE)[[1]]
+  expect_gte(length(lines), 2L)
+  expect_match(lines[1], "^Gap map: [0-9]+ of [0-9]+ blocks flagged$")
+  expect_true(all(nchar(lines) <= 60))
+  ggplot2::ggsave(tmp <- tempfile(fileext = ".png"), plot(gap), width = 7, height = 3.2, dpi = 50)
+  expect_true(file.exists(tmp))
+})

@@ -43,17 +43,20 @@ test_that("the other draws formats and summarise_draws() work on a fit", {
   expect_true(all(c("rhat", "ess_bulk", "ess_tail") %in% names(s)))
 })
 
-test_that("coef() gives summary()'s medians, its means or its estimates", {
+test_that("coef() gives summary()'s estimate by default, or its medians or means", {
   fit <- eco_fit()
   # a and b: 98% of the draws on run 1, 2% on run 16, so their means lie
   # outside their 95% intervals and summary()'s estimate is the median
   fit$draws$run <- ifelse(seq_len(nrow(fit$draws)) %% 50 == 0, 16L, 1L)
   s <- summary(fit)
   expect_identical(s$estimate_type[1:2], c("median", "median"))
-  expect_identical(coef(fit), stats::setNames(s$median, s$parameter))
+  expect_identical(coef(fit), stats::setNames(s$estimate, s$parameter))
+  expect_identical(coef(fit, point = "median"), stats::setNames(s$median, s$parameter))
   expect_identical(coef(fit, point = "mean"), stats::setNames(s$mean, s$parameter))
-  expect_identical(coef(fit, point = "estimate"), stats::setNames(s$estimate, s$parameter))
   expect_false(identical(s$estimate, s$mean))
+  # where the mean lies inside the interval, the one estimate is the mean
+  expect_identical(s$estimate_type[3], "mean")
+  expect_identical(coef(fit)[["tau"]], s$mean[3])
   expect_error(coef(fit, point = "mode"), class = "griddy_error_input")
 })
 
@@ -111,12 +114,12 @@ test_that("tidy() has one row per parameter with summary()'s values", {
   s <- summary(fit, level = 0.9)
   expect_identical(names(td), c("term", "estimate", "std.error", "conf.low", "conf.high"))
   expect_identical(td$term, s$parameter)
-  expect_identical(td$estimate, s$median)
+  expect_identical(td$estimate, s$estimate)
   expect_identical(td$conf.low, s$lower)
   expect_identical(td$conf.high, s$upper)
   expect_equal(td$std.error, unname(vapply(parameter_draws(fit), stats::sd, 0)))
   expect_identical(tidy(fit, point = "mean")$estimate, s$mean)
-  expect_identical(tidy(fit, conf.level = 0.9, point = "estimate")$estimate, s$estimate)
+  expect_identical(tidy(fit, conf.level = 0.9, point = "median")$estimate, s$median)
   expect_identical(names(tidy(fit, conf.int = FALSE)), c("term", "estimate", "std.error"))
   expect_identical(generics::tidy(fit), tidy(fit))
 })
@@ -146,10 +149,9 @@ test_that("griddy_koh has coef(), confint(), nobs() and tidy()", {
   koh <- structure(list(draws = draws, parameters = c("a", "b"),
                         y_field = c(1, NA, 3, 4)), class = "griddy_koh")
   s <- summary(koh, level = 0.8)
-  expect_identical(coef(koh), stats::setNames(s$median, s$parameter))
+  expect_identical(coef(koh), stats::setNames(summary(koh)$estimate, s$parameter))
+  expect_identical(coef(koh, point = "median"), stats::setNames(s$median, s$parameter))
   expect_identical(coef(koh, point = "mean"), stats::setNames(s$mean, s$parameter))
-  expect_identical(coef(koh, point = "estimate"),
-                   stats::setNames(summary(koh)$estimate, s$parameter))
   ci <- confint(koh, level = 0.8)
   expect_identical(unname(ci[, 1]), s$lower)
   expect_identical(unname(ci[, 2]), s$upper)
@@ -157,6 +159,6 @@ test_that("griddy_koh has coef(), confint(), nobs() and tidy()", {
   expect_identical(nobs(koh), 3L)
   td <- tidy(koh, conf.level = 0.8)
   expect_identical(td$term, c("a", "b"))
-  expect_identical(td$estimate, s$median)
+  expect_identical(td$estimate, s$estimate)
   expect_identical(td$conf.high, s$upper)
 })

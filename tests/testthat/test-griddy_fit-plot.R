@@ -40,16 +40,16 @@ test_that("the ppc plot handles one output per setting", {
   expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
 })
 
-test_that("the posterior of a refined fit is a histogram of its draws", {
+test_that("the posterior of a refined fit is a density over its weighted runs", {
   toy <- refine_toy()
   refined <- refine(toy$fit, refine_sim, max_runs = 2000, seed = 1)
   p <- plot(refined, "posterior", truth = c(k = toy$k))
   expect_s3_class(p, "ggplot")
-  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomBar"), logical(1))))
+  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomArea"), logical(1))))
   expect_silent(ggplot2::ggplot_build(p))
 })
 
-test_that("the posterior of a scattered design is a histogram, of a grid bars", {
+test_that("the posterior of a scattered design is a density, of a grid bars", {
   # an emulated library's 10,000 distinct values made bars one run wide
   set.seed(1)
   n <- 400
@@ -61,12 +61,56 @@ test_that("the posterior of a scattered design is a histogram, of a grid bars", 
   lhs <- sim_library(theta, sim(theta), t = t)
   fit <- suppressWarnings(calibrate(lhs, field, n_iter = 500, burn_in = 100, seed = 1))
   p <- plot(fit, "posterior")
-  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomBar"), logical(1))))
+  expect_true(any(vapply(p$layers, function(l) inherits(l$geom, "GeomArea"), logical(1))))
   grid <- expand.grid(k = seq(0, 1, length.out = 20), c = seq(0, 1, length.out = 20))
   fit_grid <- suppressWarnings(calibrate(sim_library(grid, sim(grid), t = t), field,
                                          n_iter = 500, burn_in = 100, seed = 1))
   expect_false(any(vapply(plot(fit_grid, "posterior")$layers,
-                          function(l) inherits(l$geom, "GeomBar"), logical(1))))
+                          function(l) inherits(l$geom, "GeomArea"), logical(1))))
+})
+
+test_that("a scattered design's posterior is smoothed for its effective runs, not spiky", {
+  # 10,000 Latin-hypercube runs, a resolved fit on about 20 effective runs:
+  # a histogram of the draws showed those runs as spikes, with false modes
+  set.seed(1)
+  n <- 10000
+  theta <- data.frame(k = (sample(n) - stats::runif(n)) / n, c = (sample(n) - stats::runif(n)) / n)
+  t <- seq(0, 1, length.out = 8)
+  sim <- function(th) outer(th$k, t) + outer(th$c, t^2)
+  field <- field_data(drop(sim(data.frame(k = 0.4, c = 0.6))) + stats::rnorm(8, sd = 0.02),
+                      t = t)
+  fit <- suppressWarnings(calibrate(sim_library(theta, sim(theta), t = t), field,
+                                    n_iter = 2000, burn_in = 200, seed = 1))
+  w <- posterior_exact(fit$library, field)$run
+  n_eff <- 1 / sum(w^2)
+  expect_lt(n_eff, 60)
+  p <- plot(fit, "posterior")
+  expect_match(p$labels$subtitle, paste0("smoothed for ", format(n_eff, digits = 3),
+                                         " effective runs"), fixed = TRUE)
+  for (par in c("k", "c")) {
+    d <- p$data[p$data$parameter == par, ]
+    # a density: it integrates to about 1 over the range drawn
+    expect_equal(sum(diff(d$value) * (head(d$density, -1) + tail(d$density, -1)) / 2), 1,
+                 tolerance = 0.02)
+    # one mode, where the runs' weights put their mass
+    modes <- sum(diff(sign(diff(d$density))) == -2)
+    expect_identical(modes, 1L)
+    mean_w <- sum(w * theta[[par]])
+    expect_lt(abs(d$value[which.max(d$density)] - mean_w), 0.1)
+    # the same density as stats::density() at Silverman's bandwidth for n_eff
+    ref <- weighted_density(theta[[par]], w, n_eff)
+    expect_equal(d$density, ref$y)
+  }
+})
+
+test_that("the posterior and pairs plots leave room for the last tick label", {
+  ex <- griddy_example()
+  fit <- without_resolution_warning(
+    calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100, seed = 1))
+  # the right margin held half a tick label ("1400" was cut at the edge)
+  right <- function(p) as.numeric(ggplot2::ggplot_build(p)$plot$theme$plot.margin)[2]
+  expect_gte(right(plot(fit, "posterior")), 16)
+  expect_gte(right(plot(fit, "pairs")), 16)
 })
 
 test_that("traces are thinned for display and say so", {
@@ -100,6 +144,8 @@ test_that("the pairs plot shows every pair of theta columns, the truth marked", 
   expect_identical(levels(p$data$pair), pairs)
   expect_equal(nrow(p$data), length(pairs) * nrow(fit$draws))
   expect_silent(ggplot2::ggplot_build(p))
+  # one pair: the axes are titled by the parameters ("Value (x)" before)
+  expect_identical(c(p$labels$x, p$labels$y), c("k", "c"))
   one <- sim_library(data.frame(k = 1:5), outer(1:5, 1:4))
   fit1 <- suppressWarnings(calibrate(one, field_data(c(1, 2, 3, 4.1)), n_iter = 300,
                                      burn_in = 50, seed = 1))

@@ -152,3 +152,21 @@ test_that("print keeps every line within width, from the argument or the option"
   # a subset of columns prints what it holds
   expect_output(print(s[c("parameter", "mean", "rhat")]), "parameter +mean +rhat")
 })
+
+test_that("print() explains an NA ess_tail: a tail quantile on the last value drawn", {
+  toy <- toy_ar1(n_runs = 40, n_t = 20)
+  fit <- suppressWarnings(
+    calibrate(toy$library, toy$field, n_iter = 1000, burn_in = 100, chains = 2, seed = 1),
+    classes = "griddy_warning_resolution")
+  # 90% of the draws on one run and 10% on a run of larger theta: the 95%
+  # quantile of theta is its largest value drawn
+  low_high <- order(toy$library$theta$theta)[c(1, 40)]
+  fit$draws$run <- ifelse(seq_len(nrow(fit$draws)) %% 10 == 0, low_high[2], low_high[1])
+  s <- summary(fit)
+  expect_true(is.na(s$ess_tail[1]) && !is.na(s$ess_bulk[1]))
+  out <- paste(utils::capture.output(print(s, width = 300)), collapse = "\n")
+  expect_match(out, "ess_tail NA: the 95% quantile of theta is its largest value drawn",
+               fixed = TRUE)
+  # no note where every tail ESS is there
+  expect_identical(ess_tail_note(s[2, ]), character())
+})
