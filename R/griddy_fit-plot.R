@@ -151,7 +151,7 @@ scattered_library <- function(library) {
 # draws shows the spikes of the few runs that carry the mass (a resolved fit
 # can rest on some 20 effective runs out of 10,000) as if they were the shape.
 posterior_density <- function(fit, theta) {
-  weights <- exact_from_problem(fit, joint = FALSE)$run
+  weights <- exact_margins(fit)$run
   n_eff <- 1 / sum(weights^2)
   curves <- do.call(rbind, lapply(names(theta), function(p) {
     d <- weighted_density(theta[[p]], weights, n_eff)
