@@ -16,14 +16,13 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
   level <- strength_levels(strength)
   zero <- rowSums(abs(strength)) == 0
   Wb <- whiten_rows(base_terms$Y, point, ctx$n_x, ctx$n_t)
+  Wb_norm2 <- rowSums(Wb * Wb)
   near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
   m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
   # the part of output w that no base run (best one, refined linearly on its
   # theta neighbours) reproduces, leaving out base run `drop`
   imitate <- function(w, drop = 0L) {
-    d2 <- rowSums(sweep(Wb, 2, w, "-")^2)
-    d2[drop] <- Inf
-    j <- which.min(d2)
+    j <- nearest_row(Wb, w, Wb_norm2, drop)
     dist <- colSums((t(tb) - tb[j, ])^2)
     dist[c(j, drop)] <- Inf
     nb <- order(dist)[seq_len(m)]
@@ -54,4 +53,16 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
        detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
        separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
                                       res[[best]]$imitator, absorbed_by, effect))
+}
+
+# The row of W nearest w (squared distance), not row `drop`: |W_j|^2 - 2 W_j'w
+# over all rows (one product), then the exact distance among the rows within
+# rounding of the least, so that the choice is that of the exact distances.
+nearest_row <- function(W, w, norm2, drop = 0L) {
+  d2 <- norm2 - 2 * drop(W %*% w) + sum(w * w)
+  d2[drop] <- Inf
+  slack <- 1e-9 * (max(norm2) + sum(w * w))
+  close <- which(d2 <= min(d2) + slack)
+  exact <- colSums((t(W[close, , drop = FALSE]) - w)^2)
+  close[which.min(exact)]
 }

@@ -105,13 +105,3 @@ setting_pieces <- function(ctx, E, point) {
   setting <- outer(rep(seq_len(n_x), each = n_t), seq_len(n_x), "==") + 0
   ((W * W) %*% setting) * rep(1 / diag(point$Rx_inv), each = J)
 }
-
-# The noise covariance S R_g S of a grid point over the observed points (R_g
-# for complete data without sd).
-point_covariance <- function(ctx, point) {
-  R <- kronecker(crossprod(point$Rx_chol), point$Rt)
-  if (!ctx$dense) return(R)
-  R <- R[ctx$obs, ctx$obs, drop = FALSE]
-  if (!is.null(ctx$sd)) R <- R * outer(ctx$sd[ctx$obs], ctx$sd[ctx$obs])
-  R
-}

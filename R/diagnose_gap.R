@@ -343,10 +343,8 @@ check_candidates <- function(candidates, base) {
 # Zero-strength runs that share a base run's theta must reproduce its outputs.
 check_zero_strength <- function(cand, base, zero, what) {
   cols <- names(lib_theta(base))
-  key_b <- do.call(paste, c(lapply(lib_theta(base), signif, 10), sep = "\r"))
-  key_c <- do.call(paste, c(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
-                            sep = "\r"))
-  hit <- match(key_c, key_b)
+  hit <- match_rows(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
+                    lapply(lib_theta(base), signif, 10))
   ok <- !is.na(hit)
   if (!any(ok)) return(invisible())
   yc <- lib_outputs(cand, which(zero)[ok])
@@ -370,9 +368,24 @@ candidate_log_prior <- function(cand, base_cols) {
   -log(max(level)) - log(count[level])
 }
 
+# The level of each run: its distinct strength values (to 12 digits),
+# numbered in order of first appearance.
 strength_levels <- function(strength) {
-  key <- do.call(paste, c(as.data.frame(signif(strength, 12)), sep = "\r"))
-  match(key, unique(key))
+  id <- row_ids(as.data.frame(signif(strength, 12)))
+  match(id, unique(id))
+}
+
+# For each row of table `x` (a list of columns), the first row of `table`
+# with the same values, NA where none has (match() over rows).
+match_rows <- function(x, table) {
+  id <- row_ids(data.table::rbindlist(list(x, table)))
+  n <- length(x[[1]])
+  match(id[seq_len(n)], id[-seq_len(n)])
+}
+
+# One integer per row of a table, the same for equal rows (their rank).
+row_ids <- function(table) {
+  data.table::frankv(data.table::as.data.table(table), ties.method = "dense")
 }
 
 model_prior <- function(prior_models, models) {
