@@ -57,8 +57,10 @@
 #' noise standard deviation: smaller ones are not "detectable"), both with
 #' uniform priors (length-scales too short to correlate neighbouring points
 #' are dropped: such a "discrepancy" is white noise, which the base model
-#' already has); its evidence is exact too (one dense Cholesky factor per
-#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). With
+#' already has); its evidence is exact too (to rounding: a smooth kernel is
+#' factored once at its numerical rank \eqn{r}, then every scale and ratio
+#' costs one pass over the runs per correlation grid point, so the cost grows
+#' as runs times \eqn{n r}). With
 #' relative `sd`, \eqn{s} is relative to the mean noise variance over the
 #' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
 #' discrepancy stays smooth in output units. Model probabilities use `prior_models`
@@ -123,6 +125,8 @@
 #'   resolution (see Details); 0 compares the libraries as they are.
 #' @param seed `NULL`, or a seed for this call only (the predicted runs'
 #'   places are random).
+#' @param progress Show a progress bar over the steps (refining the base
+#'   library and each candidate, the evidence, the checks).
 #' @return An object of class `gap_diagnosis`, a list with
 #'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
 #'     (t range), `n` (observed points; 0: not checked), `score`, `p_value`,
@@ -184,7 +188,7 @@
 #' @export
 diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
                          other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05,
-                         max_runs = 2000, seed = NULL) {
+                         max_runs = 4000, seed = NULL, progress = interactive()) {
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
@@ -200,13 +204,19 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
 
   max_runs <- assert_count(max_runs, "max_runs", min = 0L)
   seed <- assert_seed(seed)
+  step <- gap_progress(assert_flag(progress, "progress"), length(candidates))
   # every model at matched resolution (diagnose_gap-resolution.R)
   matched <- with_seed(seed, {
+    step("refining the base library")
     base_problem <- matched_base(fit, max_runs)
     list(base = base_problem,
-         candidates = lapply(candidates, matched_candidate, base_problem = base_problem,
-                             max_runs = max_runs))
+         candidates = lapply(names(candidates), function(nm) {
+           step(paste0("refining '", nm, "'"))
+           matched_candidate(candidates[[nm]], base_problem, max_runs)
+         }))
   })
+  names(matched$candidates) <- names(candidates)
+  step("the models' evidence")
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
@@ -245,6 +255,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
   rownames(which_tab) <- NULL
 
+  step("where and how much")
   where <- gap_where(ctx, base_terms, windows, fdr)
   folds <- gap_folds(ctx, base_terms, cand_terms)
   shrink <- summarise_folds(folds, names(candidates))
@@ -257,6 +268,23 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
                                  confounding_threshold = confounding_threshold),
                  x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
+}
+
+# A function(status) that advances diagnose_gap()'s progress bar one step
+# (the refinement of the base and of each candidate, the evidence, the
+# checks); the bar closes when the caller returns. Does nothing without
+# `progress`.
+gap_progress <- function(progress, n_candidates, envir = parent.frame()) {
+  if (!progress) return(function(status) invisible())
+  bar <- cli::cli_progress_bar(
+    "Diagnosing the gap", total = n_candidates + 3L, .envir = envir,
+    format = "{cli::pb_name} {cli::pb_bar} {cli::pb_current}/{cli::pb_total} {cli::pb_status}")
+  first <- TRUE
+  function(status) {
+    cli::cli_progress_update(inc = if (first) 0 else 1, status = status, id = bar,
+                             force = TRUE, .envir = envir)
+    first <<- FALSE
+  }
 }
 
 # ---- candidates --------------------------------------------------------------

@@ -14,3 +14,19 @@ test_that("an effect a shift of theta imitates is reported as confounded, not at
   expect_no_match(advice, "speed or pressure")
   expect_false(gap$verdict$answer == "scale")
 })
+
+test_that("the nearest row is the exact distances' choice, ties within rounding included", {
+  set.seed(2)
+  W <- matrix(rnorm(400 * 6), 400) * 1e3
+  w <- W[17, ] + 1e-9                                 # almost a library row
+  W[18, ] <- W[17, ] - 2e-9                           # a closer one within rounding
+  exact <- function(drop = 0L) {
+    d <- colSums((t(W) - w)^2)
+    d[drop] <- Inf
+    which.min(d)
+  }
+  expect_identical(nearest_row(W, w, rowSums(W^2)), exact())
+  expect_identical(nearest_row(W, w, rowSums(W^2), drop = 17L), exact(17L))
+  v <- rnorm(6)
+  expect_identical(nearest_row(W, v, rowSums(W^2)), which.min(colSums((t(W) - v)^2)))
+})

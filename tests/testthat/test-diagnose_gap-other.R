@@ -60,3 +60,26 @@ test_that("'other' over the observed points is the exact evidence (discrepancy i
   }
   expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
 })
+
+test_that("a smooth kernel's low-rank factor reproduces it, and 'other' stays exact at low rank", {
+  toy <- toy_gap(0.1, rho_t = c(0, 0.4))
+  ctx <- gap_context(toy$fit)
+  K <- smooth_kernel(ctx, 0.3)
+  B <- low_rank_factor(K)
+  expect_lt(ncol(B), nrow(K))                      # the rank is well below n = 90
+  expect_equal(tcrossprod(B), K, tolerance = 1e-10)
+  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
+  got <- other_log_evidence(ctx, tm, 0.3)
+  y <- as.vector(t(toy$field$y))
+  terms <- c()
+  for (g in 1:2) {
+    R <- kronecker(diag(3), corr_t(toy$t, c(0, 0.4)[g]))
+    for (s in 4^(1:4)) {
+      L <- chol(R + s * K)
+      Q <- colSums(backsolve(L, t(toy$lib$y) - y, transpose = TRUE)^2)
+      terms <- c(terms, collapsed_log_joint(matrix(Q), ctx$n, 2 * sum(log(diag(L))), ctx$prior,
+                                            tm$log_prior_run, ctx$log_prior_grid[g]))
+    }
+  }
+  expect_equal(got, log_sum_exp(terms) - log(4), tolerance = 1e-8)
+})

@@ -161,3 +161,33 @@ test_that("on data with missing cells and relative sd the true effect is named",
   expect_output(print(gap), "best explained by 'quadratic'")
   expect_s3_class(plot(gap), "ggplot")
 })
+
+test_that("progress = TRUE shows each step and changes nothing", {
+  toy <- toy_gap(0.2)
+  withr::local_options(cli.progress_show_after = 0)
+  msgs <- capture_messages(g1 <- diagnose_gap(toy$fit, list(quadratic = toy$quad), seed = 1,
+                                              progress = TRUE))
+  expect_match(paste(msgs, collapse = ""), "Diagnosing the gap.*refining 'quadratic'")
+  expect_length(capture_messages(g2 <- diagnose_gap(toy$fit, list(quadratic = toy$quad),
+                                                    seed = 1, progress = FALSE)), 0)
+  expect_equal(g1, g2)
+  expect_error(diagnose_gap(toy$fit, list(quadratic = toy$quad), progress = NA),
+               class = "griddy_error")
+})
+
+test_that("max_runs defaults to 4000, as refine() resolves 2-3 parameter problems", {
+  expect_identical(formals(diagnose_gap)$max_runs, 4000)
+})
+
+test_that("strength levels and row matches are those of pasted keys, in first-seen order", {
+  set.seed(3)
+  m <- cbind(sample(c(0, 0.1, 0.2), 200, TRUE), sample(c(0, 1, -1), 200, TRUE))
+  key <- do.call(paste, c(as.data.frame(signif(m, 12)), sep = "\r"))
+  expect_identical(strength_levels(m), match(key, unique(key)))
+  a <- data.frame(p = round(runif(300), 2), q = round(runif(300), 1))
+  b <- data.frame(p = round(runif(200), 2), q = round(runif(200), 1))
+  ka <- do.call(paste, c(a, sep = "\r"))
+  kb <- do.call(paste, c(b, sep = "\r"))
+  expect_identical(match_rows(a, b), match(ka, kb))
+  expect_true(anyNA(match_rows(a, b)) && any(!is.na(match_rows(a, b))))
+})
