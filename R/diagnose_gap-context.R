@@ -18,10 +18,7 @@ gap_context <- function(fit) {
   setting_pos <- lapply(seq_len(n_x), function(k) block_positions(obs, k, seq_len(n_t), n_t))
   points <- lapply(seq_len(n_grid_points(setup)), function(g) {
     fitted <- grid_point(setup, g)
-    # rows of the whitened / coloured identity are the columns of A_t, L_t
-    A_t <- t(ar1_whiten_rows_cpp(diag(n_t), fitted$phi, 1L))
-    point <- c(fitted, list(Pt = crossprod(A_t),
-                            Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), fitted$phi, 1L))),
+    point <- c(fitted, list(Pt = ar1_precision(fitted$phi, n_t),
                             log_prior = fit$log_prior_grid[g]))
     if (!is.null(fitted$dense)) {
       point$P <- dense_precision(fitted)
@@ -36,6 +33,29 @@ gap_context <- function(fit) {
        logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
        obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
        setting_pos = setting_pos)
+}
+
+# The AR(1) precision over t, A'A for A the whitening (innovations) operator
+# of ar1_whiten_rows_cpp(): A is lower bidiagonal, so A'A is tridiagonal and
+# is filled from A's two diagonals (no n_t^3 product); its diagonal and
+# off-diagonal are kept as attributes "diag" and "off" for products in
+# O(n_t) (ar1_precision_times()).
+ar1_precision <- function(phi, n_t) {
+  if (n_t == 1L) {
+    d <- ar1_whiten_rows_cpp(matrix(1), phi, 1L)[1]^2
+    return(structure(matrix(d), diag = d, off = numeric()))
+  }
+  # whitening the odd and the even unit indicators reads A's diagonal a_ii
+  # and sub-diagonal a_(i,i-1) at once (each row of A has those two entries)
+  odd <- seq_len(n_t) %% 2L == 1L
+  U <- ar1_whiten_rows_cpp(rbind(as.numeric(odd), as.numeric(!odd)), phi, 1L)
+  d <- ifelse(odd, U[1, ], U[2, ])
+  sub <- ifelse(odd, U[2, ], U[1, ])[-1]                  # a_(i,i-1), i = 2..n_t
+  P <- diag(d^2 + c(sub^2, 0))
+  off <- sub * d[-1]                                      # (A'A)_(i-1,i) = a_(i,i-1) a_ii
+  P[cbind(1:(n_t - 1L), 2:n_t)] <- off
+  P[cbind(2:n_t, 1:(n_t - 1L))] <- off
+  structure(P, diag = diag(P), off = off)
 }
 
 # P = (S R_g S)_oo^-1 over the observed points of a dense grid point with one

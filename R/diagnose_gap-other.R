@@ -64,9 +64,16 @@ low_rank_factor <- function(K) {
 }
 
 # P M for the columns of M (data vectors over the observed points), P the
-# grid point's inverse noise correlation (apply_precision(), column by column).
+# grid point's inverse noise correlation (as apply_precision(), all columns
+# at once).
 precision_times <- function(ctx, point, M) {
   if (ctx$dense) return(point$P %*% M)
-  matrix(vapply(seq_len(ncol(M)), function(i) apply_precision(ctx, point, M[, i]),
-                numeric(nrow(M))), nrow(M))
+  n_t <- ctx$n_t
+  n_x <- ctx$n_x
+  r <- ncol(M)
+  Tm <- ar1_precision_times(point$Pt, matrix(M, n_t, n_x * r))   # Pt on every block
+  if (identical(unname(point$Rx_inv), diag(n_x))) return(matrix(Tm, n_t * n_x, r))
+  # then R_x^-1 over the settings of every column
+  Tm <- matrix(aperm(array(Tm, c(n_t, n_x, r)), c(1, 3, 2)), n_t * r, n_x) %*% point$Rx_inv
+  matrix(aperm(array(Tm, c(n_t, r, n_x)), c(1, 3, 2)), n_t * n_x, r)
 }

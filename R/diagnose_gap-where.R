@@ -72,7 +72,19 @@ gap_where <- function(ctx, tm, windows, fdr) {
 # point's dense P otherwise.
 apply_precision <- function(ctx, point, e) {
   if (ctx$dense) return(drop(point$P %*% e))
-  as.vector(point$Pt %*% matrix(e, ctx$n_t, ctx$n_x) %*% point$Rx_inv)
+  as.vector(ar1_precision_times(point$Pt, matrix(e, ctx$n_t, ctx$n_x)) %*% point$Rx_inv)
+}
+
+# Pt X for the tridiagonal AR(1) precision Pt (ar1_precision()), in O(n_t)
+# per column of X.
+ar1_precision_times <- function(Pt, X) {
+  n_t <- nrow(X)
+  out <- attr(Pt, "diag") * X
+  if (n_t == 1L) return(out)
+  off <- attr(Pt, "off") * X[-1, , drop = FALSE]           # (Pt)_(i,i+1) x_(i+1)
+  out[-n_t, ] <- out[-n_t, ] + off
+  out[-1, ] <- out[-1, ] + attr(Pt, "off") * X[-n_t, , drop = FALSE]
+  out
 }
 
 # P_BB for the block of setting x and t indices W at data positions `pos`.
