@@ -112,9 +112,11 @@ res$code <- Sys.getenv("GAP_BENCH_CODE", system2("git", c("rev-parse", "--short"
 print(res)
 write.csv(res, paste0(out_stem, ".csv"), row.names = FALSE)
 tab <- data.frame(case = res$case, call = res$call,
-                  `elapsed (s)` = ifelse(is.na(res$elapsed_s), paste0("> ", limit), fmt3(res$elapsed_s)),
+                  `elapsed (s)` = ifelse(is.na(res$elapsed_s), paste0("> ", limit),
+                                         fmt3(res$elapsed_s)),
                   `CPU (s)` = fmt3(res$cpu_s),
-                  `x calibrate()` = ifelse(is.na(res$times_calibrate), "-", fmt3(res$times_calibrate)),
+                  `x calibrate()` = ifelse(is.na(res$times_calibrate), "-",
+                                           fmt3(res$times_calibrate)),
                   answer = ifelse(is.na(res$answer), "-", res$answer),
                   check.names = FALSE)
 writeLines(c(md_header("diagnose_gap() against its calibrate()", "bench/diagnose-gap-speed.R",
