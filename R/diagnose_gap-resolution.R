@@ -80,9 +80,11 @@ matched_terms <- function(ctx, Y, log_prior, C, library = NULL) {
   terms
 }
 
-# The fit's own context and base terms, for the confounding screen.
+# The fit's own context and base terms, for the confounding screen (which
+# reads the outputs, Q and the log joint, not the leave-out pieces).
 screen_terms <- function(fit) {
   ctx <- gap_context(fit)
-  list(ctx = ctx, terms = gap_terms(ctx, lib_outputs(fit$library), fit$log_prior_run,
-                                    Q = fit$C))
+  lj <- collapsed_log_joint(fit$C, ctx$n, ctx$logdet, ctx$prior, fit$log_prior_run,
+                            ctx$log_prior_grid)
+  list(ctx = ctx, terms = list(Y = lib_outputs(fit$library), Q = fit$C, lj = lj))
 }

@@ -23,10 +23,10 @@ fold_one <- function(ctx, tm, k, model) {
   if (m == 0L) return(NULL)
   cols <- ctx$obs[pos]
   # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|: for complete data (R^-1)_BB =
-  # (R_x^-1)_kk Pt, otherwise from the node's factor of P_BB
-  ld_bb <- vapply(ctx$nodes, function(node) {
-    if (ctx$dense) return(2 * sum(log(diag(node$setting_chol[[k]]))))
-    m * log(node$Rx_inv[k, k]) - sum(log1p(-node$phi^2))
+  # (R_x^-1)_kk Pt, otherwise from the point's factor of P_BB
+  ld_bb <- vapply(ctx$points, function(point) {
+    if (ctx$dense) return(2 * sum(log(diag(point$setting_chol[[k]]))))
+    m * log(point$Rx_inv[k, k]) - sum(log1p(-point$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
   lj <- collapsed_log_joint(matrix(Qm, nrow(tm$Q)), n - m, ctx$logdet + ld_bb, ctx$prior,

@@ -24,10 +24,10 @@ gap_where <- function(ctx, tm, windows, fdr) {
   b <- ctx$prior$rate
   n <- ctx$n
   for (g in unique(pairs[, 2])) {
-    node <- ctx$nodes[[g]]
+    point <- ctx$points[[g]]
     at <- which(pairs[, 2] == g)
     P_BB <- lapply(seq_len(nb), function(i) {
-      if (size[i] > 0L) block_precision(ctx, node, pos[[i]], win[[blocks$w[i]]], blocks$x[i])
+      if (size[i] > 0L) block_precision(ctx, point, pos[[i]], win[[blocks$w[i]]], blocks$x[i])
     })
     chols <- lapply(P_BB, function(S) if (!is.null(S)) chol(S))
     for (p in at) {
@@ -35,9 +35,9 @@ gap_where <- function(ctx, tm, windows, fdr) {
       e <- tm$E[j, ctx$obs]
       err <- run_emulation(tm$emulation, j, ctx$obs)
       if (is.null(err)) {
-        h <- apply_precision(ctx, node, e)
+        h <- apply_precision(ctx, point, e)
       } else {
-        wood <- emulated_inverse(ctx, node, e, err)
+        wood <- emulated_inverse(ctx, point, e, err)
       }
       for (i in checked) {
         bs <- if (is.null(err)) plain_block(h[pos[[i]]], chols[[i]], tm$Q[j, g]) else
@@ -69,16 +69,28 @@ gap_where <- function(ctx, tm, windows, fdr) {
 }
 
 # h = P e for the data vector e: P = R_x^-1 (x) Pt for complete data, the
-# node's dense P otherwise.
-apply_precision <- function(ctx, node, e) {
-  if (ctx$dense) return(drop(node$P %*% e))
-  as.vector(node$Pt %*% matrix(e, ctx$n_t, ctx$n_x) %*% node$Rx_inv)
+# point's dense P otherwise.
+apply_precision <- function(ctx, point, e) {
+  if (ctx$dense) return(drop(point$P %*% e))
+  as.vector(ar1_precision_times(point$Pt, matrix(e, ctx$n_t, ctx$n_x)) %*% point$Rx_inv)
+}
+
+# Pt X for the tridiagonal AR(1) precision Pt (ar1_precision()), in O(n_t)
+# per column of X.
+ar1_precision_times <- function(Pt, X) {
+  n_t <- nrow(X)
+  out <- attr(Pt, "diag") * X
+  if (n_t == 1L) return(out)
+  off <- attr(Pt, "off") * X[-1, , drop = FALSE]           # (Pt)_(i,i+1) x_(i+1)
+  out[-n_t, ] <- out[-n_t, ] + off
+  out[-1, ] <- out[-1, ] + attr(Pt, "off") * X[-n_t, , drop = FALSE]
+  out
 }
 
 # P_BB for the block of setting x and t indices W at data positions `pos`.
-block_precision <- function(ctx, node, pos, W, x) {
-  if (ctx$dense) return(node$P[pos, pos, drop = FALSE])
-  node$Rx_inv[x, x] * node$Pt[W, W, drop = FALSE]
+block_precision <- function(ctx, point, pos, W, x) {
+  if (ctx$dense) return(point$P[pos, pos, drop = FALSE])
+  point$Rx_inv[x, x] * point$Pt[W, W, drop = FALSE]
 }
 
 # The leave-block pieces of a run whose covariance is R_g: with h = R_g^-1 r
@@ -105,7 +117,7 @@ gap_windows <- function(ctx, tm, windows) {
   if (is.null(windows)) {
     if (n_t == 1L) return(list(1L))
     g <- arrayInd(which.max(tm$lj), dim(tm$lj))[2]
-    phi <- ctx$nodes[[g]]$phi
+    phi <- ctx$points[[g]]$phi
     # correlation length in samples: lag at which the correlation falls to 1/e
     lag1 <- stats::median(phi)
     len <- if (lag1 <= 0) 1 else -1 / log(lag1)

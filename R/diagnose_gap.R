@@ -57,8 +57,10 @@
 #' noise standard deviation: smaller ones are not "detectable"), both with
 #' uniform priors (length-scales too short to correlate neighbouring points
 #' are dropped: such a "discrepancy" is white noise, which the base model
-#' already has); its evidence is exact too (one dense Cholesky factor per
-#' correlation node, scale and ratio, so its cost grows as \eqn{n^3}). With
+#' already has); its evidence is exact too (to rounding: a smooth kernel is
+#' factored once at its numerical rank \eqn{r}, then every scale and ratio
+#' costs one pass over the runs per correlation grid point, so the cost grows
+#' as runs times \eqn{n r}). With
 #' relative `sd`, \eqn{s} is relative to the mean noise variance over the
 #' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
 #' discrepancy stays smooth in output units. Model probabilities use `prior_models`
@@ -123,6 +125,11 @@
 #'   resolution (see Details); 0 compares the libraries as they are.
 #' @param seed `NULL`, or a seed for this call only (the predicted runs'
 #'   places are random).
+#' @param progress Show a progress bar over the steps (refining the base
+#'   library and each candidate, the evidence, the checks).
+#' @param control Settings shared by the calibrating functions, from
+#'   [griddy_control()]: the defaults of `max_runs` and `progress`; an
+#'   argument given in the call overrides its field.
 #' @return An object of class `gap_diagnosis`, a list with
 #'   * `where`: one row per block: `x` (row of the x setting), `from`, `to`
 #'     (t range), `n` (observed points; 0: not checked), `score`, `p_value`,
@@ -184,7 +191,9 @@
 #' @export
 diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
                          other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05,
-                         max_runs = 2000, seed = NULL) {
+                         max_runs = control$max_runs, seed = NULL,
+                         progress = control$progress, control = griddy_control()) {
+  control <- assert_control(control)
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
@@ -200,13 +209,19 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
 
   max_runs <- assert_count(max_runs, "max_runs", min = 0L)
   seed <- assert_seed(seed)
+  step <- gap_progress(assert_flag(progress, "progress"), length(candidates))
   # every model at matched resolution (diagnose_gap-resolution.R)
   matched <- with_seed(seed, {
+    step("refining the base library")
     base_problem <- matched_base(fit, max_runs)
     list(base = base_problem,
-         candidates = lapply(candidates, matched_candidate, base_problem = base_problem,
-                             max_runs = max_runs))
+         candidates = lapply(names(candidates), function(nm) {
+           step(paste0("refining '", nm, "'"))
+           matched_candidate(candidates[[nm]], base_problem, max_runs)
+         }))
   })
+  names(matched$candidates) <- names(candidates)
+  step("the models' evidence")
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
@@ -245,6 +260,7 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
   rownames(which_tab) <- NULL
 
+  step("where and how much")
   where <- gap_where(ctx, base_terms, windows, fdr)
   folds <- gap_folds(ctx, base_terms, cand_terms)
   shrink <- summarise_folds(folds, names(candidates))
@@ -257,6 +273,23 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
                                  confounding_threshold = confounding_threshold),
                  x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
+}
+
+# A function(status) that advances diagnose_gap()'s progress bar one step
+# (the refinement of the base and of each candidate, the evidence, the
+# checks); the bar closes when the caller returns. Does nothing without
+# `progress`.
+gap_progress <- function(progress, n_candidates, envir = parent.frame()) {
+  if (!progress) return(function(status) invisible())
+  bar <- cli::cli_progress_bar(
+    "Diagnosing the gap", total = n_candidates + 3L, .envir = envir,
+    format = "{cli::pb_name} {cli::pb_bar} {cli::pb_current}/{cli::pb_total} {cli::pb_status}")
+  first <- TRUE
+  function(status) {
+    cli::cli_progress_update(inc = if (first) 0 else 1, status = status, id = bar,
+                             force = TRUE, .envir = envir)
+    first <<- FALSE
+  }
 }
 
 # ---- candidates --------------------------------------------------------------
@@ -343,10 +376,8 @@ check_candidates <- function(candidates, base) {
 # Zero-strength runs that share a base run's theta must reproduce its outputs.
 check_zero_strength <- function(cand, base, zero, what) {
   cols <- names(lib_theta(base))
-  key_b <- do.call(paste, c(lapply(lib_theta(base), signif, 10), sep = "\r"))
-  key_c <- do.call(paste, c(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
-                            sep = "\r"))
-  hit <- match(key_c, key_b)
+  hit <- match_rows(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
+                    lapply(lib_theta(base), signif, 10))
   ok <- !is.na(hit)
   if (!any(ok)) return(invisible())
   yc <- lib_outputs(cand, which(zero)[ok])
@@ -370,9 +401,24 @@ candidate_log_prior <- function(cand, base_cols) {
   -log(max(level)) - log(count[level])
 }
 
+# The level of each run: its distinct strength values (to 12 digits),
+# numbered in order of first appearance.
 strength_levels <- function(strength) {
-  key <- do.call(paste, c(as.data.frame(signif(strength, 12)), sep = "\r"))
-  match(key, unique(key))
+  id <- row_ids(as.data.frame(signif(strength, 12)))
+  match(id, unique(id))
+}
+
+# For each row of table `x` (a list of columns), the first row of `table`
+# with the same values, NA where none has (match() over rows).
+match_rows <- function(x, table) {
+  id <- row_ids(data.table::rbindlist(list(x, table)))
+  n <- length(x[[1]])
+  match(id[seq_len(n)], id[-seq_len(n)])
+}
+
+# One integer per row of a table, the same for equal rows (their rank).
+row_ids <- function(table) {
+  data.table::frankv(data.table::as.data.table(table), ties.method = "dense")
 }
 
 model_prior <- function(prior_models, models) {
@@ -385,212 +431,4 @@ model_prior <- function(prior_models, models) {
   if (any(p < 0) || sum(p) <= 0) griddy_abort("`prior_models` must be >= 0 with a positive sum.")
   p <- p[match(models, names(prior_models))]
   stats::setNames(log(p / sum(p)), models)
-}
-
-# ---- the fitted noise model, per correlation grid point ------------------------
-
-# The fit's noise model: one node per correlation grid point, holding the
-# grid point (grid_posterior.R) and the dense inverse correlations that the
-# block checks need. The data are the observed points `obs` (library order;
-# all of them for complete data). Under a noise pattern (missing cells,
-# relative sd) a node also holds P = (S R_g S)_oo^-1 over the observed points
-# and, per x setting, the Cholesky factor of P_BB for B its observed cells
-# (NULL for a setting with none): the Kronecker shortcuts do not hold there.
-gap_context <- function(fit) {
-  lib <- fit$library
-  setup <- fit$setup
-  n_x <- lib_n_x(lib)
-  n_t <- lib_n_t(lib)
-  obs <- if (is.null(setup$dense)) seq_len(n_x * n_t) else setup$dense$obs
-  setting_pos <- lapply(seq_len(n_x), function(k) block_positions(obs, k, seq_len(n_t), n_t))
-  nodes <- lapply(seq_len(n_grid_points(setup)), function(g) {
-    point <- grid_point(setup, g)
-    # rows of the whitened / coloured identity are the columns of A_t, L_t
-    A_t <- t(ar1_whiten_rows_cpp(diag(n_t), point$phi, 1L))
-    node <- c(point, list(Pt = crossprod(A_t),
-                          Rt = tcrossprod(t(ar1_colour_rows_cpp(diag(n_t), point$phi, 1L))),
-                          log_prior = fit$log_prior_grid[g]))
-    if (!is.null(point$dense)) {
-      node$P <- dense_precision(point)
-      node$setting_chol <- lapply(setting_pos, function(pos) {
-        if (length(pos) > 0L) chol(node$P[pos, pos, drop = FALSE])
-      })
-    }
-    node
-  })
-  list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
-       nodes = nodes, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
-       logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
-       obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
-       setting_pos = setting_pos)
-}
-
-# P = (S R_g S)_oo^-1 over the observed points of a dense grid point with one
-# noise group: R_oo^-1 = A A' (dense_factors()), scaled by 1/sd on both sides.
-dense_precision <- function(point) {
-  d <- point$dense
-  P <- tcrossprod(d$A[[1]])
-  if (!is.null(d$scale)) P <- P * outer(d$scale, d$scale)
-  P
-}
-
-# The positions, in the vector of observed points `obs`, of the observed
-# cells of x setting k at t indices W (a block restricted to what was
-# measured; empty when none was).
-block_positions <- function(obs, k, W, n_t) {
-  pos <- match((k - 1L) * n_t + W, obs)
-  pos[!is.na(pos)]
-}
-
-# Per model: Q (runs x nodes), its log joint lj, the leave-setting-out pieces
-# D (runs x nodes x settings) and the outputs. `C`, when given, is the
-# model's own table of misfits (a refined library's, with the prediction
-# error of its predicted runs): it sets the posterior and evidence (lj),
-# while the leave-out algebra (Q, D, lj_plain) works on the plain quadratic
-# forms, which leave-out identities hold for. `E` holds NA at missing cells.
-gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
-  n_x <- ctx$n_x
-  n_t <- ctx$n_t
-  J <- nrow(Y)
-  G <- length(ctx$nodes)
-  E <- -sweep(Y, 2, ctx$y, "-")                       # residuals y - eta, runs in rows
-  D <- array(0, c(J, G, n_x))
-  for (g in seq_len(G)) {
-    node <- ctx$nodes[[g]]
-    if (ctx$dense) {
-      # the general form: h = P e over the observed points, D_k = h_B' P_BB^-1 h_B
-      H <- E[, ctx$obs, drop = FALSE] %*% node$P
-      for (k in seq_len(n_x)) {
-        U <- node$setting_chol[[k]]
-        if (is.null(U)) next                          # no observed cell: nothing left out
-        pos <- ctx$setting_pos[[k]]
-        D[, g, k] <- colSums(backsolve(U, t(H[, pos, drop = FALSE]), transpose = TRUE)^2)
-      }
-      next
-    }
-    # D_k = h_B' (R^-1)_BB^-1 h_B for B = setting k; with R^-1 = R_x^-1 (x) Pt it is
-    # v_k' Pt v_k / (R_x^-1)_kk, v_k = sum_l (R_x^-1)_lk e_l (the AR(1) innovations of v_k).
-    V <- matrix(matrix(E, J * n_t, n_x) %*% node$Rx_inv, J, n_x * n_t)
-    W <- whiten_rows(V, node, n_x, n_t, over_x = FALSE)
-    for (k in seq_len(n_x)) {
-      D[, g, k] <- rowSums(W[, (k - 1L) * n_t + seq_len(n_t), drop = FALSE]^2) / node$Rx_inv[k, k]
-    }
-  }
-  lj_plain <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run,
-                                  ctx$log_prior_grid)
-  lj <- if (is.null(C)) lj_plain else
-    collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
-  list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
-}
-
-# The noise covariance S R_g S of a node over the observed points (R_g for
-# complete data without sd).
-node_covariance <- function(ctx, node) {
-  R <- kronecker(crossprod(node$Rx_chol), node$Rt)
-  if (!ctx$dense) return(R)
-  R <- R[ctx$obs, ctx$obs, drop = FALSE]
-  if (!is.null(ctx$sd)) R <- R * outer(ctx$sd[ctx$obs], ctx$sd[ctx$obs])
-  R
-}
-
-# ---- "other": the base model plus a generic smooth discrepancy ---------------
-
-# Squared-exponential correlation over the scaled (x, t), length-scale `scale`.
-smooth_kernel <- function(ctx, scale) {
-  xs <- if (is.null(ctx$x)) matrix(0, 1, 1) else apply(as.matrix(ctx$x), 2, scale_unit)
-  xs <- matrix(xs, nrow = ctx$n_x)
-  Kx <- exp(-as.matrix(stats::dist(xs))^2 / scale^2)
-  ts <- scale_unit(ctx$t)
-  Kt <- exp(-outer(ts, ts, "-")^2 / scale^2)
-  kronecker(Kx, Kt)
-}
-
-# "other": y = eta(theta) + delta + e, delta ~ N(0, s tau^-1 K_l) a smooth
-# discrepancy with variance s times the noise's, e ~ N(0, tau^-1 R_g).
-# Evidence over runs x correlation nodes x scales x variance ratios.
-other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
-  n <- ctx$n
-  Et <- t(base_terms$E[, ctx$obs, drop = FALSE])
-  # with relative sd the discrepancy stays smooth in output units (S K S would
-  # not be): its variance is s times the mean noise variance over the data
-  sd2 <- if (is.null(ctx$sd)) 1 else mean(ctx$sd[ctx$obs]^2)
-  kernels <- lapply(scales, function(sc) smooth_kernel(ctx, sc))
-  # a kernel that does not correlate neighbouring points is white noise, which
-  # the noise model already has (with tau integrated out it is the base model)
-  smooth <- vapply(kernels, function(K) {
-    diag(K) <- 0
-    stats::median(apply(K, 1, max)) >= 0.5
-  }, logical(1))
-  kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
-  kernels <- lapply(kernels, function(K) sd2 * K[ctx$obs, ctx$obs, drop = FALSE])
-  pieces <- unlist(lapply(kernels, function(K) {
-    unlist(lapply(ctx$nodes, function(node) {
-      R <- node_covariance(ctx, node)
-      vapply(ratios, function(s) {
-        L <- chol(R + s * K)
-        Q <- matrix(colSums(backsolve(L, Et, transpose = TRUE)^2))
-        log_sum_exp(collapsed_log_joint(Q, n, 2 * sum(log(diag(L))), ctx$prior,
-                                        base_terms$log_prior_run, node$log_prior))
-      }, numeric(1))
-    }))
-  }))
-  log_sum_exp(pieces) - log(length(kernels) * length(ratios))
-}
-
-# ---- confounding with theta ---------------------------------------------------
-
-confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effect) {
-  lj <- base_terms$lj
-  top <- arrayInd(which.max(lj), dim(lj))
-  node <- ctx$nodes[[top[2]]]
-  tau_hat <- (ctx$prior$shape + ctx$n / 2) / (ctx$prior$rate + base_terms$Q[top[1], top[2]] / 2)
-  theta_b <- as.matrix(ctx$theta[base_cols])
-  lo <- apply(theta_b, 2, min)
-  span <- pmax(apply(theta_b, 2, max) - lo, 1e-300)
-  sc <- function(m) sweep(sweep(as.matrix(m), 2, lo, "-"), 2, span, "/")
-  tb <- sc(theta_b)
-  tc <- sc(lib_theta(cand)[base_cols])
-  strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
-  level <- strength_levels(strength)
-  zero <- rowSums(abs(strength)) == 0
-  Wb <- whiten_rows(base_terms$Y, node, ctx$n_x, ctx$n_t)
-  near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
-  m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
-  # the part of output w that no base run (best one, refined linearly on its
-  # theta neighbours) reproduces, leaving out base run `drop`
-  imitate <- function(w, drop = 0L) {
-    d2 <- rowSums(sweep(Wb, 2, w, "-")^2)
-    d2[drop] <- Inf
-    j <- which.min(d2)
-    dist <- colSums((t(tb) - tb[j, ])^2)
-    dist[c(j, drop)] <- Inf
-    nb <- order(dist)[seq_len(m)]
-    Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
-    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j, nb = nb)
-  }
-  # the library's own resolution: how well the other runs imitate runs near the mode
-  around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
-  e_grid <- sqrt(mean(vapply(around, function(j) imitate(Wb[j, ], j)$e^2, numeric(1))))
-  res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
-    i1 <- near(tb[top[1], ], which(level == lv))
-    i0 <- near(tc[i1, ], which(zero))
-    w <- whiten_rows(lib_outputs(cand, c(i1, i0)), node, ctx$n_x, ctx$n_t)
-    delta <- sqrt(sum((w[1, ] - w[2, ])^2))
-    im <- imitate(w[1, ])
-    shift <- abs(tb[im$j, ] - tc[i0, ])
-    list(pair = c(i1, i0), imitator = im[c("j", "nb")], separable = sqrt(max(im$e^2 - e_grid^2, 0)) / max(delta, 1e-300),
-         judged = delta > 3 * e_grid, detectable = im$e * sqrt(tau_hat),
-         absorbed_by = base_cols[which.max(shift)], strength_size = sum(abs(strength[i1, ])))
-  })
-  judged <- vapply(res, `[[`, logical(1), "judged")
-  sep <- vapply(res, `[[`, numeric(1), "separable")
-  biggest <- which.max(vapply(res, `[[`, numeric(1), "strength_size"))
-  best <- if (any(judged)) which(judged)[which.min(sep[judged])] else biggest
-  absorbed_by <- res[[best]]$absorbed_by
-  list(separable = if (any(judged)) sep[best] else NA_real_,
-       confounded = any(judged) && sep[best] < threshold,
-       detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
-       separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
-                                      res[[best]]$imitator, absorbed_by, effect))
 }

@@ -153,13 +153,13 @@ emulated_group_forms <- function(y, y_field, setup, err, kappa, n_x, n_t, g) {
 # S = R_g + V V' (V = F sqrt(kappa), run_emulation()): h = S^-1 r,
 # Q = r'S^-1 r, logdet = log|S| - log|R_g|, and for its blocks A = P V Q and
 # the shrinkage 1 / (1 + gamma). P is applied by apply_precision().
-emulated_inverse <- function(ctx, node, e, err) {
-  PV <- apply(err$V, 2, function(v) apply_precision(ctx, node, v))
+emulated_inverse <- function(ctx, point, e, err) {
+  PV <- apply(err$V, 2, function(v) apply_precision(ctx, point, v))
   eg <- eigen(crossprod(err$V, PV), symmetric = TRUE)
   gamma <- pmax(eg$values, 0)
   A <- PV %*% eg$vectors
   shrink <- error_shrink(1, gamma)[1, ]
-  h <- apply_precision(ctx, node, e) - drop(A %*% (shrink * crossprod(A, e)))
+  h <- apply_precision(ctx, point, e) - drop(A %*% (shrink * crossprod(A, e)))
   list(A = A, shrink = shrink, h = h, Q = sum(e * h), logdet = error_logdet(1, gamma))
 }
 

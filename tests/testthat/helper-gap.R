@@ -30,3 +30,8 @@ toy_gap <- function(s_true = 0, bump = 0, sd = 0.05, seed = 1, n_t = 30, rho_t =
   list(lib = lib, field = field, fit = fit, quad = quad, scale = scale, sim = sim,
        t = t, x = x)
 }
+
+# missing cells (a run of t at the first load, most of the second load's
+# middle, one at the third) and an uneven relative sd, for toy_gap()
+gap_missing <- c(3, 4, 5, 40:47, 70)
+gap_rel_sd <- rep(c(1, 2, 0.5), each = 30) * (1 + 0.3 * sin(1:90))

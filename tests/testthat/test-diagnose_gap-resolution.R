@@ -42,18 +42,18 @@ test_that("a predicted run's leave-block pieces are those of its dense covarianc
   refined <- refine(toy$fit, max_runs = 200, runs_per_round = 100, seed = 2)
   lib <- refined$library
   ctx <- gap_context(refined)
-  node <- ctx$nodes[[1]]
+  point <- ctx$points[[1]]
   em <- run_errors(lib)
   j <- lib_n_runs(lib$base) + 5L
   err <- run_emulation(em, j, ctx$obs)
   r <- refined$y_field - lib_outputs(lib, j)[1, ]
-  wood <- emulated_inverse(ctx, node, r, err)
+  wood <- emulated_inverse(ctx, point, r, err)
   S <- diag(length(r)) + tcrossprod(err$V)
   Si <- solve(S)
   expect_equal(wood$Q, drop(t(r) %*% Si %*% r), tolerance = 1e-10)
   expect_equal(wood$logdet, as.numeric(determinant(S)$modulus), tolerance = 1e-10)
   W <- 11:20
-  bs <- emulated_block(wood, block_precision(ctx, node, W, W, 1L), W)
+  bs <- emulated_block(wood, block_precision(ctx, point, W, W, 1L), W)
   h <- Si %*% r
   expect_equal(bs$D, drop(t(h[W]) %*% solve(Si[W, W], h[W])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[W, W])$modulus), tolerance = 1e-10)
@@ -80,11 +80,11 @@ test_that("with missing cells and sd, a predicted run's pieces are those of its 
   lib <- refined$library
   ctx <- gap_context(refined)
   obs <- ctx$obs
-  node <- ctx$nodes[[1]]
+  point <- ctx$points[[1]]
   j <- lib_n_runs(lib$base) + 5L
   err <- run_emulation(run_errors(lib), j, obs)
   r <- (refined$y_field - lib_outputs(lib, j)[1, ])[obs]
-  wood <- emulated_inverse(ctx, node, r, err)
+  wood <- emulated_inverse(ctx, point, r, err)
   S <- diag(rs[obs]^2) + tcrossprod(err$V)
   Si <- solve(S)
   expect_equal(wood$Q, drop(t(r) %*% Si %*% r), tolerance = 1e-10)
@@ -94,7 +94,7 @@ test_that("with missing cells and sd, a predicted run's pieces are those of its 
   C <- structure(matrix(wood$Q), extra_logdet = matrix(wood$logdet))
   expect_equal(drop(fold_extra_logdet(C, refined$prior, ctx$n)), refined$C[j, 1], tolerance = 1e-8)
   B <- 11:20
-  bs <- emulated_block(wood, block_precision(ctx, node, B, B, 1L), B)
+  bs <- emulated_block(wood, block_precision(ctx, point, B, B, 1L), B)
   h <- Si %*% r
   expect_equal(bs$D, drop(t(h[B]) %*% solve(Si[B, B], h[B])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[B, B])$modulus), tolerance = 1e-10)

@@ -1,12 +1,3 @@
-test_that("the whitened quadratic forms and evidence match the fit's", {
-  toy <- toy_gap(0.2, rho_t = c(0, 0.3))
-  ctx <- gap_context(toy$fit)
-  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
-  expect_equal(tm$Q, toy$fit$C, tolerance = 1e-10)
-  ex <- posterior_exact(toy$lib, toy$field, rho_t = c(0, 0.3))
-  expect_equal(log_sum_exp(tm$lj), ex$log_evidence, tolerance = 1e-10)
-})
-
 test_that("a candidate's evidence is the exact evidence under its run prior", {
   toy <- toy_gap(0.2)
   # max_runs = 0: the libraries as they are (no matched resolution)
@@ -54,23 +45,6 @@ test_that("a withheld true effect answers 'other'", {
   expect_true(any(gap$where$flagged))
 })
 
-test_that("an effect a shift of theta imitates is reported as confounded, not attributed", {
-  toy <- toy_gap(0)
-  # data from the scale effect at strength 0.2: exactly a = 1.2 in the base model
-  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad))
-  row <- gap$which[gap$which$effect == "scale", ]
-  expect_true(row$confounded)
-  expect_lt(row$separable, 0.01)
-  expect_identical(row$absorbed_by, "a")
-  expect_false(gap$which$confounded[gap$which$effect == "quadratic"])
-  # the advice comes from the settings measured, not a system's wording
-  # (it suggested "another speed or pressure" for any system)
-  advice <- paste(gap$verdict$advice, collapse = " ")
-  expect_match(advice, "'scale' is confounded with a: .*outside the load range measured \\(1-3\\)")
-  expect_no_match(advice, "speed or pressure")
-  expect_false(gap$verdict$answer == "scale")
-})
-
 test_that("bad candidates are rejected with a clear error", {
   toy <- toy_gap(0)
   fit <- toy$fit
@@ -110,36 +84,6 @@ test_that("prior_models moves the model probabilities as Bayes' rule says", {
     p[["quadratic"]] / p[["none"]]
   }
   expect_equal(odds(g2) / odds(g1), 8, tolerance = 1e-8)
-})
-
-test_that("'other' is the exact evidence of base model plus a smooth Gaussian discrepancy", {
-  toy <- toy_gap(0.1, n_t = 8, rho_t = c(0, 0.4))
-  ctx <- gap_context(toy$fit)
-  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
-  scales <- c(0.3, 0.001)            # the second is white noise and is dropped
-  got <- other_log_evidence(ctx, tm, scales)
-  a <- ctx$prior$shape
-  b <- ctx$prior$rate
-  n <- ctx$n
-  y <- as.vector(t(toy$field$y))
-  K <- kronecker(exp(-as.matrix(stats::dist(c(0, 0.5, 1)))^2 / 0.09),
-                 exp(-outer(toy$t, toy$t, "-")^2 / 0.09))
-  terms <- c()
-  for (rho in c(0, 0.4)) {
-    R <- kronecker(diag(3), corr_t(toy$t, rho))
-    for (s in 4^(1:4)) {
-      S <- R + s * K
-      Si <- solve(S)
-      ld <- determinant(S)$modulus[1]
-      for (j in seq_len(nrow(toy$lib$y))) {
-        r <- y - toy$lib$y[j, ]
-        terms <- c(terms, -log(41) - log(2) - log(4) + lgamma(a + n / 2) - lgamma(a) +
-                     a * log(b) - n / 2 * log(2 * pi) - ld / 2 -
-                     (a + n / 2) * log(b + drop(t(r) %*% Si %*% r) / 2))
-      }
-    }
-  }
-  expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
 })
 
 test_that("one call builds the base model's runs x grid table once, from the fit's C", {
@@ -192,67 +136,6 @@ test_that("diagnose_gap() refuses replicated field measurements (its pieces woul
                class = "griddy_error_unsupported")
 })
 
-# missing cells (a run of t at the first load, most of the second load's
-# middle, one at the third) and an uneven relative sd
-gap_missing <- c(3, 4, 5, 40:47, 70)
-gap_rel_sd <- rep(c(1, 2, 0.5), each = 30) * (1 + 0.3 * sin(1:90))
-
-test_that("over the observed points, Q, evidence and leave-out pieces are the dense algebra's", {
-  toy <- toy_gap(0.2, rho_t = c(0, 0.3), missing = gap_missing, rel_sd = gap_rel_sd)
-  ctx <- gap_context(toy$fit)
-  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
-  expect_equal(tm$Q, toy$fit$C, tolerance = 1e-10)
-  ex <- posterior_exact(toy$lib, toy$field, rho_t = c(0, 0.3))
-  expect_equal(log_sum_exp(tm$lj), ex$log_evidence, tolerance = 1e-10)
-  y <- as.vector(t(toy$field$y))
-  obs <- which(!is.na(y))
-  for (g in 1:2) {
-    R <- kronecker(diag(3), corr_t(toy$t, c(0, 0.3)[g])) * outer(gap_rel_sd, gap_rel_sd)
-    P <- solve(R[obs, obs])
-    for (k in 1:3) {
-      B <- which(obs %in% ((k - 1) * 30 + 1:30))
-      D <- vapply(seq_len(nrow(toy$lib$y)), function(j) {
-        h <- P %*% (y - toy$lib$y[j, ])[obs]
-        drop(t(h[B]) %*% solve(P[B, B], h[B]))
-      }, numeric(1))
-      expect_equal(tm$D[, g, k], D, tolerance = 1e-8)
-    }
-  }
-})
-
-test_that("'other' over the observed points is the exact evidence (discrepancy in output units)", {
-  miss <- c(2, 3, 12, 20)
-  rs <- 1 + 0.5 * sin(1:24)
-  toy <- toy_gap(0.1, n_t = 8, rho_t = c(0, 0.4), missing = miss, rel_sd = rs)
-  ctx <- gap_context(toy$fit)
-  tm <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
-  got <- other_log_evidence(ctx, tm, 0.3)
-  a <- ctx$prior$shape
-  b <- ctx$prior$rate
-  y <- as.vector(t(toy$field$y))
-  obs <- which(!is.na(y))
-  n <- length(obs)
-  expect_identical(ctx$n, n)
-  K <- kronecker(exp(-as.matrix(stats::dist(c(0, 0.5, 1)))^2 / 0.09),
-                 exp(-outer(toy$t, toy$t, "-")^2 / 0.09))[obs, obs] * mean(rs[obs]^2)
-  terms <- c()
-  for (rho in c(0, 0.4)) {
-    R <- (kronecker(diag(3), corr_t(toy$t, rho)) * outer(rs, rs))[obs, obs]
-    for (s in 4^(1:4)) {
-      S <- R + s * K
-      Si <- solve(S)
-      ld <- determinant(S)$modulus[1]
-      for (j in seq_len(nrow(toy$lib$y))) {
-        r <- (y - toy$lib$y[j, ])[obs]
-        terms <- c(terms, -log(41) - log(2) - log(4) + lgamma(a + n / 2) - lgamma(a) +
-                     a * log(b) - n / 2 * log(2 * pi) - ld / 2 -
-                     (a + n / 2) * log(b + drop(t(r) %*% Si %*% r) / 2))
-      }
-    }
-  }
-  expect_equal(got, log_sum_exp(terms), tolerance = 1e-8)
-})
-
 test_that("the dense path agrees with the Kronecker path on complete data (sd all 1)", {
   plain <- toy_gap(0.2, bump = 0.2, rho_t = c(0, 0.3))
   dense <- toy_gap(0.2, bump = 0.2, rho_t = c(0, 0.3), rel_sd = rep(1, 90))
@@ -277,4 +160,38 @@ test_that("on data with missing cells and relative sd the true effect is named",
   expect_gt(sh$shrink[sh$effect == "quadratic"], 0.5)
   expect_output(print(gap), "best explained by 'quadratic'")
   expect_s3_class(plot(gap), "ggplot")
+})
+
+test_that("progress = TRUE shows each step and changes nothing", {
+  toy <- toy_gap(0.2)
+  withr::local_options(cli.progress_show_after = 0)
+  msgs <- capture_messages(g1 <- diagnose_gap(toy$fit, list(quadratic = toy$quad), seed = 1,
+                                              progress = TRUE))
+  expect_match(paste(msgs, collapse = ""), "Diagnosing the gap.*refining 'quadratic'")
+  expect_length(capture_messages(g2 <- diagnose_gap(toy$fit, list(quadratic = toy$quad),
+                                                    seed = 1, progress = FALSE)), 0)
+  expect_equal(g1, g2)
+  expect_error(diagnose_gap(toy$fit, list(quadratic = toy$quad), progress = NA),
+               class = "griddy_error")
+})
+
+test_that("max_runs defaults to refine()'s, from one place (griddy_control())", {
+  expect_identical(formals(diagnose_gap)$max_runs, quote(control$max_runs))
+  expect_identical(formals(refine)$max_runs, quote(control$max_runs))
+  expect_identical(griddy_control()$max_runs, 4000L)
+  expect_error(diagnose_gap(list(), list(), control = list()), "griddy_control",
+               class = "griddy_error_input")
+})
+
+test_that("strength levels and row matches are those of pasted keys, in first-seen order", {
+  set.seed(3)
+  m <- cbind(sample(c(0, 0.1, 0.2), 200, TRUE), sample(c(0, 1, -1), 200, TRUE))
+  key <- do.call(paste, c(as.data.frame(signif(m, 12)), sep = "\r"))
+  expect_identical(strength_levels(m), match(key, unique(key)))
+  a <- data.frame(p = round(runif(300), 2), q = round(runif(300), 1))
+  b <- data.frame(p = round(runif(200), 2), q = round(runif(200), 1))
+  ka <- do.call(paste, c(a, sep = "\r"))
+  kb <- do.call(paste, c(b, sep = "\r"))
+  expect_identical(match_rows(a, b), match(ka, kb))
+  expect_true(anyNA(match_rows(a, b)) && any(!is.na(match_rows(a, b))))
 })

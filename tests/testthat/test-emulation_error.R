@@ -44,11 +44,11 @@ test_that("the misfit table and the leave-block pieces are one algebra", {
   refined <- refine(toy$fit, max_runs = 200, runs_per_round = 100, seed = 2)
   lib <- refined$library
   ctx <- gap_context(refined)
-  node <- ctx$nodes[[1]]
+  point <- ctx$points[[1]]
   j <- lib_n_runs(lib$base) + 5L
   err <- run_emulation(run_errors(lib), j, ctx$obs)
   r <- refined$y_field - lib_outputs(lib, j)[1, ]
-  wood <- emulated_inverse(ctx, node, r, err)
+  wood <- emulated_inverse(ctx, point, r, err)
   S <- diag(length(r)) + tcrossprod(err$V)
   Si <- solve(S)
   expect_equal(wood$Q, drop(t(r) %*% Si %*% r), tolerance = 1e-10)
@@ -58,7 +58,7 @@ test_that("the misfit table and the leave-block pieces are one algebra", {
   expect_equal(drop(fold_extra_logdet(C, refined$prior, ctx$n)), refined$C[j, 1],
                tolerance = 1e-8)
   W <- 11:20
-  bs <- emulated_block(wood, block_precision(ctx, node, W, W, 1L), W)
+  bs <- emulated_block(wood, block_precision(ctx, point, W, W, 1L), W)
   h <- Si %*% r
   expect_equal(bs$D, drop(t(h[W]) %*% solve(Si[W, W], h[W])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[W, W])$modulus), tolerance = 1e-10)

@@ -1,0 +1,127 @@
+# The fitted noise model per correlation grid point, and the runs x grid points
+# pieces every part of diagnose_gap() reads (see ?diagnose_gap).
+
+# The fit's noise model, one entry per correlation grid point: the grid
+# point (grid_posterior.R) with the dense inverse correlations that the
+# block checks need. The data are the observed points `obs` (library order;
+# all of them for complete data). Under a noise pattern (missing cells,
+# relative sd) a grid point also holds P = (S R_g S)_oo^-1 over the observed
+# points and, per x setting, the Cholesky factor of P_BB for B its observed
+# cells (NULL for a setting with none): the Kronecker shortcuts do not hold
+# there.
+gap_context <- function(fit) {
+  lib <- fit$library
+  setup <- fit$setup
+  n_x <- lib_n_x(lib)
+  n_t <- lib_n_t(lib)
+  obs <- if (is.null(setup$dense)) seq_len(n_x * n_t) else setup$dense$obs
+  setting_pos <- lapply(seq_len(n_x), function(k) block_positions(obs, k, seq_len(n_t), n_t))
+  points <- lapply(seq_len(n_grid_points(setup)), function(g) {
+    fitted <- grid_point(setup, g)
+    point <- c(fitted, list(Pt = ar1_precision(fitted$phi, n_t),
+                            log_prior = fit$log_prior_grid[g]))
+    if (!is.null(fitted$dense)) {
+      point$P <- dense_precision(fitted)
+      point$setting_chol <- lapply(setting_pos, function(pos) {
+        if (length(pos) > 0L) chol(point$P[pos, pos, drop = FALSE])
+      })
+    }
+    point
+  })
+  list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
+       points = points, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
+       logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
+       obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
+       setting_pos = setting_pos)
+}
+
+# The AR(1) precision over t, A'A for A the whitening (innovations) operator
+# of ar1_whiten_rows_cpp(): A is lower bidiagonal, so A'A is tridiagonal and
+# is filled from A's two diagonals (no n_t^3 product); its diagonal and
+# off-diagonal are kept as attributes "diag" and "off" for products in
+# O(n_t) (ar1_precision_times()).
+ar1_precision <- function(phi, n_t) {
+  if (n_t == 1L) {
+    d <- ar1_whiten_rows_cpp(matrix(1), phi, 1L)[1]^2
+    return(structure(matrix(d), diag = d, off = numeric()))
+  }
+  # whitening the odd and the even unit indicators reads A's diagonal a_ii
+  # and sub-diagonal a_(i,i-1) at once (each row of A has those two entries)
+  odd <- seq_len(n_t) %% 2L == 1L
+  U <- ar1_whiten_rows_cpp(rbind(as.numeric(odd), as.numeric(!odd)), phi, 1L)
+  d <- ifelse(odd, U[1, ], U[2, ])
+  sub <- ifelse(odd, U[2, ], U[1, ])[-1]                  # a_(i,i-1), i = 2..n_t
+  P <- diag(d^2 + c(sub^2, 0))
+  off <- sub * d[-1]                                      # (A'A)_(i-1,i) = a_(i,i-1) a_ii
+  P[cbind(1:(n_t - 1L), 2:n_t)] <- off
+  P[cbind(2:n_t, 1:(n_t - 1L))] <- off
+  structure(P, diag = diag(P), off = off)
+}
+
+# P = (S R_g S)_oo^-1 over the observed points of a dense grid point with one
+# noise group: R_oo^-1 = A A' (dense_factors()), scaled by 1/sd on both sides.
+dense_precision <- function(point) {
+  d <- point$dense
+  P <- tcrossprod(d$A[[1]])
+  if (!is.null(d$scale)) P <- P * outer(d$scale, d$scale)
+  P
+}
+
+# The positions, in the vector of observed points `obs`, of the observed
+# cells of x setting k at t indices W (a block restricted to what was
+# measured; empty when none was).
+block_positions <- function(obs, k, W, n_t) {
+  pos <- match((k - 1L) * n_t + W, obs)
+  pos[!is.na(pos)]
+}
+
+# Per model: Q (runs x grid points), its log joint lj, the leave-setting-out
+# pieces D (runs x grid points x settings) and the outputs. `C`, when given,
+# is the model's own table of misfits (a refined library's, with the
+# prediction error of its predicted runs): it sets the posterior and evidence
+# (lj), while the leave-out algebra (Q, D, lj_plain) works on the plain
+# quadratic forms, which leave-out identities hold for. `E` holds NA at
+# missing cells. Every step is a pass over the runs x data points (no
+# per-run loop, no n x n algebra per run).
+gap_terms <- function(ctx, Y, log_prior_run,
+                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
+  J <- nrow(Y)
+  G <- length(ctx$points)
+  E <- rep(ctx$y, each = J) - Y                          # residuals y - eta, runs in rows
+  D <- array(0, c(J, G, ctx$n_x))
+  for (g in seq_len(G)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
+  lj_plain <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run,
+                                  ctx$log_prior_grid)
+  lj <- if (is.null(C)) lj_plain else
+    collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
+  list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
+}
+
+# D_k = h_B' P_BB^-1 h_B (runs x settings) at one grid point, for B the
+# observed cells of setting k and h = P e, P the inverse noise correlation
+# over the observed points.
+setting_pieces <- function(ctx, E, point) {
+  J <- nrow(E)
+  n_x <- ctx$n_x
+  n_t <- ctx$n_t
+  if (ctx$dense) {
+    H <- E[, ctx$obs, drop = FALSE] %*% point$P
+    D <- matrix(0, J, n_x)
+    for (k in seq_len(n_x)) {
+      U <- point$setting_chol[[k]]
+      if (is.null(U)) next                            # no observed cell: nothing left out
+      pos <- ctx$setting_pos[[k]]
+      D[, k] <- colSums(backsolve(U, t(H[, pos, drop = FALSE]), transpose = TRUE)^2)
+    }
+    return(D)
+  }
+  # with R^-1 = R_x^-1 (x) Pt, D_k = v_k' Pt v_k / (R_x^-1)_kk for v_k = sum_l
+  # (R_x^-1)_lk e_l: the AR(1) innovations of v_k, squared and summed over
+  # setting k's columns (one product with the settings' indicator)
+  V <- if (!identical(unname(point$Rx_inv), diag(n_x))) {
+    matrix(matrix(E, J * n_t, n_x) %*% point$Rx_inv, J, n_x * n_t)
+  } else E
+  W <- whiten_rows(V, point, n_x, n_t, over_x = FALSE)
+  setting <- outer(rep(seq_len(n_x), each = n_t), seq_len(n_x), "==") + 0
+  ((W * W) %*% setting) * rep(1 / diag(point$Rx_inv), each = J)
+}

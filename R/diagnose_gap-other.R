@@ -1,0 +1,79 @@
+# "other": the base model plus a generic smooth discrepancy (see ?diagnose_gap).
+
+# Squared-exponential correlation over the scaled (x, t), length-scale `scale`.
+smooth_kernel <- function(ctx, scale) {
+  xs <- if (is.null(ctx$x)) matrix(0, 1, 1) else apply(as.matrix(ctx$x), 2, scale_unit)
+  xs <- matrix(xs, nrow = ctx$n_x)
+  Kx <- exp(-as.matrix(stats::dist(xs))^2 / scale^2)
+  ts <- scale_unit(ctx$t)
+  Kt <- exp(-outer(ts, ts, "-")^2 / scale^2)
+  kronecker(Kx, Kt)
+}
+
+# "other": y = eta(theta) + delta + e, delta ~ N(0, s tau^-1 K_l) a smooth
+# discrepancy with variance s times the noise's, e ~ N(0, tau^-1 R_g).
+# Evidence over runs x correlation grid points x scales x variance ratios.
+#
+# A smooth kernel has low numerical rank: K = B B' with B of r << n columns
+# (pivoted Cholesky, stopped at LAPACK's rounding tolerance, so exact to
+# rounding). Then, with P = R_g^-1 and B'PB = V L V', Woodbury gives, for
+# every ratio s at once, r'(R_g + s K)^-1 r = Q - sum_i s z_i^2 / (1 + s l_i)
+# with z = V'B'P r, and log|R_g + s K| = log|R_g| + sum_i log(1 + s l_i):
+# one runs x r product per grid point instead of a dense n x n factor and
+# solve per grid point, scale and ratio.
+other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
+  # with relative sd the discrepancy stays smooth in output units (S K S would
+  # not be): its variance is s times the mean noise variance over the data
+  sd2 <- if (is.null(ctx$sd)) 1 else mean(ctx$sd[ctx$obs]^2)
+  kernels <- lapply(scales, function(sc) smooth_kernel(ctx, sc))
+  # a kernel that does not correlate neighbouring points is white noise, which
+  # the noise model already has (with tau integrated out it is the base model)
+  smooth <- vapply(kernels, function(K) {
+    diag(K) <- 0
+    stats::median(apply(K, 1, max)) >= 0.5
+  }, logical(1))
+  kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
+  factors <- lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
+  E <- base_terms$E[, ctx$obs, drop = FALSE]
+  pieces <- unlist(lapply(seq_along(ctx$points), function(g) {
+    point <- ctx$points[[g]]
+    unlist(lapply(factors, function(B) {
+      PB <- precision_times(ctx, point, B)
+      eig <- eigen(crossprod(B, PB), symmetric = TRUE)
+      l <- pmax(eig$values, 0)
+      Z2 <- (E %*% (PB %*% eig$vectors))^2
+      vapply(ratios, function(s) {
+        Q <- base_terms$Q[, g] - drop(Z2 %*% (s / (1 + s * l)))
+        log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
+                                        ctx$logdet[g] + sum(log1p(s * l)), ctx$prior,
+                                        base_terms$log_prior_run, point$log_prior))
+      }, numeric(1))
+    }))
+  }))
+  log_sum_exp(pieces) - log(length(kernels) * length(ratios))
+}
+
+# B with K = B B' to rounding (K positive semi-definite): the rows of the
+# pivoted Cholesky factor up to its numerical rank.
+low_rank_factor <- function(K) {
+  U <- suppressWarnings(chol(K, pivot = TRUE))
+  r <- attr(U, "rank")
+  B <- matrix(0, nrow(K), r)
+  B[attr(U, "pivot"), ] <- t(U[seq_len(r), , drop = FALSE])
+  B
+}
+
+# P M for the columns of M (data vectors over the observed points), P the
+# grid point's inverse noise correlation (as apply_precision(), all columns
+# at once).
+precision_times <- function(ctx, point, M) {
+  if (ctx$dense) return(point$P %*% M)
+  n_t <- ctx$n_t
+  n_x <- ctx$n_x
+  r <- ncol(M)
+  Tm <- ar1_precision_times(point$Pt, matrix(M, n_t, n_x * r))   # Pt on every block
+  if (identical(unname(point$Rx_inv), diag(n_x))) return(matrix(Tm, n_t * n_x, r))
+  # then R_x^-1 over the settings of every column
+  Tm <- matrix(aperm(array(Tm, c(n_t, n_x, r)), c(1, 3, 2)), n_t * r, n_x) %*% point$Rx_inv
+  matrix(aperm(array(Tm, c(n_t, r, n_x)), c(1, 3, 2)), n_t * n_x, r)
+}
