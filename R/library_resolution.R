@@ -169,7 +169,8 @@ format_adequacy <- function(adequacy) {
              if (adequacy$emulation_error > emulation_error_threshold) " (above 1: see ?refine)",
              "; it is in the likelihood.")
     })
-  constant <- tab$constant
+  # a summary saved before 0.1.1.9000 counted the library's values instead
+  constant <- if (is.null(tab$constant)) tab$library_values <= 1L else tab$constant
   lim <- tab$limited & !constant
   c(lines,
     paste0(tab$parameter[constant], ": constant in the library, not calibrated.",

@@ -152,3 +152,14 @@ test_that("grouping only the runs with mass gives the table of every run", {
     }
   }
 })
+
+test_that("a summary saved before the `constant` column prints (chapter 5's shipped one failed)", {
+  old <- data.frame(parameter = c("k", "c", "m"), effective_values = c(1, 1, 1),
+                    limited = c(TRUE, TRUE, TRUE), mass_at_min = 0, mass_at_max = 0,
+                    library_values = c(21L, 21L, 1L))
+  lines <- format_adequacy(list(parameters = old, effective_runs = 1, tv_distance = 0.01,
+                                tv_mc = 0.01, ess = 1000))
+  expect_match(lines, "^m: constant in the library", all = FALSE)
+  expect_match(lines, "^k: interval limited by the library's resolution", all = FALSE)
+  expect_false(any(grepl("^m: interval limited", lines)))
+})
