@@ -31,11 +31,8 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
   if (!is.null(emulation_error)) attr(C, "emulation_error") <- NULL
   # an emulated library's noise plug-in for these data (emulation_error.R),
   # kept with it so that what reads its error later agrees with C
-  noise <- attr(C, "library_noise")
-  if (!is.null(noise)) {
-    attr(C, "library_noise") <- NULL
-    library$noise <- noise
-  }
+  library <- lib_with_plug_in(library, C)
+  if (!is.null(attr(C, "library_noise"))) attr(C, "library_noise") <- NULL
   # every measurement: the observed cells and the replicates' pure-error
   # degrees of freedom (see noise_pattern())
   list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),

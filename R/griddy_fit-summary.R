@@ -205,6 +205,7 @@ print.griddy_fit <- function(x, digits = 4, width = getOption("width"), ...) {
 
 # Lines wrapped to `width` characters, continuation lines indented.
 cat_wrapped <- function(lines, width) {
+  if (length(lines) == 0L) return(invisible())  # cli::cat_line() would print a blank line
   cli::cat_line(unlist(lapply(lines, strwrap, width = width, exdent = 2)))
 }
 

@@ -153,9 +153,10 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   n_x <- ncol(obs_design)
   run <- function() {
     t0 <- proc.time()[["elapsed"]]
-    emulator <- if (inherits(library, "emulated_library")) {
+    design_gp <- lib_design_emulator(library)
+    emulator <- if (!is.null(design_gp)) {
       # its own emulator of the design runs, not one of its predicted runs
-      list(design_gp = library$emulator)
+      list(design_gp = design_gp)
     } else {
       koh_emulator(theta, lib_outputs(library), quiet)
     }

@@ -332,3 +332,14 @@ lib_prediction_errors.emulated_library <- function(library) {
   list(n_base = lib_n_runs(library), base = list(error = err, kappa = library$noise$kappa),
        round = integer(), kappa = numeric(), errors = list(), replaced = integer())
 }
+
+#' @exportS3Method
+lib_with_plug_in.emulated_library <- function(library, C) {
+  noise <- attr(C, "library_noise")
+  if (!is.null(noise)) library$noise <- noise
+  library
+}
+
+#' @exportS3Method
+lib_design_emulator.emulated_library <- function(library) library$emulator
+

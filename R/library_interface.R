@@ -290,3 +290,21 @@ lib_predict <- function(emulator, theta_new, noise_var) {
   list(y = pred$outputs, rel_var = pred$rel_var,
        error = emulation_error_model(emulator$loo, noise_var))
 }
+
+# The library with what its misfit table `C` (lib_quad_forms()) found for
+# these field data kept with it (an emulated library's noise plug-in and
+# shared kappa, attribute "library_noise"), so that what reads its error
+# later agrees with C; other libraries are returned as they are.
+lib_with_plug_in <- function(library, C) UseMethod("lib_with_plug_in")
+
+#' @exportS3Method
+lib_with_plug_in.default <- function(library, C) library
+
+# The emulator of the design runs an emulated library was built from (NULL
+# for a library of simulated runs): what koh_calibrate() fits instead of its
+# own, and what read_calibration_inputs() describes.
+lib_design_emulator <- function(library) UseMethod("lib_design_emulator")
+
+#' @exportS3Method
+lib_design_emulator.default <- function(library) NULL
+

@@ -136,7 +136,7 @@ emulate_design <- function(design, sim, n_x, settings, t, n_runs, seed) {
   x <- if (n_x > 0L) design[, x_cols, drop = FALSE]
   library <- emulated_library(theta, sim, x = x, t = t, settings = settings,
                               n_runs = n_runs, seed = seed)
-  form <- if (library$emulator$mode == "joint") "(x, theta) -> outputs" else "theta -> outputs"
+  form <- if (lib_design_emulator(library)$mode == "joint") "(x, theta) -> outputs" else "theta -> outputs"
   loo <- format(library$loo_rms, digits = 3)
   n_design <- nrow(design)
   cli::cli_inform(c(
