@@ -343,3 +343,74 @@ lib_with_plug_in.emulated_library <- function(library, C) {
 #' @exportS3Method
 lib_design_emulator.emulated_library <- function(library) library$emulator
 
+# ---- an emulated library's own plug-in ----------------------------------------------
+
+# The shared kappa of an emulated library's runs (see the top of emulation_error.R):
+# the mean of kappa_i under the posterior over runs `p`.
+emulated_kappa <- function(library, p) {
+  sum(p * library$rel_var) / sum(p)
+}
+
+# C of an emulated library's runs at plug-in noise variance s2 and shared
+# kappa, with attribute "extra_logdet".
+emulated_library_forms <- function(library, y_field, setup, s2, kappa) {
+  if (is.null(library$error)) return(plain_quad_forms(library$y, y_field, setup))
+  err <- library$error
+  err$noise_var <- s2
+  em <- emulated_quad_forms(library$y, y_field, setup, err, rep(kappa, nrow(library$y)),
+                            lib_n_x(library), lib_n_t(library))
+  structure(em$C, extra_logdet = em$logdet)
+}
+
+# The noise variance and the shared kappa of an emulated library for these
+# field data: kappa the posterior mean of kappa_i without the error, and the
+# noise variance by a fixed point from the best run's misfit per data point,
+# a few times the posterior mean of 1/tau (posterior_noise_var(), under the
+# problem's prior setup$noise_prior, the runs equally weighted). A value restated by refine() for
+# these field data is used as it is. Returns list(C (extra_logdet folded),
+# noise_var, kappa, ratio = the leave-one-out error near the mode over the
+# noise sd, emulation_error_ratio()'s measure).
+emulated_noise_var <- function(library, y_field, setup, times = 6L) {
+  prior <- setup$noise_prior
+  if (is.null(prior)) prior <- thesis_prior()
+  n <- sum(setup$group_sizes)
+  posterior <- function(C) {
+    problem <- list(C = fold_extra_logdet(C, prior, n), prior = prior, setup = setup,
+                    library = library, y_field = y_field,
+                    log_prior_run = rep(-log(nrow(C)), nrow(C)),
+                    log_prior_grid = grid_log_prior(setup))
+    post <- grid_posterior(problem)
+    list(problem = problem, joint = post$joint, p = post$run, best = min(C))
+  }
+  result <- function(state) {
+    mode <- as.matrix(library$theta)[which.max(state$p), ]
+    s2 <- state$problem$library$noise$noise_var
+    list(C = state$problem$C, noise_var = s2, kappa = state$problem$library$noise$kappa,
+         ratio = loo_error_near(library$emulator, mode,
+                                reference_noise_var(setup, s2, state$problem$C)),
+         lack_of_fit = lack_of_fit(setup, state$best))
+  }
+  stored <- library$noise
+  if (!is.null(stored) && identical(stored$y_field, y_field)) {
+    return(result(posterior(emulated_library_forms(library, y_field, setup,
+                                                   stored$noise_var, stored$kappa))))
+  }
+  C0 <- plain_quad_forms(library$y, y_field, setup)
+  s2 <- rep(max(min(C0) / n, 1e-300), length(setup$group_sizes))
+  # kappa where the data put the runs before the error has a say: under the
+  # posterior with the error, kappa would follow the mass the error pulls
+  kappa <- emulated_kappa(library, posterior(C0)$p)
+  for (i in seq_len(times)) {
+    library$noise <- list(y_field = y_field, noise_var = s2, kappa = kappa)
+    state <- posterior(emulated_library_forms(library, y_field, setup, s2, kappa))
+    state$problem$library <- library
+    s2_new <- pmax(posterior_noise_var(state), 1e-300)
+    done <- all(abs(s2_new - s2) <= 0.01 * s2)
+    s2 <- s2_new
+    if (done) break
+  }
+  library$noise <- list(y_field = y_field, noise_var = s2, kappa = kappa)
+  state <- posterior(emulated_library_forms(library, y_field, setup, s2, kappa))
+  state$problem$library <- library
+  result(state)
+}
