@@ -10,7 +10,16 @@
 #            other package (library_emulator-local.R).
 # "auto" takes "grid" for a full factorial, else "gp" when RobustGaSP is
 # installed, else "local": the order bench/emulator-accuracy.R measured
-# (bench/results/emulator-accuracy.md).
+# (bench/results/emulator-accuracy.md). For a dense library "auto" first
+# tries a cheaper GP (see gp_emulator_dense()): when at least max_runs / 2
+# runs lie inside the region, a GP on a maximin quarter of max_runs of them
+# (cost cubic in the runs: 64 times less) is kept if it predicts the region's
+# runs it did not use to 1e-3 of the outputs' spread; otherwise, and on every
+# sparse design, the GP on max_runs runs as before. A local quadratic is no
+# stand-in there: on a parameter with few distinct values its neighbours lie
+# on one level and it falls back to a weighted mean (on
+# bench/diagnose-gap-speed.R's "scale" region, held-out error 0.023 against
+# the GP's 1.7e-8, outputs of sd 1).
 #
 # Internal: the refinement loop calls library_emulator(), emulator_predict()
 # and emulator_loo() and validates the user's arguments, so the checks here
@@ -53,11 +62,13 @@ library_emulator <- function(library, region = NULL,
                  "the distinct values of each parameter, once); this one is not: use ",
                  "\"gp\" or \"local\".")
   }
-  if (method == "auto") {
+  auto <- method == "auto"
+  if (auto) {
     method <- if (!is.null(grid)) "grid" else
       if (requireNamespace("RobustGaSP", quietly = TRUE)) "gp" else "local"
   }
-  em <- switch(method,
+  dense <- if (auto && method == "gp") gp_emulator_dense(library, base, theta, max_runs)
+  em <- if (!is.null(dense)) dense else switch(method,
     grid = grid_emulator(library, base, grid),
     gp = gp_emulator(library, base, theta, max_runs),
     local = local_emulator(library, base, theta)

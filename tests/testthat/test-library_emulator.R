@@ -234,3 +234,27 @@ test_that("a gp predictive variance that ppgasp cannot give counts as the larges
   expect_equal(pred$rel_var, c(1, 1))
   expect_true(all(is.finite(pred$outputs)))
 })
+
+test_that("auto on a dense region keeps a GP on a quarter of max_runs only if held-out runs confirm it", {
+  skip_if_not_installed("RobustGaSP")
+  set.seed(3)
+  theta <- data.frame(a = runif(400), b = runif(400))
+  region <- data.frame(a = c(0.2, 0.8), b = c(0.2, 0.8))
+  # smooth outputs: the small GP predicts the region's other runs closely and is kept
+  smooth <- sim_library(theta, cbind(theta$a + 2 * theta$b, theta$a - theta$b))
+  em <- library_emulator(smooth, region, max_runs = 60)
+  expect_identical(em$method, "gp")
+  expect_length(em$rows, 15L)
+  inside <- which(theta$a >= 0.2 & theta$a <= 0.8 & theta$b >= 0.2 & theta$b <= 0.8)
+  held <- setdiff(inside, em$rows)
+  err <- emulator_predict(em, theta[held, ])$outputs - lib_outputs(smooth, held)
+  expect_lt(sqrt(mean(err^2)), 1e-3 * sd(as.vector(lib_outputs(smooth, held))))
+  # outputs that vary faster than 15 runs resolve: the GP on max_runs runs, as method "gp"
+  rough <- sim_library(theta, cbind(sin(30 * theta$a) * cos(25 * theta$b), theta$b))
+  em <- library_emulator(rough, region, max_runs = 60)
+  expect_length(em$rows, 60L)
+  expect_identical(em$rows, library_emulator(rough, region, method = "gp", max_runs = 60)$rows)
+  # a sparse region (fewer than max_runs / 2 runs inside): unchanged
+  em <- library_emulator(smooth, region, max_runs = 400)
+  expect_length(em$rows, 400L)
+})
