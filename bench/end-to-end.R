@@ -24,14 +24,17 @@
 # Usage, from the package root, with griddy installed (R CMD INSTALL .):
 #   Rscript bench/end-to-end.R
 # Options (environment): REPEATS (default 8), E2E_RUNS (default 1e6; smaller for a smoke
-# test), GRIDDY_NEW_LIB (a library holding the griddy to test). Writes
-# bench/results/end-to-end.csv and .md. About 1-2 minutes and 1-2 GB here.
+# test), GRIDDY_NEW_LIB (a library holding the griddy to test), E2E_NAME (the
+# results' file name, default end-to-end; end-to-end-busy is the run made with
+# two CPU burners beside it: `yes > /dev/null &` twice). Writes
+# bench/results/<E2E_NAME>.csv and .md. About 1-2 minutes and 1-2 GB here.
 source("bench/helpers.R")
 if (nzchar(new_griddy_lib())) .libPaths(c(new_griddy_lib(), .libPaths()))
 suppressPackageStartupMessages(library(griddy))
 n_points <- 54
 n_runs <- as.numeric(Sys.getenv("E2E_RUNS", 1e6))
 repeats <- as.integer(Sys.getenv("REPEATS", 8))
+out_name <- file.path("bench/results", Sys.getenv("E2E_NAME", "end-to-end"))
 goal_calibrate <- 3
 goal_print <- 1
 load_before <- load_1min()
@@ -97,8 +100,8 @@ results <- within(results, {
   precompute_default_vs_1thread <- precompute_s / precompute_1thread_s
 })
 dir.create("bench/results", showWarnings = FALSE, recursive = TRUE)
-data.table::fwrite(results, "bench/results/end-to-end.csv")
-data.table::fwrite(each, "bench/results/end-to-end-repeats.csv")
+data.table::fwrite(results, paste0(out_name, ".csv"))
+data.table::fwrite(each, paste0(out_name, "-repeats.csv"))
 
 passes <- function(s) paste0(fmt3(s), " s = ", format(round(s / results$sum_s, 2), nsmall = 2),
                              " sum() / ", format(round(s / results$loop_s, 2), nsmall = 2), " loop")
@@ -130,5 +133,5 @@ md <- c(
          ". Default / 1 thread: `calibrate()` ", round(results$default_vs_1thread, 2),
          ", precompute ", round(results$precompute_default_vs_1thread, 2), ". Peak memory ",
          "above the start of a call: ", round(results$peak_extra_mb), " MB."))
-writeLines(md, "bench/results/end-to-end.md")
+writeLines(md, paste0(out_name, ".md"))
 cat(md, sep = "\n")
