@@ -134,5 +134,6 @@ scrub_print <- function(lines) {
   lines <- gsub(normalizePath(tempdir(), mustWork = FALSE), "<tempdir>", lines, fixed = TRUE)
   lines <- gsub(tempdir(), "<tempdir>", lines, fixed = TRUE)
   lines <- gsub("<tempdir>/[^ ]+", "<tempdir>/<file>", lines)
+  lines <- gsub("(precompute|sampling|checks) [0-9.e-]+", "\\1 <t>", lines)
   gsub("[0-9]+(\\.[0-9]+)? s\\b", "<t> s", lines)
 }

@@ -141,3 +141,10 @@ test_that("the gap map's title fits a vignette-width figure: the verdict on its 
   ggplot2::ggsave(tmp <- tempfile(fileext = ".png"), plot(gap), width = 7, height = 3.2, dpi = 50)
   expect_true(file.exists(tmp))
 })
+
+test_that("print.gap_diagnosis() and its summary's print are stable", {
+  toy <- toy_gap(0.2)
+  gap <- diagnose_gap(toy$fit, list(scale = toy$scale, quadratic = toy$quad), seed = 1)
+  expect_snapshot(print(gap))
+  expect_snapshot(print(summary(gap)))
+})

@@ -170,3 +170,12 @@ test_that("print() explains an NA ess_tail: a tail quantile on the last value dr
   # no note where every tail ESS is there
   expect_identical(ess_tail_note(s[2, ]), character())
 })
+
+test_that("print.griddy_fit() and print.griddy_summary() are stable (times scrubbed)", {
+  ex <- griddy_example()
+  fit <- suppressWarnings(calibrate(ex$library, ex$field, n_iter = 2000, burn_in = 500,
+                                    seed = 1, progress = FALSE))
+  # wide: how the times wrap would depend on their digits
+  expect_snapshot(print(fit, width = 250), transform = scrub_print)
+  expect_snapshot(print(summary(fit), width = 250), transform = scrub_print)
+})
