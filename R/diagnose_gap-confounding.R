@@ -1,10 +1,10 @@
 # CONFOUNDING WITH THETA: whether a shift of theta imitates a candidate's
 # effect (see ?diagnose_gap, Confounding).
 
-confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effect) {
-  lj <- base_terms$lj
-  top <- arrayInd(which.max(lj), dim(lj))
-  point <- ctx$points[[top[2]]]
+confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effect,
+                               white = screen_white(ctx, base_terms)) {
+  top <- white$top
+  point <- white$point
   tau_hat <- (ctx$prior$shape + ctx$n / 2) / (ctx$prior$rate + base_terms$Q[top[1], top[2]] / 2)
   theta_b <- as.matrix(ctx$theta[base_cols])
   lo <- apply(theta_b, 2, min)
@@ -15,8 +15,8 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
   strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
   level <- strength_levels(strength)
   zero <- rowSums(abs(strength)) == 0
-  Wb <- whiten_rows(base_terms$Y, point, ctx$n_x, ctx$n_t)
-  Wb_norm2 <- rowSums(Wb * Wb)
+  Wb <- white$Wb
+  Wb_norm2 <- white$norm2
   near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
   m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
   # the part of output w that no base run (best one, refined linearly on its
@@ -53,6 +53,16 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
        detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
        separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
                                       res[[best]]$imitator, absorbed_by, effect))
+}
+
+# The base runs' outputs whitened at the base posterior's top grid point,
+# with their squared norms: the same for every candidate's screen, so
+# diagnose_gap() computes them once.
+screen_white <- function(ctx, base_terms) {
+  top <- arrayInd(which.max(base_terms$lj), dim(base_terms$lj))
+  point <- ctx$points[[top[2]]]
+  Wb <- whiten_rows(base_terms$Y, point, ctx$n_x, ctx$n_t)
+  list(top = top, point = point, Wb = Wb, norm2 = rowSums(Wb * Wb))
 }
 
 # The row of W nearest w (squared distance), not row `drop`: |W_j|^2 - 2 W_j'w

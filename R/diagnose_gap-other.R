@@ -2,12 +2,18 @@
 
 # Squared-exponential correlation over the scaled (x, t), length-scale `scale`.
 smooth_kernel <- function(ctx, scale) {
+  parts <- smooth_kernel_parts(ctx, scale)
+  kronecker(parts$Kx, parts$Kt)
+}
+
+# The kernel's two Kronecker factors, over x settings (Kx) and over t (Kt).
+smooth_kernel_parts <- function(ctx, scale) {
   xs <- if (is.null(ctx$x)) matrix(0, 1, 1) else apply(as.matrix(ctx$x), 2, scale_unit)
   xs <- matrix(xs, nrow = ctx$n_x)
   Kx <- exp(-as.matrix(stats::dist(xs))^2 / scale^2)
   ts <- scale_unit(ctx$t)
   Kt <- exp(-outer(ts, ts, "-")^2 / scale^2)
-  kronecker(Kx, Kt)
+  list(Kx = Kx, Kt = Kt)
 }
 
 # "other": y = eta(theta) + delta + e, delta ~ N(0, s tau^-1 K_l) a smooth
@@ -32,16 +38,42 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
     diag(K) <- 0
     stats::median(apply(K, 1, max)) >= 0.5
   }, logical(1))
-  kernels <- if (any(smooth)) kernels[smooth] else kernels[which.max(scales)]
-  factors <- lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
+  keep <- if (any(smooth)) which(smooth) else which.max(scales)
+  kernels <- kernels[keep]
+  # without a noise pattern, P = R_x^-1 (x) Pt and K = Kx (x) Kt: the
+  # products go factor by factor (kronecker_products())
+  kron <- !ctx$dense && is.null(ctx$sd)
+  factors <- if (kron) {
+    lapply(scales[keep], function(sc) lapply(smooth_kernel_parts(ctx, sc), low_rank_factor))
+  } else {
+    lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
+  }
   E <- base_terms$E[, ctx$obs, drop = FALSE]
+  # the x step of kronecker_products() depends on the kernel and R_x^-1 only:
+  # kept for the grid points that share R_x^-1 (all of them without rho_x)
+  x_steps <- vector("list", length(factors))
+  x_step <- function(i, point) {
+    last <- x_steps[[i]]
+    if (is.null(last) || !identical(last$Rx_inv, point$Rx_inv)) {
+      last <- kronecker_x_step(point$Rx_inv, factors[[i]]$Kx, E, ctx$n_t)
+      x_steps[[i]] <<- last
+    }
+    last
+  }
   pieces <- unlist(lapply(seq_along(ctx$points), function(g) {
     point <- ctx$points[[g]]
-    unlist(lapply(factors, function(B) {
-      PB <- precision_times(ctx, point, B)
-      eig <- eigen(crossprod(B, PB), symmetric = TRUE)
-      l <- pmax(eig$values, 0)
-      Z2 <- (E %*% (PB %*% eig$vectors))^2
+    unlist(lapply(seq_along(factors), function(i) {
+      B <- factors[[i]]
+      if (kron) {
+        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t)
+        l <- kp$l
+        Z2 <- kp$Z^2
+      } else {
+        PB <- precision_times(ctx, point, B)
+        eig <- eigen(crossprod(B, PB), symmetric = TRUE)
+        l <- pmax(eig$values, 0)
+        Z2 <- (E %*% (PB %*% eig$vectors))^2
+      }
       vapply(ratios, function(s) {
         Q <- base_terms$Q[, g] - drop(Z2 %*% (s / (1 + s * l)))
         log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
@@ -51,6 +83,32 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
     }))
   }))
   log_sum_exp(pieces) - log(length(kernels) * length(ratios))
+}
+
+# The Woodbury pieces of other_log_evidence() for K = Kx (x) Kt = (Bx Bx')
+# (x) (Bt Bt') and P = R_x^-1 (x) Pt (no noise pattern): B'PB = (Bx'R_x^-1
+# Bx) (x) (Bt'Pt Bt) has eigenvalues lx (x) lt and eigenvectors Vx (x) Vt,
+# so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j as an
+# n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
+# (the x step, kronecker_x_step(), once per kernel) + rx n_t rt products
+# instead of n_x n_t rx rt (the same quantities as the full factor, to
+# rounding). Z: runs x (rx rt), column (ix - 1) rt + it.
+kronecker_products <- function(point, xs, Bt, J, n_t) {
+  PtBt <- ar1_precision_times(point$Pt, Bt)
+  et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
+  Mt <- PtBt %*% et$vectors
+  rx <- ncol(xs$Ex)
+  Z <- do.call(cbind, lapply(seq_len(rx), function(ix) matrix(xs$Ex[, ix], J, n_t) %*% Mt))
+  list(Z = Z, l = kronecker(xs$lx, pmax(et$values, 0)))
+}
+
+# The x step: Ex = the runs' residuals (rows of n_t, one column per x
+# setting) times Mx = R_x^-1 Bx Vx, and lx the eigenvalues of Bx'R_x^-1 Bx.
+kronecker_x_step <- function(Rx_inv, Bx, E, n_t) {
+  RxBx <- Rx_inv %*% Bx
+  ex <- eigen(crossprod(Bx, RxBx), symmetric = TRUE)
+  list(Rx_inv = Rx_inv, Ex = matrix(E, nrow(E) * n_t, nrow(Bx)) %*%
+         (RxBx %*% ex$vectors), lx = pmax(ex$values, 0))
 }
 
 # B with K = B B' to rounding (K positive semi-definite): the rows of the

@@ -242,9 +242,10 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   # imitations of any smooth effect)
   plain <- if (identical(matched$base, fit)) list(ctx = ctx, terms = base_terms) else
     screen_terms(fit)
+  white <- screen_white(plain$ctx, plain$terms)
   screen <- lapply(names(candidates), function(nm) {
     sc <- confounding_screen(plain$ctx, plain$terms, candidates[[nm]], names(lib_theta(base)),
-                             confounding_threshold, nm)
+                             confounding_threshold, nm, white)
     # the data themselves separate it: the screen's local view was too pessimistic
     if (log_ev[[nm]] - log_ev[["none"]] > log(100)) sc$confounded <- FALSE
     sc

@@ -195,3 +195,15 @@ test_that("strength levels and row matches are those of pasted keys, in first-se
   expect_identical(match_rows(a, b), match(ka, kb))
   expect_true(anyNA(match_rows(a, b)) && any(!is.na(match_rows(a, b))))
 })
+
+test_that("the factored 'other' evidence equals the full-factor Woodbury, with rho_x too", {
+  sys <- toy_gap(0.2, n_t = 12)
+  fit <- suppressWarnings(calibrate(sys$lib, sys$field, rho_x = c(0, 0.5), rho_t = c(0, 0.4),
+                                    n_iter = 100, burn_in = 20, seed = 1))
+  ctx <- gap_context(fit)
+  terms <- gap_terms(ctx, lib_outputs(fit$library), fit$log_prior_run, Q = fit$C)
+  kron <- other_log_evidence(ctx, terms, c(0.03, 0.1, 0.3))
+  full <- other_log_evidence(utils::modifyList(ctx, list(sd = rep(1, ctx$n))), terms,
+                             c(0.03, 0.1, 0.3))
+  expect_equal(kron, full, tolerance = 1e-10)
+})
