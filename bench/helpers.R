@@ -359,3 +359,22 @@ fmt3 <- function(x) ifelse(is.na(x), "-", formatC(signif(x, 3), format = "fg", d
 
 # A data.frame as a Markdown table.
 md_table <- function(df) paste(knitr::kable(df, format = "pipe", row.names = FALSE), collapse = "\n")
+
+# A data set of the SAVE package (the spot-weld and synthetic examples of
+# Palomo, Garcia-Donato, Paulo et al.), from its CRAN archive tarball, which
+# is downloaded once per R session into tempdir().
+load_save <- function(name) {
+  dir <- file.path(tempdir(), "SAVE")
+  if (!dir.exists(dir)) {
+    tarball <- file.path(tempdir(), "SAVE_1.0.tar.gz")
+    if (!file.exists(tarball)) {
+      utils::download.file("https://cran.r-project.org/src/contrib/Archive/SAVE/SAVE_1.0.tar.gz",
+                           tarball, quiet = TRUE)
+    }
+    utils::untar(tarball, exdir = tempdir())
+  }
+  e <- new.env()
+  load(file.path(dir, "data", paste0(name, ".rda")), e)
+  e[[name]]
+}
+

@@ -16,17 +16,7 @@
 
 library(griddy)
 out_md <- "bench/results/published-data.md"
-tarball <- file.path(tempdir(), "SAVE_1.0.tar.gz")
-if (!file.exists(tarball)) {
-  utils::download.file("https://cran.r-project.org/src/contrib/Archive/SAVE/SAVE_1.0.tar.gz",
-                       tarball, quiet = TRUE)
-}
-utils::untar(tarball, exdir = tempdir())
-load_save <- function(name) {
-  e <- new.env()
-  load(file.path(tempdir(), "SAVE", "data", paste0(name, ".rda")), e)
-  e[[name]]
-}
+source("bench/helpers.R")  # load_save(): the SAVE package's published data
 
 studies <- list(
   spot_weld = list(model = load_save("spotweldmodel"), field = load_save("spotweldfield"),
