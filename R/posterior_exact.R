@@ -50,10 +50,10 @@
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
                             prior = NULL,
                             x_power = 2, run_weights = NULL, noise_groups = NULL,
-                            joint = TRUE) {
+                            joint = TRUE, discrepancy = NULL) {
   joint <- assert_flag(joint, "joint")
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
-                                 noise_groups)
+                                 noise_groups, discrepancy = discrepancy)
   exact_from_problem(problem, joint)
 }
 
@@ -64,9 +64,13 @@ exact_from_problem <- function(problem, joint = TRUE) {
   post <- grid_posterior(problem, joint)
   grid <- problem$grid
   grid$prob <- post$grid
+  disc <- problem$setup$discrepancy
   structure(
     list(run = post$run, grid = grid, joint = post$joint, log_evidence = post$log_evidence),
-    class = "griddy_exact"
+    class = "griddy_exact", discrepancy = disc,
+    # the grid points' masses in logs, which do not underflow (the Bayes
+    # factor for a discrepancy reads them)
+    log_grid_mass = if (!is.null(disc)) grid_log_mass(problem)
   )
 }
 
