@@ -219,9 +219,12 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_i
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
   checks_start <- proc.time()[["elapsed"]]
+  fit$gap_screen <- gap_screen(fit, field, rho_x, rho_t, prior, x_power, run_weights,
+                               noise_groups)
   warn_resolution(fit)
   warn_convergence(fit)
   warn_gap(fit)
+  warn_gap_screen(fit)
   fit$runtime[["checks"]] <- fit$runtime[["checks"]] + proc.time()[["elapsed"]] - checks_start
   fit
 }

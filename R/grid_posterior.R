@@ -454,6 +454,6 @@ grid_posterior <- function(problem, joint = TRUE) {
                              problem$prior$rate, problem$setup$logdet, problem$log_prior_run,
                              problem$log_prior_grid, joint, griddy_threads())
   log_norm <- post$log_norm + log_evidence_constant(problem$prior, sizes)
-  list(joint = post$joint, run = post$run, grid = post$grid,
+  list(joint = post$joint, run = post$run, grid = post$grid, log_mass = log_norm,
        log_evidence = if (problem$prior$rate > 0) log_norm else NA_real_)
 }

@@ -109,13 +109,21 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
                                                                      tab$parameter)]
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
-            info = fit_description(object), discrepancy = fit_discrepancy_evidence(object))
+            info = fit_description(object), discrepancy = fit_discrepancy_evidence(object),
+            gap_screen = if (screen_shows_gap(object)) object$gap_screen)
 }
 
 # The discrepancy evidence of a fit with one to weigh, else NULL.
 fit_discrepancy_evidence <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(NULL)
   tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
+}
+
+# summary()'s line on the gap screen of a fit without a discrepancy, when it
+# found a gap (screen_shows_gap()).
+format_gap_screen <- function(screen) {
+  if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(character())
+  paste("Gap:", gap_screen_message(screen$log_bf))
 }
 
 # summary()'s line on the discrepancy: the Bayes factor and, when it shows a
@@ -207,6 +215,7 @@ print.griddy_summary <- function(x, digits = 4, width = getOption("width"), ...)
   adequacy <- attr(x, "adequacy")
   if (!is.null(adequacy)) cat_wrapped(format_adequacy(adequacy), width)
   cat_wrapped(format_discrepancy(attr(x, "discrepancy")), width)
+  cat_wrapped(format_gap_screen(attr(x, "gap_screen")), width)
   if (!is.null(x$rhat) && !is.null(adequacy$tv_reference)) {
     problems <- convergence_problems(stats::setNames(x$rhat, x$parameter),
                                      adequacy$tv_distance, adequacy$tv_reference)

@@ -70,7 +70,10 @@ exact_from_problem <- function(problem, joint = TRUE) {
     class = "griddy_exact", discrepancy = disc,
     # the grid points' masses in logs, which do not underflow (the Bayes
     # factor for a discrepancy reads them)
-    log_grid_mass = if (!is.null(disc)) grid_log_mass(problem)
+    log_grid_mass = if (!is.null(disc)) grid_log_mass(problem),
+    # log p(y) up to the constant b^a of an improper prior (rate 0), which
+    # models with the same prior share (the gap screen compares them)
+    log_mass = post$log_mass
   )
 }
 
