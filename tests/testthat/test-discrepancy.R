@@ -127,3 +127,47 @@ test_that("noise groups: the discrepancy acts within each group", {
   Sigma <- diag(length(idx)) + 2 * K[idx, idx]
   expect_equal(tcrossprod(point$dense$A[["late"]]), solve(Sigma), tolerance = 1e-10)
 })
+
+test_that("every backend gives the same evidence with a discrepancy: HDF5 as in memory", {
+  skip_if_not_installed("hdf5r")
+  toy <- gap_toy(bump = 0.1)
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = c(0.3, 1))
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(toy$library, file)
+  h5 <- hdf5_library(file)
+  in_memory <- posterior_exact(toy$library, toy$field, discrepancy = disc)
+  on_disk <- posterior_exact(h5, toy$field, discrepancy = disc)
+  expect_equal(on_disk$run, in_memory$run, tolerance = 1e-12)
+  expect_equal(on_disk$log_evidence, in_memory$log_evidence, tolerance = 1e-12)
+})
+
+test_that("an emulated library's error and a discrepancy enter together", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 400)
+  field <- emulated_toy_field()
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
+  exact <- suppressWarnings(posterior_exact(lib, field, discrepancy = disc))
+  expect_equal(sum(exact$run), 1)
+  expect_true(is.finite(discrepancy_evidence(exact)$log_bayes_factor))
+  # the ratio-0 points are the model without a discrepancy, emulation error included
+  plain <- suppressWarnings(posterior_exact(lib, field))
+  none <- suppressWarnings(posterior_exact(lib, field, discrepancy = gp_discrepancy(ratio = 0)))
+  expect_equal(none$run, plain$run, tolerance = 1e-8)
+})
+
+test_that("refine() keeps the discrepancy in every round", {
+  skip_if_not_installed("RobustGaSP")
+  toy <- gap_toy(bump = 0.1)
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1,
+                                    discrepancy = disc))
+  sim <- function(theta) {
+    t <- lib_t(toy$library)
+    t(mapply(function(a, b) unlist(lapply(c(1, 2, 3), function(l) a * l * exp(-b * t))),
+             theta$a, theta$b))
+  }
+  ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
+  expect_identical(names(ref$grid), names(fit$grid))
+  expect_equal(nrow(ref$grid), nrow(fit$grid))
+  expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+})
