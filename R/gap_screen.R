@@ -28,13 +28,15 @@ gap_screen <- function(fit, field, rho_x, rho_t, prior, x_power, run_weights, no
   g <- which.max(fit$exact$grid$prob)
   rho <- grid_rho(fit, g)
   lib <- fit$library
-  sub <- sim_library(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs),
-                     x = lib_x(lib), t = lib_t(lib))
   weights <- exp(fit$log_prior_run[runs] - max(fit$log_prior_run[runs]))
-  problem <- tryCatch(
+  # the fit has said what there is to say about its library and prior: the
+  # screen's own problem stays quiet
+  problem <- tryCatch(suppressWarnings({
+    sub <- sim_library(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs),
+                       x = lib_x(lib), t = lib_t(lib))
     calibration_problem(sub, field, rho$x, rho$t, prior, x_power, weights, noise_groups,
-                        discrepancy = gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])),
-    griddy_error = function(e) NULL)
+                        discrepancy = gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
+  }, classes = "griddy_warning"), griddy_error = function(e) NULL)
   if (is.null(problem)) return(NULL)
   # the subset's and the grid point's prior mass in the full model
   log_prior_mass <- log_sum_exp(fit$log_prior_run[runs]) + fit$log_prior_grid[g]
@@ -45,8 +47,12 @@ gap_screen <- function(fit, field, rho_x, rho_t, prior, x_power, run_weights, no
 # The runs that carry all but 1e-6 of the posterior, at most
 # gap_screen_runs of them (at least 2, the least a library holds).
 screen_runs <- function(post) {
-  k <- min(gap_screen_runs, length(post))
-  top <- order(post, decreasing = TRUE)[seq_len(k)]
+  # runs below 1e-6 / N hold less than 1e-6 together: one pass leaves them
+  # out before anything is sorted (10^6 runs take no sort)
+  candidates <- which(post >= 1e-6 / length(post))
+  if (length(candidates) < 2L) candidates <- seq_along(post)
+  k <- min(gap_screen_runs, length(candidates))
+  top <- candidates[order(post[candidates], decreasing = TRUE)[seq_len(k)]]
   enough <- which(cumsum(post[top]) >= 1 - 1e-6)[1]
   top[seq_len(max(2L, if (is.na(enough)) k else enough))]
 }
