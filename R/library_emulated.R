@@ -387,7 +387,8 @@ emulated_noise_var <- function(library, y_field, setup, times = 6L) {
     s2 <- state$problem$library$noise$noise_var
     list(C = state$problem$C, noise_var = s2, kappa = state$problem$library$noise$kappa,
          ratio = loo_error_near(library$emulator, mode,
-                                reference_noise_var(setup, s2, state$problem$C)),
+                                reference_noise_var(setup, s2, state$problem$C,
+                                                    roughness_noise_var(state))),
          lack_of_fit = lack_of_fit(setup, state$best))
   }
   stored <- library$noise
