@@ -12,6 +12,10 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   default_prior <- is.null(prior)
   prior <- assert_prior(if (default_prior) thesis_prior() else prior)
   log_prior_run <- log_run_weights(run_weights, library)
+  if (isTRUE(discrepancy$orthogonal)) {
+    discrepancy$sensitivity <- discrepancy_sensitivity(
+      library, layout$y, noise_pattern(library, layout, noise_groups, prior))
+  }
   # a discrepancy breaks the Kronecker structure: dense factors throughout
   pattern <- noise_pattern(library, layout, noise_groups, prior,
                            dense = !is.null(discrepancy))

@@ -50,8 +50,7 @@ brute_force_point <- function(problem, run, g) {
   s <- if (is.null(setup$dense$scale)) rep(1, length(obs)) else 1 / setup$dense$scale
   Sigma <- R * outer(s, s)
   if (disc$ratio > 0) {
-    K <- discrepancy_kernels(lib, data.frame(length_x = disc$length_x,
-                                             length_t = disc$length_t))[[1]]
+    K <- discrepancy_kernels(lib, attr(setup$discrepancy, "kernels"))[[disc$kernel]]
     Sigma <- Sigma + disc$ratio * K[obs, obs]
   }
   r <- (problem$y_field - lib_outputs(lib, run)[1, ])[obs]
@@ -122,7 +121,7 @@ test_that("noise groups: the discrepancy acts within each group", {
                                                               length_t = 1))
   g <- 2
   point <- grid_point(problem$setup, g)
-  K <- discrepancy_kernels(toy$library, data.frame(length_x = 1, length_t = 1))[[1]]
+  K <- discrepancy_kernels(toy$library, attr(problem$setup$discrepancy, "kernels"))[[1]]
   idx <- which(rep(groups, 3) == "late")
   Sigma <- diag(length(idx)) + 2 * K[idx, idx]
   expect_equal(tcrossprod(point$dense$A[["late"]]), solve(Sigma), tolerance = 1e-10)
@@ -170,4 +169,24 @@ test_that("refine() keeps the discrepancy in every round", {
   expect_identical(names(ref$grid), names(fit$grid))
   expect_equal(nrow(ref$grid), nrow(fit$grid))
   expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+})
+
+test_that("an orthogonal discrepancy cannot imitate a change of theta", {
+  toy <- gap_toy(bump = 0.1)
+  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
+                                                              length_t = 0.5))
+  kernels <- attr(problem$setup$discrepancy, "kernels")
+  G <- attr(kernels, "sensitivity")
+  expect_equal(dim(G), c(30L, 2L))
+  K <- discrepancy_kernels(toy$library, kernels)[[1]]
+  expect_lt(max(abs(K %*% G)), 1e-8 * max(abs(K)) * max(abs(G)))
+  expect_equal(K, t(K))
+  # the slopes are those of the outputs near the best run: a a*l*exp(-b t) library
+  best <- best_fitting_run(toy$library, problem$y_field, NULL)
+  expect_equal(best, which.min(rowSums(sweep(lib_outputs(toy$library), 2, problem$y_field)^2)))
+  plain <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+                               discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
+                                                            length_t = 0.5, orthogonal = FALSE))
+  expect_null(attr(attr(plain$setup$discrepancy, "kernels"), "sensitivity"))
 })
