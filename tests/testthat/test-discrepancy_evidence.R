@@ -61,7 +61,7 @@ test_that("calibrate() warns of a gap, and summary() says what theta then is", {
       invokeRestart("muffleWarning")
     })
   expect_s3_class(gap_warning, "griddy_warning_gap")
-  out <- paste(capture.output(print(summary(fit))), collapse = " ")
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
   expect_match(out, "Discrepancy: log Bayes factor", fixed = TRUE)
   expect_match(out, "best fits", fixed = TRUE)
   ev <- discrepancy_evidence(fit)
