@@ -287,6 +287,7 @@ plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...)
 plot_discrepancy <- function(fit, level = 0.95, ...) {
   post <- discrepancy_posterior(fit, level = level, ...)
   lib <- fit$library
+  replicated <- fit$n_obs > sum(!is.na(fit$y_field))
   single_t <- lib_n_t(lib) == 1L
   one_x_col <- !is.null(lib_x(lib)) && ncol(lib_x(lib)) == 1L
   post$position <- if (!single_t) post$t else if (one_x_col) lib_x(lib)[[1]][post$x] else post$x
@@ -316,8 +317,10 @@ plot_discrepancy <- function(fit, level = 0.95, ...) {
                     title = "Where the simulator misses the data: the discrepancy's posterior",
                     # two lines: one does not fit a vignette-width figure
                     subtitle = paste0("Red: posterior mean and ", format(100 * level),
-                                      "% pointwise band. Black: field data minus the\n",
-                                      "simulator's posterior mean outputs. Dashed: no gap.")) +
+                                      "% pointwise band. Black: field data",
+                                      if (replicated) " (replicates' means)",
+                                      " minus the\nsimulator's posterior mean outputs. ",
+                                      "Dashed: no gap.")) +
     posterior_theme()
 }
 
