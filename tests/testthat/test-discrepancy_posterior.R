@@ -171,3 +171,19 @@ test_that("discrepancy_posterior() refuses a fit without a discrepancy", {
   expect_error(discrepancy_posterior(fit_d, level = 1), "`level`")
   expect_error(discrepancy_posterior(fit_d, ndraws = 0), "`ndraws`")
 })
+
+test_that("a refined fit's runs give delta's posterior", {
+  theta <- data.frame(k = seq(1, 4, by = 0.5))
+  lib <- sim_library(theta, refine_sim(theta))
+  t <- lib_t(lib)
+  bump <- 0.1 * exp(-((t - 0.6) / 0.1)^2)
+  set.seed(1)
+  field <- field_data(refine_sim(data.frame(k = 2.23)) + bump + stats::rnorm(40, sd = 0.02),
+                      t = t)
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 600, burn_in = 200, seed = 1,
+                                    discrepancy = gp_discrepancy()))
+  refined <- suppressWarnings(refine(fit, refine_sim, max_runs = 200, seed = 1))
+  post <- discrepancy_posterior(refined, ndraws = 200, seed = 1)
+  expect_gt(mean(post$lower <= bump & bump <= post$upper), 0.9)
+  expect_true(all(post$lower[bump > 0.07] > 0))
+})
