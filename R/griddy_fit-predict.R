@@ -14,8 +14,8 @@
 #'   settings are an error.
 #' @param level Probability of the central intervals.
 #' @param ndraws How many draws (evenly spaced over the kept ones) to add noise
-#'   to for the predictive bounds; the mean and the bounds without noise use
-#'   every kept draw.
+#'   (and with `discrepancy = TRUE` the discrepancy) to, for the bounds; the
+#'   mean, and the bounds of the simulator alone, use every kept draw.
 #' @param seed `NULL`, or a seed for the noise draws of this call only.
 #' @param discrepancy For a fit with a [gp_discrepancy()]: `TRUE` to predict
 #'   the simulator plus the discrepancy (bias-corrected), `FALSE` the
