@@ -215,24 +215,31 @@ discrepancy_draws <- function(fit, pick) {
 
 # ---- where ---------------------------------------------------------------------
 
+# How clearly delta is not 0 at each library output: |mean| / sd (0 where
+# the sd is 0, as at lambda = 0). `post` holds discrepancy_moments()'s mean
+# and sd. "Clear" is beyond the normal quantile of `level`: a pointwise band
+# from the mixture's moments, exact and free of random numbers.
+clearness <- function(post) ifelse(post$sd > 0, abs(post$mean) / post$sd, 0)
+
+is_clear <- function(z, level) z > stats::qnorm(1 - (1 - level) / 2)
+
 # Where delta is clearly not zero: the stretches of t within each x setting
-# where |mean| > z sd (z the normal quantile of `level`, a pointwise band of
-# the mixture's moments), as a data.frame with the setting's label, the t
-# range, the peak |mean| / sd and the mean there, strongest first. `post`
-# holds library_cells() columns plus `mean` and `sd` (discrepancy_moments()).
+# whose outputs are all clear, as a data.frame with the setting's label, the
+# t range, the peak |mean| / sd (`z`) and the mean there, clearest first.
+# `post` holds library_cells() columns plus `mean` and `sd`.
 discrepancy_regions <- function(post, lib, level = 0.95) {
-  z <- ifelse(post$sd > 0, abs(post$mean) / post$sd, 0)
-  clear <- z > stats::qnorm(1 - (1 - level) / 2)
-  # a run of consecutive clear cells within one x setting is one region
-  starts <- clear & !c(FALSE, clear[-length(clear)] & post$x[-1] == post$x[-length(post$x)])
-  id <- cumsum(starts)[clear]
+  z <- clearness(post)
+  clear <- is_clear(z, level)
+  # a run of consecutive clear outputs within one x setting is one region
+  same_setting <- c(FALSE, post$x[-1] == post$x[-length(post$x)])
+  starts <- clear & !(c(FALSE, clear[-length(clear)]) & same_setting)
   cells <- which(clear)
   if (length(cells) == 0L) {
     return(data.frame(setting = character(0), t_from = numeric(0), t_to = numeric(0),
                       z = numeric(0), mean = numeric(0)))
   }
   labels <- setting_labels(lib)
-  regions <- do.call(rbind, lapply(split(cells, id), function(i) {
+  regions <- do.call(rbind, lapply(split(cells, cumsum(starts)[clear]), function(i) {
     peak <- i[which.max(z[i])]
     data.frame(setting = labels[post$x[peak]], t_from = min(post$t[i]), t_to = max(post$t[i]),
                z = z[peak], mean = post$mean[peak])
@@ -242,44 +249,45 @@ discrepancy_regions <- function(post, lib, level = 0.95) {
   regions
 }
 
-# The "where" of the gap in words, from discrepancy_moments(): per x setting
-# (at most `top`, clearest first) the t range of its clear outputs, how many
-# there are and the mean at the clearest; when none is clear, where
-# |mean| / sd peaks.
+# The "where" of the gap in words, from discrepancy_moments(): for the x
+# settings with clear outputs (at most `top`, clearest first) the t range
+# of those outputs, how many there are and the mean at the clearest; when
+# none is clear, where |mean| / sd peaks.
 discrepancy_where_text <- function(fit, level = 0.95, top = 3L) {
   lib <- fit$library
   post <- cbind(library_cells(lib), as.data.frame(discrepancy_moments(fit)))
-  regions <- discrepancy_regions(post, lib, level)
-  labels <- setting_labels(lib)
-  t_text <- function(from, to) {
-    if (lib_n_t(lib) == 1L) return("")
-    if (from == to) return(paste0("t = ", format(from, digits = 3)))
-    paste0("t in [", format(from, digits = 3), ", ", format(to, digits = 3), "]")
-  }
-  place <- function(setting, t_part) {
-    paste(c(if (lib_n_x(lib) > 1L) setting, if (nzchar(t_part)) t_part), collapse = ", ")
-  }
-  if (nrow(regions) == 0L) {
-    z <- ifelse(post$sd > 0, abs(post$mean) / post$sd, 0)
+  z <- clearness(post)
+  clear <- is_clear(z, level)
+  band <- paste0("The discrepancy's ", format(100 * level), "% band ")
+  if (!any(clear)) {
     i <- which.max(z)
-    return(paste0("The discrepancy's ", format(100 * level), "% band holds 0 everywhere; |mean| / sd is ",
-                  "largest (", format(z[i], digits = 2), ") at ",
-                  place(labels[post$x[i]], t_text(post$t[i], post$t[i])), "."))
+    return(paste0(band, "holds 0 everywhere; |mean| / sd is largest (",
+                  format(z[i], digits = 2), ") at ", output_place(lib, post$x[i], post$t[i]),
+                  "."))
   }
-  z <- ifelse(post$sd > 0, abs(post$mean) / post$sd, 0)
-  clear <- z > stats::qnorm(1 - (1 - level) / 2)
   settings <- unique(post$x[clear])
   settings <- settings[order(-vapply(settings, function(s) max(z[clear & post$x == s]), 0))]
   parts <- vapply(utils::head(settings, top), function(s) {
     i <- which(clear & post$x == s)
     peak <- i[which.max(z[i])]
-    paste0(place(labels[s], t_text(min(post$t[i]), max(post$t[i]))), " (",
-           length(i), " output", if (length(i) > 1L) "s", "; mean ",
-           format(post$mean[peak], digits = 2),
+    paste0(output_place(lib, s, range(post$t[i])), " (", length(i), " output",
+           if (length(i) > 1L) "s", "; mean ", format(post$mean[peak], digits = 2),
            if (lib_n_t(lib) > 1L) paste0(" at t = ", format(post$t[peak], digits = 3)), ")")
   }, "")
   more <- length(settings) - length(parts)
-  paste0("The discrepancy's ", format(100 * level), "% band excludes 0 at ", sum(clear), " of ",
-         length(clear), " outputs, clearest at ", paste(parts, collapse = "; "),
+  paste0(band, "excludes 0 at ", sum(clear), " of ", length(clear), " outputs, clearest at ",
+         paste(parts, collapse = "; "),
          if (more > 0L) paste0("; and ", more, " more setting", if (more > 1L) "s"), ".")
+}
+
+# "amp = 1.5, t in [0.8, 2]": x setting `x` (a row) and the t value or range
+# `t`, each left out when the library has only one.
+output_place <- function(lib, x, t) {
+  t <- unique(range(t))
+  t_part <- if (lib_n_t(lib) == 1L) NULL else if (length(t) == 1L) {
+    paste0("t = ", format(t, digits = 3))
+  } else {
+    paste0("t in [", format(t[1], digits = 3), ", ", format(t[2], digits = 3), "]")
+  }
+  paste(c(if (lib_n_x(lib) > 1L) setting_labels(lib)[x], t_part), collapse = ", ")
 }
