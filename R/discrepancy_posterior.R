@@ -22,9 +22,11 @@
 #' at every library output (the library's order, measured or not). Given a
 #' run, a grid point and \eqn{\tau}, \eqn{\delta} is Gaussian: its mean is
 #' the Gaussian-process smooth of the run's residuals \eqn{y - g_i}
-#' (\eqn{\lambda K_{\cdot o} \Sigma^{-1} r_i}, \eqn{\Sigma = S R_g S +
-#' \lambda K} over the measured cells) and its covariance \eqn{\tau^{-1}
-#' (\lambda K - \lambda K_{\cdot o} \Sigma^{-1} \lambda K_{o \cdot})}, within
+#' (\eqn{\lambda K_{\cdot o} \Sigma^{-1} r_i}{lambda K[, o] Sigma^-1 r_i},
+#' \eqn{\Sigma = S R_g S + \lambda K}{Sigma = S R_g S + lambda K} over the
+#' measured cells \eqn{o}) and its covariance \eqn{\tau^{-1} (\lambda K -
+#' \lambda K_{\cdot o} \Sigma^{-1} \lambda K_{o \cdot})}{tau^-1 (lambda K -
+#' lambda K[, o] Sigma^-1 lambda K[o, ])}, within
 #' each noise group. The posterior is the mixture of these over the fit's
 #' kept draws; draws at the ratio \eqn{\lambda = 0} give \eqn{\delta = 0}.
 #'
