@@ -311,15 +311,18 @@ plot_discrepancy <- function(fit, level = 0.95, ...) {
       ggplot2::geom_point(ggplot2::aes(y = .data$residual), size = 0.8, na.rm = TRUE) +
       ggplot2::facet_wrap(ggplot2::vars(.data$setting),
                           scales = if (several_groups) "free_y" else "fixed") +
+      # few breaks: several panels side by side leave each little width
+      ggplot2::scale_x_continuous(n.breaks = 4,
+                                  guide = ggplot2::guide_axis(check.overlap = TRUE)) +
       ggplot2::labs(x = "t")
   }
   p + ggplot2::labs(y = "Discrepancy (data minus simulator)",
-                    title = "Where the simulator misses the data: the discrepancy's posterior",
-                    # two lines: one does not fit a vignette-width figure
-                    subtitle = paste0("Red: posterior mean and ", format(100 * level),
-                                      "% pointwise band. Black: field data",
-                                      if (replicated) " (replicates' means)",
-                                      " minus the\nsimulator's posterior mean outputs. ",
+                    title = "Where the simulator misses the data",
+                    # short lines: one long line does not fit a narrow figure
+                    subtitle = paste0("Red: the discrepancy's posterior mean, ",
+                                      format(100 * level), "% band.\n",
+                                      "Black: data", if (replicated) " (replicates' means)\n" else " ",
+                                      "minus the simulator's posterior mean.\n",
                                       "Dashed: no gap.")) +
     posterior_theme()
 }

@@ -162,7 +162,8 @@ test_that("the discrepancy plot shows delta's posterior and the residuals per se
   expect_identical(levels(p$data$setting), c("amp = 1", "amp = 2", "amp = 3"))
   expect_identical(p$data$position, p$data$t)
   expect_match(p$labels$subtitle, "\n", fixed = TRUE)
-  expect_match(p$labels$title, "discrepancy", fixed = TRUE)
+  expect_match(p$labels$title, "misses the data", fixed = TRUE)
+  expect_match(p$labels$subtitle, "discrepancy's posterior mean", fixed = TRUE)
   expect_no_warning(ggplot2::ggplotGrob(p))
   expect_match(plot(fit, "ppc", ndraws = 50, seed = 1)$labels$subtitle, "+ discrepancy",
                fixed = TRUE)
