@@ -107,18 +107,23 @@ evidence_words <- function(log_bf) {
 gap_log_bf_threshold <- log(20)
 
 # calibrate()'s warning when its discrepancy shows a gap (nothing when the
-# fit has no discrepancy to weigh).
+# fit has no discrepancy to weigh), with where the gap lies: the settings
+# and outputs where the posterior of delta is clear of 0
+# (discrepancy_where_text(), from exact mixture moments: no random numbers,
+# so the caller's stream is untouched).
 warn_gap <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(invisible(NULL))
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
   if (is.null(ev) || !(ev$log_bayes_factor > gap_log_bf_threshold)) return(invisible(NULL))
-  griddy_warn(gap_message(ev$log_bayes_factor), class = "gap")
+  griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit)), class = "gap")
 }
 
-gap_message <- function(log_bf) {
+gap_message <- function(log_bf, where = NULL) {
   paste0("The field data show a gap between the simulator and reality: the log Bayes ",
          "factor for a discrepancy is ", format(log_bf, digits = 3), " (",
-         evidence_words(log_bf), "). theta is then the value that best fits the data ",
+         evidence_words(log_bf), "). ",
+         if (!is.null(where)) paste0(where, " "),
+         "theta is then the value that best fits the data ",
          "with a discrepancy, not necessarily the physical one. See where the gap lies with ",
          "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().")
 }
