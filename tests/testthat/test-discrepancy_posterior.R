@@ -107,7 +107,7 @@ test_that("the posterior of delta recovers an added bump, and says where it is",
   # calibrate()'s warning names the place
   w <- NULL
   withCallingHandlers(
-    calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1,
+    calibrate(sys$library, sys$field, n_iter = 1000, burn_in = 200, seed = 1,
               discrepancy = gp_discrepancy()),
     griddy_warning_gap = function(c) {
       w <<- c
@@ -183,11 +183,22 @@ test_that("a refined fit's runs give delta's posterior", {
   field <- field_data(refine_sim(data.frame(k = 2.23)) + bump + stats::rnorm(40, sd = 0.02),
                       t = lib_t(lib))
   fit <- suppressWarnings(calibrate(lib, field, n_iter = 600, burn_in = 200, seed = 1,
-                                    discrepancy = gp_discrepancy()))
+                                    discrepancy = gp_discrepancy(orthogonal = FALSE)))
   refined <- suppressWarnings(refine(fit, refine_sim, max_runs = 200, seed = 1))
   post <- discrepancy_posterior(refined, ndraws = 200, seed = 1)
   expect_gt(mean(post$lower <= bump & bump <= post$upper), 0.9)
   expect_true(sum(bump > 0.07) >= 3 && all(post$lower[bump > 0.07] > 0))
   expect_match(discrepancy_where_text(refined),
                "band excludes 0 at [0-9]+ of 40 outputs, clearest at t in \\[2[0-9], [23][0-9]\\]")
+})
+
+test_that("an orthogonal discrepancy's posterior leaves theta's directions alone", {
+  sys <- bump_sys()
+  fit <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100,
+                                    seed = 1, discrepancy = gp_discrepancy()))
+  G <- attr(attr(fit$setup$discrepancy, "kernels"), "sensitivity")
+  post <- discrepancy_posterior(fit, ndraws = 100, seed = 1)
+  expect_lt(abs(sum(post$mean * G[, 1])), 1e-6 * sqrt(sum(post$mean^2) * sum(G[, 1]^2)))
+  # the bump, which k cannot imitate, is still found
+  expect_true(all(post$lower[sys$gap > 0.3] > 0))
 })

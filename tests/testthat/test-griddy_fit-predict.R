@@ -123,7 +123,7 @@ test_that("predict(discrepancy = TRUE) reaches a setting the field does not meas
   fit <- suppressWarnings(calibrate(sys$library, field_data(y, x = data.frame(amp = 1:3),
                                                             t = lib_t(sys$library)),
                                     n_iter = 600, burn_in = 100, seed = 1,
-                                    discrepancy = gp_discrepancy()),
+                                    discrepancy = gp_discrepancy(orthogonal = FALSE)),
                           classes = c("griddy_warning_resolution", "griddy_warning_gap"))
   p <- predict(fit, ndraws = 300, seed = 1)
   expect_false(anyNA(p[c("mean", "lower", "upper", "pred_lower", "pred_upper")]))
