@@ -115,15 +115,25 @@ warn_gap <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(invisible(NULL))
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
   if (is.null(ev) || !(ev$log_bayes_factor > gap_log_bf_threshold)) return(invisible(NULL))
-  griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit)), class = "gap")
+  griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit),
+                          resolution_caveat(fit)), class = "gap")
 }
 
-gap_message <- function(log_bf, where = NULL) {
+# What a gap found on a library too coarse for the data may be instead.
+resolution_caveat <- function(fit) {
+  tab <- resolution_limited(fit)
+  if (!any(tab$limited & !tab$constant)) return(NULL)
+  paste0("(The library's resolution limits this fit: part of the gap may be the misfit ",
+         "between its runs; refine() it first.)")
+}
+
+gap_message <- function(log_bf, where = NULL, caveat = NULL) {
   paste0("The field data show a gap between the simulator and reality: the log Bayes ",
          "factor for a discrepancy is ", format(log_bf, digits = 3), " (",
          evidence_words(log_bf), "). ",
          if (!is.null(where)) paste0(where, " "),
          "theta is then the value that best fits the data ",
          "with a discrepancy, not necessarily the physical one. See where the gap lies with ",
-         "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().")
+         "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().",
+         if (!is.null(caveat)) paste0(" ", caveat))
 }

@@ -116,7 +116,11 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
 # The discrepancy evidence of a fit with one to weigh, else NULL.
 fit_discrepancy_evidence <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(NULL)
-  tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
+  ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
+  if (!is.null(ev) && ev$log_bayes_factor > gap_log_bf_threshold) {
+    ev$where <- discrepancy_where_text(fit)
+  }
+  ev
 }
 
 # summary()'s line on the gap screen of a fit without a discrepancy, when it
@@ -135,7 +139,7 @@ format_discrepancy <- function(ev) {
          format(ev$prob_none, digits = 3), ".",
          if (ev$log_bayes_factor > gap_log_bf_threshold) {
            paste0(" The data show a gap: theta is the value that best fits them with a ",
-                  "discrepancy, not necessarily the physical one.")
+                  "discrepancy, not necessarily the physical one. ", ev$where)
          })
 }
 
