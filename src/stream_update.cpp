@@ -54,32 +54,58 @@ void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, i
 
 // log sum over (run i, grid point g) of
 //   log_prior_run[i] + grid_term[g] - sum_k shape_post[k] log(rate + C[i, g + G k] / 2),
-// one pass with a running maximum (the log evidence less its constant).
+// the log evidence less its constant. With one noise group, a first pass
+// finds each grid point's smallest C, whose term bounds the largest from
+// below (`known`); a run whose term is below known - 746 adds nothing to a
+// sum that is at least 1 (exp(-746) underflows to 0), so its log and exp are
+// skipped: C above a cut per grid point. The result is the same double.
 // [[Rcpp::export]]
 double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post,
                           double rate, const Rcpp::NumericVector& grid_term,
                           const Rcpp::NumericVector& log_prior_run) {
   const R_xlen_t N = C.nrow(), G = grid_term.size(), K = shape_post.size();
-  if (log_prior_run.size() != N || G * K != C.ncol()) {
+  if (log_prior_run.size() != N || G * K != C.ncol() || N == 0) {
     Rcpp::stop("stream_log_sum: shapes do not match");
+  }
+  const double* lpr = log_prior_run.begin();
+  const double lpr_max = *std::max_element(lpr, lpr + N);
+  std::vector<double> cut(G, R_PosInf);
+  if (K == 1) {
+    double known = R_NegInf;
+    for (R_xlen_t g = 0; g < G; ++g) {
+      const double* c = C.begin() + N * g;
+      const R_xlen_t i = std::min_element(c, c + N) - c;
+      known = std::max(known, lpr[i] + grid_term[g] - shape_post[0] * std::log(rate + 0.5 * c[i]));
+    }
+    for (R_xlen_t g = 0; g < G; ++g) {
+      const double room = (lpr_max + grid_term[g] - known + 746.0) / shape_post[0];
+      if (room < 700) cut[g] = 2 * (std::exp(room) - rate);
+    }
   }
   double top = R_NegInf, sum = 0;
   std::vector<double> v(N);
+  std::vector<R_xlen_t> keep(N);
   for (R_xlen_t g = 0; g < G; ++g) {
-    for (R_xlen_t i = 0; i < N; ++i) v[i] = log_prior_run[i] + grid_term[g];
+    R_xlen_t m = 0;
+    const double* c0 = C.begin() + N * g;
+    for (R_xlen_t i = 0; i < N; ++i) {
+      if (c0[i] <= cut[g]) keep[m++] = i;
+    }
+    for (R_xlen_t j = 0; j < m; ++j) v[j] = lpr[keep[j]] + grid_term[g];
     for (R_xlen_t k = 0; k < K; ++k) {
       const double* c = C.begin() + N * (g + G * k);
       const double a = shape_post[k];
-      for (R_xlen_t i = 0; i < N; ++i) v[i] -= a * std::log(rate + 0.5 * c[i]);
+      for (R_xlen_t j = 0; j < m; ++j) v[j] -= a * std::log(rate + 0.5 * c[keep[j]]);
     }
-    const double m = *std::max_element(v.begin(), v.end());
-    if (!std::isfinite(m)) continue;
-    if (m > top) {
-      sum *= std::exp(top - m);
-      top = m;
+    if (m == 0) continue;
+    const double mx = *std::max_element(v.begin(), v.begin() + m);
+    if (!std::isfinite(mx)) continue;
+    if (mx > top) {
+      sum *= std::exp(top - mx);
+      top = mx;
     }
     double s = 0;
-    for (R_xlen_t i = 0; i < N; ++i) s += std::exp(v[i] - top);
+    for (R_xlen_t j = 0; j < m; ++j) s += std::exp(v[j] - top);
     sum += s;
   }
   return top + std::log(sum);
