@@ -44,7 +44,7 @@
 #' noise group) is changed in place by `update()`, which returns the same
 #' stream, so that an update costs one pass over the runs and no copy:
 #' `s2 <- update(s1, ...)` updates `s1` too. The stream keeps the library's
-#' outputs in memory (see [lib_outputs()][sim_library()]), and the data so
+#' outputs in memory (an on-disk library is read once), and the data so
 #' far ([stream_data()]).
 #'
 #' @inheritParams calibrate

@@ -27,6 +27,10 @@
 #' changes). The probabilities are kept as logarithms, so no model's
 #' probability reaches machine zero.
 #'
+#' The streams are updated in place (see [griddy_stream()]): give each
+#' `stream_models()` streams of its own, or a stream shared by two of them
+#' takes every measurement twice.
+#'
 #' @param ... For `stream_models()`: named [griddy_stream()]s (at least two), one per model, each
 #'   holding the same measurements so far (usually none).
 #' @param prior Prior model probabilities (one per model; `NULL`: equal).
