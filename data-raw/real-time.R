@@ -2,12 +2,12 @@
 # cleat is raised during the test, measurements arriving one at a time.
 #
 # Two libraries of the same Fiala tyre over (k, c), one per contact model:
-# the rectangular patch (the thesis's Fiala assumption) and the point
-# follower, each at the two cleat heights of the test (12.13 mm, then
-# 41.2 mm). The "measured" tyre is the stand-in's PAC2002-style tyre at
+# the rectangular patch (the thesis's Fiala assumption) and the rigid
+# disc (the contact of the thesis's PAC2002 runs), each at the two cleat
+# heights of the test (12.13 mm, then 41.2 mm). The "measured" tyre is the stand-in's PAC2002-style tyre at
 # k = 450 N/mm, c = 1.5 N s/mm with noise (sd 60 N), as in chapter 5, with
 # the patch contact on the first cleat. To show a change of regime, the
-# data after the cleat change are made with the point follower instead: a
+# data after the cleat change are made with the rigid disc instead: a
 # constructed change (in the stand-in the better contact model does not
 # depend on the cleat height; the per-height evidences stored below show
 # it). Every 5th sample of each 0.5 s pass (100 per pass) arrives, in time
@@ -32,7 +32,7 @@ seeds <- c(library = 2025, noise = 25)
 n_runs <- 1500
 heights <- tyre_cleat_heights()[c(3, 1)]   # 12.13 mm, then 41.2 mm
 truth <- c(k = 450, c = 1.5)
-noise_sd <- 60
+noise_sd <- 60                             # N: 2% of the 3 kN static load, as chapter 5
 every <- 5                                 # every 5th sample arrives
 forgetting <- 0.95
 # AR(1) over time on t scaled to [0, 1] over the 500 samples: lag-one
@@ -40,23 +40,23 @@ forgetting <- 0.95
 rho_t <- c(0, 0.5^499, 0.9^499)
 
 libs <- list()
-for (contact in c("patch", "point")) {
+for (contact in c("patch", "disc")) {
   set.seed(seeds[["library"]])
   libs[[contact]] <- tyre_library(n_runs, height = heights, contact = contact)
 }
 
-# the measured passes: patch contact on the low cleat, point on the high one
+# the measured passes: patch contact on the low cleat, disc on the high one
 pass <- function(height, contact, seed) {
   tyre_field_data(truth[["k"]], truth[["c"]], height = height, model = "pac2002",
                   contact = contact, noise_sd = noise_sd, seed = seed)
 }
 low <- pass(heights[1], "patch", seeds[["noise"]])
-high <- pass(heights[2], "point", seeds[["noise"]] + 1L)
+high <- pass(heights[2], "disc", seeds[["noise"]] + 1L)
 keep <- seq(every, length(low$t), by = every)
 arrivals <- data.frame(height = rep(heights, each = length(keep)),
                        t = c(low$t[keep], high$t[keep]),
                        y = c(low$y[1, keep], high$y[1, keep]),
-                       truth_contact = rep(c("patch", "point"), each = length(keep)))
+                       truth_contact = rep(c("patch", "disc"), each = length(keep)))
 
 new_streams <- function() lapply(libs, griddy_stream, rho_t = rho_t)
 exact <- do.call(stream_models, new_streams())
@@ -87,7 +87,7 @@ h_dma <- as.data.frame(dma)
 history$prob_patch <- h_exact$prob_patch
 history$prob_patch_dma <- h_dma$prob_patch
 history$log_pred_patch <- h_exact$log_pred_patch
-history$log_pred_point <- h_exact$log_pred_point
+history$log_pred_disc <- h_exact$log_pred_disc
 
 # checks the vignette reports: the streams against posterior_exact() on all
 # the data, and the per-height evidences of each contact model on a pass
@@ -101,7 +101,7 @@ final_check <- lapply(names(libs), function(p) {
              log_evidence_stream = as.numeric(logLik(s)),
              log_evidence_batch = batch$log_evidence)
 })
-per_height <- do.call(rbind, lapply(c("patch", "point"), function(truth_contact) {
+per_height <- do.call(rbind, lapply(c("patch", "disc"), function(truth_contact) {
   do.call(rbind, lapply(heights, function(h) {
     f <- pass(h, truth_contact, seeds[["noise"]] + 2L)
     f <- field_data(f$y[1, keep], x = data.frame(height = h), t = f$t[keep])
@@ -109,7 +109,7 @@ per_height <- do.call(rbind, lapply(c("patch", "point"), function(truth_contact)
       suppressWarnings(posterior_exact(l, f, rho_t = rho_t, joint = FALSE))$log_evidence
     }, numeric(1))
     data.frame(truth_contact = truth_contact, height = h,
-               log_evidence_patch = ev[["patch"]], log_evidence_point = ev[["point"]])
+               log_evidence_patch = ev[["patch"]], log_evidence_disc = ev[["disc"]])
   }))
 }))
 
