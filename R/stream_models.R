@@ -3,9 +3,9 @@
 #' Several [griddy_stream()]s over different libraries (candidate
 #' simulators, or a simulator with and without an effect) take the same
 #' measurements; after each one, the posterior probability of each model
-#' is updated from its one-step predictive density, which every stream has
-#' at no extra cost: \eqn{p(y_k \mid y_{1:k-1}, M) = Z_k(M) / Z_{k-1}(M)},
-#' the ratio of its running evidences ([logLik()][logLik.griddy_stream]).
+#' is updated from its one-step predictive density, the ratio of its
+#' running evidences ([logLik()][logLik.griddy_stream], one more pass over
+#' the runs): \eqn{p(y_k \mid y_{1:k-1}, M) = Z_k(M) / Z_{k-1}(M)}.
 #'
 #' **Following a change of regime: dynamic model averaging.** With
 #' `forgetting` \eqn{\alpha = 1} the probabilities are the exact Bayesian

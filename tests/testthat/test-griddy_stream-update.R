@@ -88,3 +88,16 @@ test_that("noise groups keep one form per group", {
   batch <- posterior_exact(ex$library, ex$field, noise_groups = "x")
   expect_equal(posterior_exact(s)$run, batch$run, tolerance = 1e-10)
 })
+
+test_that("a field_data with missing cells is taken setting by setting", {
+  ex <- griddy_example()
+  y <- ex$field$y
+  y[2, c(1, 5, 6)] <- NA
+  field <- field_data(y, x = ex$field$x[c(2, 1, 3), , drop = FALSE][c(2, 1, 3), , drop = FALSE],
+                      t = ex$library$t)
+  s <- update(griddy_stream(ex$library, rho_t = c(0, 0.7)), y = field)
+  expect_equal(nobs(s), sum(!is.na(y)))
+  expect_equal(posterior_exact(s), posterior_exact(ex$library, field, rho_t = c(0, 0.7)),
+               tolerance = 1e-10)
+  expect_error(update(s, y = field, t = 1), class = "griddy_error_input")
+})
