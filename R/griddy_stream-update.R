@@ -20,8 +20,9 @@
 #' @examples
 #' ex <- griddy_example()
 #' s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
-#' s <- update(s, y = ex$field$y[1], t = ex$library$t[1])   # one measurement
-#' s <- update(s, y = ex$field$y[2:4], t = ex$library$t[2:4]) # a batch
+#' x1 <- ex$field$x[1, , drop = FALSE]
+#' s <- update(s, y = ex$field$y[1, 1], x = x1, t = ex$library$t[1])        # one
+#' s <- update(s, y = ex$field$y[1, 2:4], x = x1, t = ex$library$t[2:4])    # a batch
 #' nobs(s)
 #' @export
 update.griddy_stream <- function(object, y, x = NULL, t = NULL, ...) {

@@ -67,12 +67,17 @@
 #'   approach. *Journal of the Royal Statistical Society A* 147(2), 278-292.
 #' @examples
 #' ex <- griddy_example()
-#' s <- griddy_stream(ex$library)
+#' s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
 #' y <- ex$field$y
-#' for (j in seq_along(y)) s <- update(s, y = y[j], t = ex$library$t[j])
+#' # measurements one at a time: setting by setting, in time order
+#' for (k in seq_len(nrow(y))) {
+#'   for (j in seq_len(ncol(y))) {
+#'     s <- update(s, y = y[k, j], x = ex$field$x[k, , drop = FALSE], t = ex$library$t[j])
+#'   }
+#' }
 #' s
 #' logLik(s)
-#' all.equal(posterior_exact(s)$run, posterior_exact(ex$library, ex$field)$run)
+#' all.equal(posterior_exact(s), posterior_exact(ex$library, ex$field, rho_t = c(0, 0.5)))
 #' @export
 griddy_stream <- function(library, rho_x = 0, rho_t = 0, prior = NULL, run_weights = NULL,
                           noise_groups = NULL) {
@@ -137,7 +142,8 @@ stream_reset <- function(state) {
 #'   [posterior_exact()] and [calibrate()] the same data as the stream.
 #' @examples
 #' ex <- griddy_example()
-#' s <- update(griddy_stream(ex$library), y = ex$field$y[1:3], t = ex$library$t[1:3])
+#' s <- update(griddy_stream(ex$library), y = c(0.5, 1.2), x = ex$field$x[c(1, 3), , drop = FALSE],
+#'             t = ex$library$t[c(2, 5)])
 #' stream_data(s)
 #' @export
 stream_data <- function(stream) {
