@@ -65,3 +65,25 @@ test_that("logLik needs a proper prior", {
                posterior_exact(ex$library, ex$field, prior = list(shape = 1, rate = 0))$run,
                tolerance = 1e-10)
 })
+
+test_that("the evidence over many blocks of runs is the batch one, on any number of threads", {
+  set.seed(4)
+  n <- 40000  # three blocks of the evidence pass
+  theta <- data.frame(a = runif(n), b = runif(n))
+  tt <- seq(0, 1, length.out = 6)
+  lib <- sim_library(theta, outer(theta$a, tt) + outer(theta$b, tt^2), t = tt)
+  y <- 0.4 * tt + 0.7 * tt^2 + rnorm(6, sd = 0.05)
+  s <- update(griddy_stream(lib, rho_t = c(0, 0.6)), y = y, t = tt)
+  batch <- suppressWarnings(posterior_exact(lib, field_data(y, t = tt), rho_t = c(0, 0.6),
+                                            joint = FALSE))
+  one <- withr::with_options(list(griddy.threads = 1L), {
+    s$state$cache <- NULL
+    as.numeric(logLik(s))
+  })
+  two <- withr::with_options(list(griddy.threads = 2L), {
+    s$state$cache <- NULL
+    as.numeric(logLik(s))
+  })
+  expect_identical(one, two)
+  expect_equal(one, batch$log_evidence, tolerance = 1e-12)
+})
