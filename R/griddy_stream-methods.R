@@ -80,7 +80,9 @@ stream_warn_resolution <- function(stream) {
 #' `confint()` give [calibrate()]'s warning (class
 #' `griddy_warning_resolution`) when the posterior has collapsed onto fewer
 #' effective library values than resolve it: then [refine()] adds runs
-#' where the posterior is.
+#' where the posterior is (it takes a fit: `refine(calibrate(library,
+#' field_data(stream_data(s)), ...))`, with a simulator; a new stream over
+#' the refined library then takes the data so far and goes on).
 #'
 #' @param object,x A [griddy_stream()].
 #' @param level Probability of the central interval.

@@ -38,7 +38,9 @@
 #' measurement so far), and a second measurement of the same (x, t) is
 #' refused (class `griddy_error_unsupported`). Independent noise takes any
 #' order and replicates (their sum of squares is what [calibrate()] uses).
-#' Relative `sd` of measurements (see [field_data()]) are not taken.
+#' Relative `sd` of measurements (see [field_data()]) are not taken, nor
+#' runs predicted by an emulator ([emulated_library()], or [refine()]
+#' without a simulator), whose likelihood holds the emulator's error.
 #'
 #' **A stream is a reference object.** Its state (the N x G forms per
 #' noise group) is changed in place by `update()`, which returns the same
@@ -82,6 +84,12 @@
 griddy_stream <- function(library, rho_x = 0, rho_t = 0, prior = NULL, run_weights = NULL,
                           noise_groups = NULL) {
   check_library(library)
+  if (any(lib_predicted(library))) {
+    griddy_abort("A stream takes simulated runs only: the library's runs predicted by an ",
+                 "emulator carry the emulator's error in their likelihood, which the ",
+                 "stream's one-term update leaves out. Use calibrate() or posterior_exact().",
+                 class = "unsupported")
+  }
   grids <- rho_grids(library, rho_x, rho_t)
   if (lib_n_x(library) > 1L && any(unlist(grids$x) != 0)) {
     griddy_abort("A stream takes `rho_x` = 0 only: a correlation across x settings couples ",

@@ -23,3 +23,8 @@ test_that("stream_data() holds the data in arrival order", {
   expect_equal(d$mass, ex$field$x$mass[c(3, 1)])
   expect_equal(d$t, ex$library$t[c(2, 4)])
 })
+
+test_that("a library of emulated runs is refused", {
+  expect_error(griddy_stream(emulated_toy_library(n_runs = 200)),
+               class = "griddy_error_unsupported")
+})
