@@ -49,8 +49,8 @@ stream_add_cpp <- function(C, outputs, column, y, prev, y_prev, phi, scale, offs
     invisible(.Call(`_griddy_stream_add_cpp`, C, outputs, column, y, prev, y_prev, phi, scale, offset))
 }
 
-stream_log_sum_cpp <- function(C, shape_post, rate, grid_term, log_prior_run, threads = 1L) {
-    .Call(`_griddy_stream_log_sum_cpp`, C, shape_post, rate, grid_term, log_prior_run, threads)
+stream_log_sum_cpp <- function(C, shape_post, rate, grid_term, log_prior_run) {
+    .Call(`_griddy_stream_log_sum_cpp`, C, shape_post, rate, grid_term, log_prior_run)
 }
 
 omp_limits_cpp <- function() {

@@ -27,8 +27,7 @@ stream_log_evidence <- function(state) {
   prior <- state$prior
   value <- if (prior$rate > 0) {
     stream_log_sum_cpp(state$C, prior$shape + state$n / 2, prior$rate,
-                       state$log_prior_grid - state$logdet / 2, state$log_prior_run,
-                       griddy_threads()) +
+                       state$log_prior_grid - state$logdet / 2, state$log_prior_run) +
       log_evidence_constant(prior, state$n)
   } else {
     NA_real_

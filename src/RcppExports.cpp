@@ -191,8 +191,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // stream_log_sum_cpp
-double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post, double rate, const Rcpp::NumericVector& grid_term, const Rcpp::NumericVector& log_prior_run, int threads);
-RcppExport SEXP _griddy_stream_log_sum_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP grid_termSEXP, SEXP log_prior_runSEXP, SEXP threadsSEXP) {
+double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post, double rate, const Rcpp::NumericVector& grid_term, const Rcpp::NumericVector& log_prior_run);
+RcppExport SEXP _griddy_stream_log_sum_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP grid_termSEXP, SEXP log_prior_runSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -201,8 +201,7 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type grid_term(grid_termSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
-    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
-    rcpp_result_gen = Rcpp::wrap(stream_log_sum_cpp(C, shape_post, rate, grid_term, log_prior_run, threads));
+    rcpp_result_gen = Rcpp::wrap(stream_log_sum_cpp(C, shape_post, rate, grid_term, log_prior_run));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -278,7 +277,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
     {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
     {"_griddy_stream_add_cpp", (DL_FUNC) &_griddy_stream_add_cpp, 9},
-    {"_griddy_stream_log_sum_cpp", (DL_FUNC) &_griddy_stream_log_sum_cpp, 6},
+    {"_griddy_stream_log_sum_cpp", (DL_FUNC) &_griddy_stream_log_sum_cpp, 5},
     {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},

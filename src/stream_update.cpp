@@ -4,7 +4,6 @@
 // pass. R checks every index and shape; these functions check only sizes.
 #include <Rcpp.h>
 #include <algorithm>
-#include "parallel_waves.h"
 #include <cmath>
 #include <vector>
 
@@ -63,73 +62,55 @@ void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, i
 // (relative). Their logs and exps are the cost: with tau integrated out a
 // term falls only as C^-(a + n/2), so late in a stream most runs are cut
 // (C above twice the smallest at 120 measurements), early few are.
-// The runs go in blocks (items of parallel_waves(), on `threads` threads);
-// each block's terms are summed relative to the block's own largest, and
-// the blocks are combined in order afterwards, so the result does not
-// depend on the number of threads.
 // [[Rcpp::export]]
 double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post,
                           double rate, const Rcpp::NumericVector& grid_term,
-                          const Rcpp::NumericVector& log_prior_run, int threads = 1) {
+                          const Rcpp::NumericVector& log_prior_run) {
   const R_xlen_t N = C.nrow(), G = grid_term.size(), K = shape_post.size();
   if (log_prior_run.size() != N || G * K != C.ncol() || N == 0) {
     Rcpp::stop("stream_log_sum: shapes do not match");
   }
   const double* lpr = log_prior_run.begin();
-  const double* c_all = C.begin();
-  const double* a_all = shape_post.begin();
-  const double* gt = grid_term.begin();
   const double lpr_max = *std::max_element(lpr, lpr + N);
   std::vector<double> cut(G, R_PosInf);
   const double drop = std::log(static_cast<double>(N) * static_cast<double>(G)) + 37.0;
   if (K == 1) {
     double known = R_NegInf;
     for (R_xlen_t g = 0; g < G; ++g) {
-      const double* c = c_all + N * g;
+      const double* c = C.begin() + N * g;
       const R_xlen_t i = std::min_element(c, c + N) - c;
-      known = std::max(known, lpr[i] + gt[g] - a_all[0] * std::log(rate + 0.5 * c[i]));
+      known = std::max(known, lpr[i] + grid_term[g] - shape_post[0] * std::log(rate + 0.5 * c[i]));
     }
     for (R_xlen_t g = 0; g < G; ++g) {
-      const double room = (lpr_max + gt[g] - known + drop) / a_all[0];
+      const double room = (lpr_max + grid_term[g] - known + drop) / shape_post[0];
       if (room < 700) cut[g] = 2 * (std::exp(room) - rate);
     }
   }
-  const R_xlen_t block = 16384;
-  const R_xlen_t n_blocks = (N + block - 1) / block;
-  const int n_threads = griddy::usable_threads(threads);
-  std::vector<std::vector<double>> work(n_threads, std::vector<double>(block));
-  std::vector<double> block_top(n_blocks * G, R_NegInf), block_sum(n_blocks * G, 0.0);
-  griddy::parallel_waves(n_blocks * G, 64LL * n_threads, n_threads, [&](long long item, int thread) {
-    const R_xlen_t g = item / n_blocks, b = item % n_blocks;
-    const R_xlen_t start = b * block, len = std::min(block, N - start);
-    double* v = work[thread].data();
-    const double* c0 = c_all + N * g + start;
-    double mx = R_NegInf;
-    for (R_xlen_t i = 0; i < len; ++i) {
-      if (!(c0[i] <= cut[g])) {
-        v[i] = R_NegInf;
-        continue;
-      }
-      double term = lpr[start + i] + gt[g];
-      for (R_xlen_t k = 0; k < K; ++k) {
-        term -= a_all[k] * std::log(rate + 0.5 * c_all[N * (g + G * k) + start + i]);
-      }
-      v[i] = term;
-      mx = std::max(mx, term);
+  double top = R_NegInf, sum = 0;
+  std::vector<double> v(N);
+  std::vector<R_xlen_t> keep(N);
+  for (R_xlen_t g = 0; g < G; ++g) {
+    R_xlen_t m = 0;
+    const double* c0 = C.begin() + N * g;
+    for (R_xlen_t i = 0; i < N; ++i) {
+      if (c0[i] <= cut[g]) keep[m++] = i;
     }
-    if (!std::isfinite(mx)) return;
-    double sum = 0;
-    for (R_xlen_t i = 0; i < len; ++i) {
-      if (v[i] > R_NegInf) sum += std::exp(v[i] - mx);
+    for (R_xlen_t j = 0; j < m; ++j) v[j] = lpr[keep[j]] + grid_term[g];
+    for (R_xlen_t k = 0; k < K; ++k) {
+      const double* c = C.begin() + N * (g + G * k);
+      const double a = shape_post[k];
+      for (R_xlen_t j = 0; j < m; ++j) v[j] -= a * std::log(rate + 0.5 * c[keep[j]]);
     }
-    block_top[item] = mx;
-    block_sum[item] = sum;
-  });
-  const double top = *std::max_element(block_top.begin(), block_top.end());
-  if (!std::isfinite(top)) return top;
-  double sum = 0;
-  for (R_xlen_t item = 0; item < n_blocks * G; ++item) {
-    if (block_sum[item] > 0) sum += block_sum[item] * std::exp(block_top[item] - top);
+    if (m == 0) continue;
+    const double mx = *std::max_element(v.begin(), v.begin() + m);
+    if (!std::isfinite(mx)) continue;
+    if (mx > top) {
+      sum *= std::exp(top - mx);
+      top = mx;
+    }
+    double s = 0;
+    for (R_xlen_t j = 0; j < m; ++j) s += std::exp(v[j] - top);
+    sum += s;
   }
   return top + std::log(sum);
 }
