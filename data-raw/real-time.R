@@ -24,7 +24,7 @@
 #
 # Run from the package root after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/real-time.R
-# Takes about 2-4 minutes on a shared 2-core machine (mostly the libraries).
+# Took 112 s on a shared 2-core machine at load about 2 (mostly the libraries).
 
 library(griddy)
 t_script <- proc.time()[["elapsed"]]
