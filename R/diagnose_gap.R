@@ -189,13 +189,22 @@
 #' gap
 #' gap$which
 #' @export
-diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
-                         other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05,
-                         max_runs = control$max_runs, seed = NULL,
-                         progress = control$progress, control = griddy_control()) {
+diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
+                         prior_models = NULL, other_scales = c(0.03, 0.1, 0.3),
+                         confounding_threshold = 0.05, max_runs = control$max_runs,
+                         seed = NULL, progress = control$progress,
+                         discrepancy = gp_discrepancy(), control = griddy_control()) {
   control <- assert_control(control)
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
+  }
+  if (no_candidates(candidates)) {
+    # is there a gap at all, and where (diagnose_gap-discrepancy.R)
+    discrepancy <- check_gap_discrepancy(discrepancy)
+    return(gap_without_candidates(
+      fit, discrepancy, windows, assert_level(fdr, "fdr"), prior_models,
+      assert_count(max_runs, "max_runs", min = 0L), assert_seed(seed),
+      gap_progress(assert_flag(progress, "progress"), 0L)))
   }
   check_gap_pattern(fit)
   base <- fit$library
