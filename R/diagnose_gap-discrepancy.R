@@ -40,7 +40,7 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   rownames(which_tab) <- NULL
   step("where the discrepancy lies")
   where <- discrepancy_where(problem, exact, windows, fdr, prob[["other"]])
-  verdict <- gap_verdict(which_tab, NULL, base, where)
+  verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
   structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
@@ -115,10 +115,11 @@ setup_noise_pattern <- function(setup, n, prior) {
 # and size). A block's statistic is T = m_B' S_B^+ m_B / d (d the rank of
 # S_B), F(d, 2a + n) distributed about the mean, and p = P(F > T) is the
 # posterior probability of discrepancies further from the mean than zero.
-# At lambda = 0 the discrepancy is zero: T = 0 and p = 1. `score` and
-# `p_value` average T and p over the exact posterior (the pairs of run and
-# grid point holding 99.9% of the mass with lambda > 0, weighed by
-# `prob_other`).
+# `score` and `p_value` average T and p over the exact posterior given a
+# discrepancy (the pairs of run and grid point holding 99.9% of the mass
+# with lambda > 0); blocks are flagged (Benjamini-Hochberg at `fdr`) only
+# when "other" is the more probable model (`prob_other` > 0.5): $where says
+# where the gap lies once the evidence says there is one.
 discrepancy_where <- function(problem, exact, windows, fdr, prob_other) {
   setup <- problem$setup
   library <- problem$library
@@ -196,11 +197,12 @@ discrepancy_where <- function(problem, exact, windows, fdr, prob_other) {
       }
     }
   }
-  score <- prob_other * colSums(wp * stat)
-  p_value <- (1 - prob_other) + prob_other * colSums(wp * pval)
+  score <- colSums(wp * stat)
+  p_value <- colSums(wp * pval)
   score[size == 0L] <- NA_real_
   p_value[size == 0L] <- NA_real_
-  flagged <- stats::p.adjust(p_value, "BH") <= fdr
+  # where the gap lies, once the evidence says there is one
+  flagged <- stats::p.adjust(p_value, "BH") <= fdr & prob_other > 0.5
   t_of <- function(f) vapply(blocks$w, function(k) f(t[win[[k]]]), numeric(1))
   out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
                     score = score, p_value = p_value, flagged = flagged & !is.na(flagged))
