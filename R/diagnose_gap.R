@@ -351,17 +351,20 @@ check_gap_pattern <- function(fit) {
   n_groups <- length(fit$setup$group_sizes)
   if (n_groups > 1L) {
     griddy_abort("diagnose_gap() does not yet support fits with noise groups (this fit has ",
-                 n_groups, "); missing field data and relative `sd` are supported. Refit ",
-                 "without `noise_groups` (one tau) to diagnose the gap.",
+                 n_groups, ") with candidates; missing field data and relative `sd` are supported. ",
+                 "Refit without `noise_groups` (one tau) to weigh candidates, or diagnose ",
+                 "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
   # replicates enter the likelihood as their cell means plus a pure-error sum
   # of squares, which the leave-block-out pieces (on the means) leave out
   if (fit$n_obs > sum(!is.na(fit$y_field))) {
-    griddy_abort("diagnose_gap() does not yet support replicated field measurements (",
+    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
+                 "candidates (",
                  fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)), " cells). ",
-                 "Diagnose the gap on the replicates' means (one row per setting in ",
-                 "field_data()).", class = "unsupported")
+                 "Diagnose without candidates (is there a gap, and where), or weigh candidates ",
+                 "on the replicates' means (one row per setting in field_data()).",
+                 class = "unsupported")
   }
 }
 
