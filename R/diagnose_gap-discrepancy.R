@@ -149,7 +149,7 @@ discrepancy_where <- function(problem, exact, windows, fdr, prob_other) {
   pairs <- arrayInd(pairs, dim(joint))
   a <- problem$prior$shape
   b <- problem$prior$rate
-  Y <- lib_outputs(library, unique(pairs[, 1]))
+  Y <- if (nrow(pairs) > 0L) lib_outputs(library, unique(pairs[, 1]))
   row_of <- match(pairs[, 1], unique(pairs[, 1]))
   for (g in unique(pairs[, 2])) {
     post <- discrepancy_posterior_factors(setup, g)

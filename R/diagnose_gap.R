@@ -61,11 +61,14 @@
 #' block (of "where") or x setting (of "how much") is its observed cells; a
 #' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
 #' never flagged) and a setting with none has no fold. Candidates' quadratic
-#' forms use the same observed points and sd. **Not yet supported with
-#' candidates:** noise groups (see [calibrate()]): with a precision per group
-#' the block statistic has no single F distribution; and replicated field
-#' measurements. Such a fit is an error of class `griddy_error_unsupported`
-#' (without candidates both are supported).
+#' forms use the same observed points and sd. **Replicated** measurements
+#' enter as their cell means (each with its own relative sd) plus the
+#' pure-error sum of squares, which every leave-out piece keeps: it informs
+#' the noise precision whatever block or setting is left out. **Not yet
+#' supported with candidates:** noise groups (see [calibrate()]): with a
+#' precision per group the block statistic has no single F distribution.
+#' Such a fit is an error of class `griddy_error_unsupported` (without
+#' candidates they are supported).
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
@@ -356,16 +359,20 @@ check_gap_pattern <- function(fit) {
                  "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
-  # replicates enter the likelihood as their cell means plus a pure-error sum
-  # of squares, which the leave-block-out pieces (on the means) leave out
-  if (fit$n_obs > sum(!is.na(fit$y_field))) {
-    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
-                 "candidates (",
-                 fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)), " cells). ",
-                 "Diagnose without candidates (is there a gap, and where), or weigh candidates ",
-                 "on the replicates' means (one row per setting in field_data()).",
-                 class = "unsupported")
-  }
+  # replicates are fine: they enter the likelihood as their cell means plus a
+  # pure-error sum of squares, which every leave-out piece keeps (it informs
+  # tau whatever is left out)
+}
+
+# The relative sd of each data value (library order, NA where missing): a
+# replicated cell's mean has its own (1 / sqrt(n_rep) without sd); NULL
+# when every value has the noise's. What the predictive checks scale by.
+data_sd <- function(setup, n) {
+  scale <- setup$dense$scale
+  if (is.null(scale)) return(NULL)
+  sd <- rep(NA_real_, n)
+  sd[setup$dense$obs] <- 1 / scale
+  sd
 }
 
 check_candidates <- function(candidates, base) {
