@@ -45,7 +45,8 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
                  settings = list(fdr = fdr, windows = where$breaks, discrepancy = discrepancy,
-                                 runs = lib_n_runs(matched$library))),
+                                 runs = lib_n_runs(problem$library)),
+                 x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
 }
 

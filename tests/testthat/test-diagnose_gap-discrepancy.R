@@ -102,9 +102,14 @@ test_that("print, summary and plot say it is a discrepancy against none", {
   s <- capture.output(print(summary(gap)))
   expect_true(any(grepl("without candidates", s)))
   expect_false(any(grepl("Held-out", s)))
+  expect_true(any(grepl("worst at load=", out)))              # the settings by name
   p <- plot(gap)
   expect_s3_class(p, "ggplot")
   expect_match(p$labels$subtitle, "discrepancy")
+  # every flagged block is outlined on its setting's row
+  rects <- ggplot2::ggplot_build(p)$data[[2]]
+  expect_equal(nrow(rects), sum(gap$where$flagged))
+  expect_false(anyNA(rects$ymin))
 })
 
 test_that("a discrepancy without the ratio 0 is refused", {
