@@ -140,8 +140,12 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
     spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), ", t ",
                     ends[, 1], "-", ends[, 2],
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
+    # without candidates a block is flagged for its discrepancy, not its misfit
+    away <- without_candidates(x$verdict)
     paste0("Where: ", nrow(fl), " of ", nrow(wh), " blocks ",
-           if (!scores) "flagged" else if (nrow(fl) == 1L) "departs from the fitted noise" else
+           if (!scores) "flagged" else if (away) {
+             paste0(if (nrow(fl) == 1L) "has" else "have", " a discrepancy away from zero")
+           } else if (nrow(fl) == 1L) "departs from the fitted noise" else
              "depart from the fitted noise", " (", fdr, "); worst at ",
            paste(spots, collapse = "; "))
   }
@@ -300,8 +304,12 @@ print.gap_diagnosis_summary <- function(x, digits = 3, ...) {
   })
   m$prob <- format_prob(x$models$prob)
   cli::cat_line("Models:")
-  print(m[c("effect", "prob", "log_evidence", "confounded", "separable", "detectable",
-            "absorbed_by")], row.names = FALSE)
+  cols <- c("effect", "prob", "log_evidence")
+  # the confounding columns say something only of candidates
+  if (!is.null(s$confounding_threshold)) {
+    cols <- c(cols, "confounded", "separable", "detectable", "absorbed_by")
+  }
+  print(m[cols], row.names = FALSE)
   cand <- m[!is.na(x$models$shrink), ]
   if (nrow(cand) > 0L) {
     cli::cat_line("Held-out settings (each x setting left out in turn):")
