@@ -74,6 +74,17 @@ test_that("replicated field data and noise groups are diagnosed, with the exact 
   expect_true(any(gap_g$where$flagged))
 })
 
+test_that("missing cells and relative sd: the exact evidence, unobserved blocks not checked", {
+  toy <- toy_gap(0.2, missing = gap_missing, rel_sd = gap_rel_sd)
+  d <- small_disc()
+  gap <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0)
+  ev <- discrepancy_evidence(posterior_exact(toy$lib, toy$field, discrepancy = d))
+  expect_equal(gap$evidence$log_bayes_factor, ev$log_bayes_factor, tolerance = 1e-10)
+  expect_identical(gap$verdict$answer, "other")
+  expect_true(all(is.na(gap$map$residual[gap_missing])))
+  expect_false(anyNA(gap$map$residual[-gap_missing]))
+})
+
 test_that("a fit made with a discrepancy is diagnosed as the fit without it", {
   toy <- toy_gap(0.2)
   d <- small_disc()
