@@ -38,9 +38,15 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                           absorbed_by = NA_character_, stringsAsFactors = FALSE)
   which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
   rownames(which_tab) <- NULL
+  # a gap only on evidence that is at least positive: the posterior log odds
+  # of "other" beyond Kass and Raftery's inconclusive band
+  found <- log(prob[["other"]]) - log(prob[["none"]]) > gap_detect_log_odds
   step("where the discrepancy lies")
-  where <- discrepancy_where(problem, exact, windows, fdr, prob[["other"]])
+  where <- discrepancy_where(problem, exact, windows, fdr, found)
   verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
+  if (!found && verdict$answer == "other") {
+    verdict[c("answer", "prob", "reason")] <- list("none", prob[["none"]], "inconclusive")
+  }
   structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
@@ -49,6 +55,10 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                  x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
 }
+
+# The posterior log odds of "other" against "none" above which the answer is
+# "other": the top of the band that evidence_words() calls inconclusive.
+gap_detect_log_odds <- 1
 
 empty_shrinkage <- function() {
   data.frame(effect = character(0), before = numeric(0), after = numeric(0),
@@ -119,9 +129,9 @@ setup_noise_pattern <- function(setup, n, prior) {
 # `score` and `p_value` average T and p over the exact posterior given a
 # discrepancy (the pairs of run and grid point holding 99.9% of the mass
 # with lambda > 0); blocks are flagged (Benjamini-Hochberg at `fdr`) only
-# when "other" is the more probable model (`prob_other` > 0.5): $where says
-# where the gap lies once the evidence says there is one.
-discrepancy_where <- function(problem, exact, windows, fdr, prob_other) {
+# when the evidence finds a gap (`found`): $where says where the gap lies
+# once the evidence says there is one.
+discrepancy_where <- function(problem, exact, windows, fdr, found) {
   setup <- problem$setup
   library <- problem$library
   n_x <- lib_n_x(library)
@@ -203,7 +213,7 @@ discrepancy_where <- function(problem, exact, windows, fdr, prob_other) {
   score[size == 0L] <- NA_real_
   p_value[size == 0L] <- NA_real_
   # where the gap lies, once the evidence says there is one
-  flagged <- stats::p.adjust(p_value, "BH") <= fdr & prob_other > 0.5
+  flagged <- stats::p.adjust(p_value, "BH") <= fdr & found
   t_of <- function(f) vapply(blocks$w, function(k) f(t[win[[k]]]), numeric(1))
   out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
                     score = score, p_value = p_value, flagged = flagged & !is.na(flagged))

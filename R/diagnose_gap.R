@@ -24,7 +24,12 @@
 #' the fit's correlation grids, Gamma prior, run weights, noise groups,
 #' relative sd and replicates (whose pure error pins the noise, so that it
 #' is told from the discrepancy); `$evidence` is its
-#' [discrepancy_evidence()]. At matched resolution: the base library is
+#' [discrepancy_evidence()]. The answer is "other" when the evidence for it
+#' is at least positive: posterior log odds of "other" against "none" above
+#' 1 (with equal model priors, a log Bayes factor above 1; Kass and
+#' Raftery's inconclusive band is \eqn{\pm 1}); otherwise "none" (with
+#' `verdict$reason` `"inconclusive"` when "other" is the more probable of the
+#' two). At matched resolution: the base library is
 #' refined as below, then the model with the discrepancy is refined in turn
 #' (its posterior over theta may lie elsewhere), predicted runs keeping their
 #' prediction error beside the discrepancy, so a truth between coarse runs

@@ -90,7 +90,10 @@ gap_verdict <- function(which_tab, separation, base, where) {
 # nothing about it).
 verdict_label <- function(v) {
   switch(v$answer,
-         none = paste0("no gap (", prob_phrase(v$prob), ")"),
+         none = if (identical(v$reason, "inconclusive")) {
+           paste0("no detectable gap (inconclusive evidence, ",
+                  prob_phrase(1 - v$prob_none, "P(other)"), ")")
+         } else paste0("no gap (", prob_phrase(v$prob), ")"),
          other = if (without_candidates(v)) {
            paste0("a gap the simulator cannot absorb (", prob_phrase(v$prob, "P(other)"), ")")
          } else if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
@@ -245,7 +248,11 @@ verdict_explanation <- function(x) {
   v <- x$verdict
   conf <- x$which[x$which$confounded, ]
   out <- switch(v$answer,
-    none = if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
+    none = if (identical(v$reason, "inconclusive")) {
+      paste0("No detectable gap: the evidence for a discrepancy is inconclusive (",
+             prob_phrase(1 - v$prob_none, "P(other)"), ", below the log odds of ",
+             gap_detect_log_odds, " that a gap needs), so the base model stands.")
+    } else if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
       paste0("No gap that theta cannot absorb: the base model and the confounded ",
              "candidate", if (nrow(conf) > 1L) "s", " ", quoted_list(conf$effect),
              " fit alike once theta is recalibrated (", prob_phrase(v$prob, "P(none)"),

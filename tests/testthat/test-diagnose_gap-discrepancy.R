@@ -37,6 +37,27 @@ test_that("a withheld effect answers 'other' and the null 'none', on and off the
   }
 })
 
+test_that("inconclusive evidence for a discrepancy answers 'none', with no block flagged", {
+  toy <- toy_gap(0.2)
+  d <- small_disc()
+  gap <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0)
+  log_bf <- gap$evidence$log_bayes_factor
+  expect_gt(log_bf, 1)
+  # prior odds that leave posterior log odds of 0.5 for "other": more
+  # probable than "none", but inconclusive
+  odds <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0,
+                       prior_models = c(none = exp(log_bf - 0.5), other = 1))
+  expect_equal(odds$which$effect[1], "other")
+  expect_identical(odds$verdict$answer, "none")
+  expect_identical(odds$verdict$reason, "inconclusive")
+  expect_false(any(odds$where$flagged))
+  expect_match(capture.output(print(odds))[2], "inconclusive")
+  # log odds of 1.5: a gap
+  found <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0,
+                        prior_models = c(none = exp(log_bf - 1.5), other = 1))
+  expect_identical(found$verdict$answer, "other")
+})
+
 test_that("a gap at one setting and one time is located there by $where", {
   toy <- toy_gap(0, bump = 0.3)                     # at the second load around t = 0.5
   gap <- diagnose_gap(toy$fit, windows = 5, discrepancy = small_disc(), seed = 1)
