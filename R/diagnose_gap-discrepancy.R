@@ -42,16 +42,25 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   # of "other" beyond Kass and Raftery's inconclusive band
   found <- log(prob[["other"]]) - log(prob[["none"]]) > gap_detect_log_odds
   step("where the discrepancy lies")
-  where <- discrepancy_where(problem, exact, windows, fdr, found)
+  # the base model's own leave-block-out checks (diagnose_gap-where.R, one
+  # noise precision): a gap too local or rough for a smooth discrepancy
+  check <- if (length(matched$setup$group_sizes) == 1L) base_check(matched, windows, fdr)
+  win <- if (!is.null(check)) check$breaks else windows
+  where <- discrepancy_where(problem, exact, win, fdr, found)
+  if (!found && !is.null(check) && any(check$blocks$flagged)) {
+    where <- c(check, list(kind = "check"))
+  }
   verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
-  if (!found && verdict$answer == "other") {
+  if (!found && identical(where$kind, "check")) {
+    verdict[c("answer", "prob", "reason")] <- list("other", prob[["other"]], "blocks")
+  } else if (!found && verdict$answer == "other") {
     verdict[c("answer", "prob", "reason")] <- list("none", prob[["none"]], "inconclusive")
   }
   structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
                  settings = list(fdr = fdr, windows = where$breaks, discrepancy = discrepancy,
-                                 runs = lib_n_runs(problem$library)),
+                                 runs = lib_n_runs(problem$library), where = where$kind),
                  x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
 }
@@ -59,6 +68,14 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
 # The posterior log odds of "other" against "none" above which the answer is
 # "other": the top of the band that evidence_words() calls inconclusive.
 gap_detect_log_odds <- 1
+
+# gap_where() of a refined base problem: its leave-block-out checks.
+base_check <- function(matched, windows, fdr) {
+  ctx <- gap_context(matched)
+  terms <- matched_terms(ctx, lib_outputs(matched$library), matched$log_prior_run, matched$C,
+                         matched$library)
+  gap_where(ctx, terms, windows, fdr)
+}
 
 empty_shrinkage <- function() {
   data.frame(effect = character(0), before = numeric(0), after = numeric(0),
@@ -140,7 +157,7 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
   dense <- setup$dense
   none <- setup$discrepancy$ratio[setup$gd] == 0
   joint <- exact$joint
-  win <- gap_windows(list(n_t = n_t, t = t,
+  win <- if (is.list(windows)) windows else gap_windows(list(n_t = n_t, t = t,
                           points = lapply(seq_len(n_grid_points(setup)), function(g) {
                             list(phi = setup$phi[, setup$gt[g]])
                           })),
@@ -217,7 +234,7 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
   t_of <- function(f) vapply(blocks$w, function(k) f(t[win[[k]]]), numeric(1))
   out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
                     score = score, p_value = p_value, flagged = flagged & !is.na(flagged))
-  list(blocks = out, breaks = win,
+  list(blocks = out, breaks = win, kind = "discrepancy",
        map = discrepancy_map(delta, delta_var, wp, dense$obs, n_x, n_t, t))
 }
 

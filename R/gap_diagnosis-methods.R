@@ -94,9 +94,12 @@ verdict_label <- function(v) {
            paste0("no detectable gap (inconclusive evidence, ",
                   prob_phrase(1 - v$prob_none, "P(other)"), ")")
          } else paste0("no gap (", prob_phrase(v$prob), ")"),
-         other = if (without_candidates(v)) {
+         other = if (identical(v$reason, "blocks")) {
+           if (without_candidates(v)) "a local gap the smooth discrepancy misses" else
+             "a local gap no candidate explains"
+         } else if (without_candidates(v)) {
            paste0("a gap the simulator cannot absorb (", prob_phrase(v$prob, "P(other)"), ")")
-         } else if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
+         } else
            paste0("a gap no candidate explains (", prob_phrase(v$prob, "P(other)"), ")"),
          paste0("best explained by '", v$answer, "' (", prob_phrase(v$prob), ")"))
 }
@@ -144,7 +147,7 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
                     ends[, 1], "-", ends[, 2],
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
     # without candidates a block is flagged for its discrepancy, not its misfit
-    away <- without_candidates(x$verdict)
+    away <- identical(x$settings$where, "discrepancy")
     paste0("Where: ", nrow(fl), " of ", nrow(wh), " blocks ",
            if (!scores) "flagged" else if (away) {
              paste0(if (nrow(fl) == 1L) "has" else "have", " a discrepancy away from zero")
@@ -261,7 +264,7 @@ verdict_explanation <- function(x) {
       paste0("No detectable gap: the base model explains the data (",
              prob_phrase(v$prob, "P(none)"), ").")
     },
-    other = if (without_candidates(v)) {
+    other = if (without_candidates(v) && !identical(v$reason, "blocks")) {
       paste0("There is a gap the simulator cannot absorb: the base model plus a Gaussian-",
              "process discrepancy explains the data better than the base model (",
              prob_phrase(v$prob, "P(other)"), "). theta is then the value that best fits ",
@@ -358,7 +361,7 @@ plot.gap_diagnosis <- function(x, ...) {
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
   # without candidates the map is the discrepancy's posterior mean, in its
   # posterior sds
-  discrepancy <- without_candidates(x$verdict)
+  discrepancy <- identical(x$settings$where, "discrepancy")
   z_name <- if (discrepancy) "Discrepancy /\nposterior sd" else "Residual /\nnoise sd"
   # two lines, the verdict on the second: on one it ran past a vignette-width figure
   title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),

@@ -40,12 +40,15 @@ test_that("a withheld effect answers 'other' and the null 'none', on and off the
 test_that("inconclusive evidence for a discrepancy answers 'none', with no block flagged", {
   toy <- toy_gap(0.2)
   d <- small_disc()
-  gap <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0)
+  # with noise groups there is no leave-block-out check: the evidence alone
+  fit <- suppressWarnings(calibrate(toy$lib, toy$field, n_iter = 200, burn_in = 50, seed = 1,
+                                    noise_groups = "x"))
+  gap <- diagnose_gap(fit, discrepancy = d, max_runs = 0)
   log_bf <- gap$evidence$log_bayes_factor
   expect_gt(log_bf, 1)
   # prior odds that leave posterior log odds of 0.5 for "other": more
   # probable than "none", but inconclusive
-  odds <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0,
+  odds <- diagnose_gap(fit, discrepancy = d, max_runs = 0,
                        prior_models = c(none = exp(log_bf - 0.5), other = 1))
   expect_equal(odds$which$effect[1], "other")
   expect_identical(odds$verdict$answer, "none")
@@ -53,9 +56,22 @@ test_that("inconclusive evidence for a discrepancy answers 'none', with no block
   expect_false(any(odds$where$flagged))
   expect_match(capture.output(print(odds))[2], "inconclusive")
   # log odds of 1.5: a gap
-  found <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0,
+  found <- diagnose_gap(fit, discrepancy = d, max_runs = 0,
                         prior_models = c(none = exp(log_bf - 1.5), other = 1))
   expect_identical(found$verdict$answer, "other")
+})
+
+test_that("a gap the evidence calls inconclusive but the base model's checks flag is 'other'", {
+  toy <- toy_gap(0.2)
+  d <- small_disc()
+  log_bf <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0)$evidence$log_bayes_factor
+  gap <- diagnose_gap(toy$fit, discrepancy = d, max_runs = 0,
+                      prior_models = c(none = exp(log_bf - 0.5), other = 1))
+  expect_identical(gap$verdict$answer, "other")
+  expect_identical(gap$verdict$reason, "blocks")
+  expect_identical(gap$settings$where, "check")
+  expect_true(any(gap$where$flagged))
+  expect_match(capture.output(print(gap))[2], "local gap")
 })
 
 test_that("a gap at one setting and one time is located there by $where", {
