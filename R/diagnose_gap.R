@@ -29,7 +29,11 @@
 #' 1 (with equal model priors, a log Bayes factor above 1; Kass and
 #' Raftery's inconclusive band is \eqn{\pm 1}); otherwise "none" (with
 #' `verdict$reason` `"inconclusive"` when "other" is the more probable of the
-#' two). At matched resolution: the base library is
+#' two), unless the base model fails its own leave-block-out checks (see
+#' "Where" below; one noise precision only): a gap too local or rough for a
+#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`), and
+#' `$where` is then those checks (`settings$where` is `"check"`, else
+#' `"discrepancy"`). At matched resolution: the base library is
 #' refined as below, then the model with the discrepancy is refined in turn
 #' (its posterior over theta may lie elsewhere), predicted runs keeping their
 #' prediction error beside the discrepancy, so a truth between coarse runs
