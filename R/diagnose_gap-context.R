@@ -31,8 +31,7 @@ gap_context <- function(fit) {
   list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
        points = points, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
        logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
-       obs = obs, sd = setup$pattern$sd, sd_y = data_sd(setup, n_x * n_t),
-       dense = !is.null(setup$dense),
+       obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
        setting_pos = setting_pos)
 }
 

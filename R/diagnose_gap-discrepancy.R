@@ -44,7 +44,11 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   step("where the discrepancy lies")
   # the base model's own leave-block-out checks (diagnose_gap-where.R, one
   # noise precision): a gap too local or rough for a smooth discrepancy
-  check <- if (length(matched$setup$group_sizes) == 1L) base_check(matched, windows, fdr)
+  # (one noise precision, no replicates: with them the checks of predicted
+  # runs flag blocks in data without a gap, so the evidence alone answers)
+  check <- if (length(matched$setup$group_sizes) == 1L && !has_replicates(fit)) {
+    base_check(matched, windows, fdr)
+  }
   win <- if (!is.null(check)) check$breaks else windows
   where <- discrepancy_where(problem, exact, win, fdr, found)
   if (!found && !is.null(check) && any(check$blocks$flagged)) {

@@ -43,7 +43,7 @@ fold_one <- function(ctx, tm, k, model) {
   nu <- 2 * a + n - m
   scale <- sqrt((b + Qm[keep] / 2) / (a + (n - m) / 2))
   z <- (matrix(y_b, length(keep), m, byrow = TRUE) - tm$Y[ij[, 1], cols, drop = FALSE]) / scale
-  if (!is.null(ctx$sd_y)) z <- sweep(z, 2, ctx$sd_y[cols], "/")
+  if (!is.null(ctx$sd)) z <- sweep(z, 2, ctx$sd[cols], "/")
   pit <- colSums(wk * stats::pt(z, nu))
   data.frame(model = model, x = k, n = m, sse = sum((y_b - pred)^2),
              rmse = sqrt(mean((y_b - pred)^2)), lpd = lpd,

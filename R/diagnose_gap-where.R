@@ -147,7 +147,7 @@ gap_map <- function(ctx, tm, w) {
   wr <- rowSums(w)
   resid <- colSums(tm$E * wr)
   sigma <- sqrt(sum(w * (ctx$prior$rate + tm$Q / 2) / (ctx$prior$shape + ctx$n / 2)))
-  if (!is.null(ctx$sd_y)) sigma <- sigma * ctx$sd_y
+  if (!is.null(ctx$sd)) sigma <- sigma * ctx$sd
   data.frame(x = rep(seq_len(ctx$n_x), each = ctx$n_t), t = rep(ctx$t, ctx$n_x),
              residual = resid, z = resid / sigma)
 }

@@ -30,7 +30,8 @@
 #' Raftery's inconclusive band is \eqn{\pm 1}); otherwise "none" (with
 #' `verdict$reason` `"inconclusive"` when "other" is the more probable of the
 #' two), unless the base model fails its own leave-block-out checks (see
-#' "Where" below; one noise precision only): a gap too local or rough for a
+#' "Where" below; one noise precision and no replicates only): a gap too
+#' local or rough for a
 #' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`), and
 #' `$where` is then those checks (`settings$where` is `"check"`, else
 #' `"discrepancy"`). At matched resolution: the base library is
@@ -70,14 +71,12 @@
 #' block (of "where") or x setting (of "how much") is its observed cells; a
 #' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
 #' never flagged) and a setting with none has no fold. Candidates' quadratic
-#' forms use the same observed points and sd. **Replicated** measurements
-#' enter as their cell means (each with its own relative sd) plus the
-#' pure-error sum of squares, which every leave-out piece keeps: it informs
-#' the noise precision whatever block or setting is left out. **Not yet
-#' supported with candidates:** noise groups (see [calibrate()]): with a
-#' precision per group the block statistic has no single F distribution.
-#' Such a fit is an error of class `griddy_error_unsupported` (without
-#' candidates they are supported).
+#' forms use the same observed points and sd. **Not yet supported with
+#' candidates:** noise groups (see [calibrate()]): with a precision per group
+#' the block statistic has no single F distribution; and replicated field
+#' measurements (the leave-block-out checks of predicted runs are not
+#' calibrated for them). Such a fit is an error of class
+#' `griddy_error_unsupported` (without candidates both are supported).
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
@@ -368,21 +367,20 @@ check_gap_pattern <- function(fit) {
                  "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
-  # replicates are fine: they enter the likelihood as their cell means plus a
-  # pure-error sum of squares, which every leave-out piece keeps (it informs
-  # tau whatever is left out)
+  # replicates enter the likelihood as their cell means plus a pure-error sum
+  # of squares; the leave-block-out checks of refined libraries (predicted
+  # runs' error) are not calibrated for them yet
+  if (has_replicates(fit)) {
+    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
+                 "candidates (", fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)),
+                 " cells). Diagnose without candidates (is there a gap, and where), or ",
+                 "weigh candidates on the replicates' means (one row per setting in ",
+                 "field_data()).", class = "unsupported")
+  }
 }
 
-# The relative sd of each data value (library order, NA where missing): a
-# replicated cell's mean has its own (1 / sqrt(n_rep) without sd); NULL
-# when every value has the noise's. What the predictive checks scale by.
-data_sd <- function(setup, n) {
-  scale <- setup$dense$scale
-  if (is.null(scale)) return(NULL)
-  sd <- rep(NA_real_, n)
-  sd[setup$dense$obs] <- 1 / scale
-  sd
-}
+# More measurements than measured cells: replicates.
+has_replicates <- function(fit) fit$n_obs > sum(!is.na(fit$y_field))
 
 check_candidates <- function(candidates, base) {
   if (inherits(candidates, "sim_library") || !is.list(candidates) || length(candidates) == 0L) {

@@ -101,6 +101,8 @@ test_that("replicated field data and noise groups are diagnosed, with the exact 
   ev <- discrepancy_evidence(posterior_exact(toy$lib, rep_field, discrepancy = d))
   expect_equal(gap$evidence$log_bayes_factor, ev$log_bayes_factor, tolerance = 1e-10)
   expect_identical(gap$verdict$answer, "other")
+  # with replicates the evidence alone answers (no leave-block-out check)
+  expect_identical(gap$settings$where, "discrepancy")
   grouped <- suppressWarnings(calibrate(toy$lib, rep_field, n_iter = 200, burn_in = 50, seed = 1,
                                         noise_groups = "x"))
   gap_g <- diagnose_gap(grouped, discrepancy = d, max_runs = 0)

@@ -124,31 +124,21 @@ test_that("diagnose_gap() refuses fits with noise groups, saying missing data an
                class = "griddy_error_unsupported")
 })
 
-test_that("replicated field measurements: exact evidence, 'none' for the null, the effect named", {
-  for (s_true in c(0, 0.2)) {
-    toy <- toy_gap(s_true)
-    set.seed(3)
-    y <- do.call(rbind, lapply(1:2, function(r) {
-      matrix(toy$sim(1, s_true) + stats::rnorm(90, sd = 0.05), 3, byrow = TRUE)
-    }))
-    replicated <- field_data(y, x = toy$x[c(1:3, 1:3), , drop = FALSE], t = toy$t)
-    fit <- suppressWarnings(calibrate(toy$lib, replicated, n_iter = 200, burn_in = 50,
-                                      seed = 1))
-    gap <- diagnose_gap(fit, list(quadratic = toy$quad, scale = toy$scale), max_runs = 0)
-    ev <- stats::setNames(gap$which$log_evidence, gap$which$effect)
-    # the pure error is in every model's evidence
-    expect_equal(ev[["none"]], posterior_exact(toy$lib, replicated)$log_evidence,
-                 tolerance = 1e-10)
-    lp <- candidate_log_prior(toy$quad, "a")
-    expect_equal(ev[["quadratic"]],
-                 posterior_exact(toy$quad, replicated, run_weights = exp(lp))$log_evidence,
-                 tolerance = 1e-10)
-    expect_identical(gap$verdict$answer, if (s_true == 0) "none" else "quadratic")
-    if (s_true == 0) expect_false(any(gap$where$flagged))
-    # held-out coverage of the cell means (sd / sqrt(2)), not of one measurement
-    sh <- gap$shrinkage
-    expect_true(all(sh$cover90_before > 0.7 & sh$cover90_before < 0.99))
-  }
+test_that("diagnose_gap() refuses replicated field measurements with candidates, not without", {
+  toy <- toy_gap(0.2)
+  f <- toy$field
+  replicated <- field_data(rbind(f$y, f$y[1, ] + 0.01), x = rbind(f$x, f$x[1, , drop = FALSE]),
+                           t = f$t)
+  fit <- suppressWarnings(calibrate(toy$lib, replicated, n_iter = 200, burn_in = 50,
+                                    seed = 1))
+  expect_error(diagnose_gap(fit, list(quadratic = toy$quad)),
+               "does not yet support replicated field measurements",
+               class = "griddy_error_unsupported")
+  # without candidates, replicates are used (test-diagnose_gap-discrepancy.R)
+  expect_s3_class(diagnose_gap(fit, max_runs = 0,
+                               discrepancy = gp_discrepancy(ratio = c(0, 10), length_x = 1,
+                                                            length_t = 0.3)),
+                  "gap_diagnosis")
 })
 
 test_that("the dense path agrees with the Kronecker path on complete data (sd all 1)", {
