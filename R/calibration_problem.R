@@ -12,9 +12,9 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   default_prior <- is.null(prior)
   prior <- assert_prior(if (default_prior) thesis_prior() else prior)
   log_prior_run <- log_run_weights(run_weights, library)
-  if (isTRUE(discrepancy$orthogonal)) {
-    discrepancy$sensitivity <- discrepancy_sensitivity(
-      library, layout$y, noise_pattern(library, layout, noise_groups, prior))
+  if (!is.null(discrepancy)) {
+    discrepancy <- discrepancy_for_data(discrepancy, library, layout$y,
+                                        noise_pattern(library, layout, noise_groups, prior))
   }
   # a discrepancy breaks the Kronecker structure: dense factors throughout
   pattern <- noise_pattern(library, layout, noise_groups, prior,

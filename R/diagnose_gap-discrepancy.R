@@ -105,6 +105,9 @@ discrepancy_problem <- function(problem, discrepancy) {
   library <- problem$library
   pattern <- setup_noise_pattern(setup, lib_n_x(library) * lib_n_t(library), problem$prior)
   rho_x <- unname(setup$rho_x)
+  if (!is.null(discrepancy)) {
+    discrepancy <- discrepancy_for_data(discrepancy, library, problem$y_field, pattern)
+  }
   new <- correlation_setup(library, rho_x, setup$rho_t, setup$x_power, pattern, discrepancy)
   # the replicates' constant of the log-determinant (the same at every grid
   # point, field_layout()) is not kept in a setup: take it from the old one,

@@ -221,6 +221,15 @@ sensitivity_projector <- function(G) {
   }
 }
 
+# The discrepancy for these data: an orthogonal one learns the outputs'
+# sensitivities to theta here (every problem with a discrepancy is built
+# through this).
+discrepancy_for_data <- function(discrepancy, library, y, pattern) {
+  if (!isTRUE(discrepancy$orthogonal)) return(discrepancy)
+  discrepancy$sensitivity <- discrepancy_sensitivity(library, y, pattern)
+  discrepancy
+}
+
 # G of the library for field data y (library order, NA where missing): the
 # slopes of a linear fit of the outputs on theta (each column scaled to
 # [0, 1]) over the 4p + 2 runs (at least 12) nearest the run that fits the
