@@ -268,3 +268,22 @@ test_that("field measurements between the simulator's outputs are read with t_fi
     read_calibration_inputs(design, simobs, expobs, n_x = 1, t = heights, t_field = c(0, 4))),
     "lie outside", class = "griddy_error_input")
 })
+
+test_that("t_field reaches an emulated library too (a joint design, SEPIA's layout)", {
+  skip_if_not_installed("RobustGaSP")
+  set.seed(3)
+  heights <- seq(1, 6, by = 1)
+  design <- data.frame(r = runif(20, 1, 2), k = runif(20, 1, 3))
+  # one column per run, as the Los Alamos simobs code writes it
+  simobs <- vapply(seq_len(20), function(i) design$k[i] * sqrt(heights) / design$r[i],
+                   numeric(length(heights)))
+  t_field <- c(2.5, 4.5)
+  expobs <- data.frame(r = c(1.2, 1.8), m1 = c(2.6, 1.8), m2 = c(3.5, 2.4))
+  out <- suppressMessages(read_calibration_inputs(design, simobs, expobs, n_x = 1,
+                                                  t = heights, t_field = t_field,
+                                                  n_runs = 50, seed = 1))
+  expect_s3_class(out$library, "emulated_library")
+  expect_identical(out$library$t, t_field)
+  truth <- outer(out$library$theta$k, c(sqrt(t_field) / 1.2, sqrt(t_field) / 1.8))
+  expect_lt(max(abs(out$library$y - truth)), 0.05)
+})
