@@ -100,6 +100,10 @@ g_delay <- expand.grid(C = seq(0.05, 0.25, length.out = 201), delay = seq(0, 0.0
 candidates <- list(drag_power = sim_library(g_power, at_balls(g_power), x = balls, t = h_field),
                    timer_delay = sim_library(g_delay, at_balls(g_delay), x = balls, t = h_field))
 gap <- timed(diagnose_gap(fit_base, candidates, seed = 1))
+# is there a gap, and where, with no candidate in hand
+gap_none <- timed(diagnose_gap(fit_base, discrepancy = discrepancy, seed = 1))
+# the discrepancy's posterior on the simulator's library
+delta <- discrepancy_posterior(fit_base_gap, ndraws = 400, seed = 1)
 
 fit_power <- suppressWarnings(calibrate(candidates$drag_power, field, seed = 1))
 fit_power <- timed(refine(fit_power, simulator = at_balls, max_runs = 3000, seed = 1))
@@ -146,6 +150,10 @@ results <- list(
   evidence = lapply(fits[c("emulated_gap", "base_gap", "power_gap")], evidence),
   gap = list(print = utils::capture.output(print(gap)), which = gap$which,
              shrinkage = gap$shrinkage, where = gap$where, seconds = attr(gap, "seconds")),
+  no_candidates = list(which = gap_none$which, verdict = gap_none$verdict,
+                       log_bayes_factor = gap_none$evidence$log_bayes_factor,
+                       where = gap_none$where, seconds = attr(gap_none, "seconds")),
+  delta = delta[c("radius", "t", "residual", "mean", "lower", "upper")],
   refined = fit_power$refinement[c("runs_added", "rounds", "reason")],
   where = where,
   truth = c(C = 0.1 / (4 * pi / 3), extra_power = 1))
