@@ -83,18 +83,83 @@ block_positions <- function(obs, k, W, n_t) {
 # quadratic forms, which leave-out identities hold for. `E` holds NA at
 # missing cells. Every step is a pass over the runs x data points (no
 # per-run loop, no n x n algebra per run).
+#
+# `shared`, when given, is the terms of a model whose runs are the first rows
+# of Y (a candidate's zero level is the refined base): their leave-out pieces
+# are taken from it, and only the other rows are computed. `keep_E = FALSE`
+# drops the residuals from the result (only the base model's are read later).
 gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
+                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL, shared = NULL,
+                      keep_E = TRUE) {
   J <- nrow(Y)
-  G <- length(ctx$points)
-  E <- rep(ctx$y, each = J) - Y                          # residuals y - eta, runs in rows
-  D <- array(0, c(J, G, ctx$n_x))
-  for (g in seq_len(G)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
+  head <- if (is.null(shared)) 0L else nrow(shared$D)
+  rest <- if (head > 0L) Y[-seq_len(head), , drop = FALSE] else Y
+  E <- rep(ctx$y, each = nrow(rest)) - rest              # residuals y - eta, runs in rows
+  D <- leave_setting_pieces(ctx, E)
+  if (head > 0L) {
+    D_rest <- D
+    D <- array(0, c(J, length(ctx$points), ctx$n_x))
+    D[seq_len(head), , ] <- shared$D
+    D[head + seq_len(J - head), , ] <- D_rest
+  }
   lj_plain <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run,
                                   ctx$log_prior_grid)
   lj <- if (is.null(C)) lj_plain else
     collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
-  list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
+  list(Y = Y, E = if (keep_E) E, Q = Q, lj = lj, lj_plain = lj_plain, D = D,
+       log_prior_run = log_prior_run)
+}
+
+# The leave-setting-out pieces D (runs x grid points x settings) of the
+# residuals E (runs in rows).
+leave_setting_pieces <- function(ctx, E) {
+  if (settings_apart(ctx)) return(setting_quad_forms(ctx, E))
+  D <- array(0, c(nrow(E), length(ctx$points), ctx$n_x))
+  for (g in seq_along(ctx$points)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
+  D
+}
+
+# Whether the settings are independent under every grid point's noise model
+# (complete data, no relative sd, R_x^-1 diagonal: no rho_x): then a
+# setting's leave-out piece is its own quadratic form (setting_quad_forms()).
+settings_apart <- function(ctx) {
+  !ctx$dense && is.null(ctx$sd) && all(vapply(ctx$points, function(point) {
+    R <- point$Rx_inv
+    all(R[row(R) != col(R)] == 0)
+  }, logical(1)))
+}
+
+# setting_pieces() at every grid point at once when the settings are apart
+# (settings_apart()): with R^-1 = R_x^-1 (x) Pt and R_x^-1 diagonal, D_k =
+# (R_x^-1)_kk e_k' Pt e_k, and for the tridiagonal Pt (diagonal d, off-diagonal
+# o) e' Pt e = sum_t d_t e_t^2 + 2 sum_t o_t e_t e_(t+1): two products of the
+# runs' squares and lag-one products with a (data points x grid points
+# settings) weight matrix, instead of whitening every run at every grid point.
+# The same numbers as setting_pieces() to rounding. Returns runs x grid points
+# x settings.
+setting_quad_forms <- function(ctx, E) {
+  n_x <- ctx$n_x
+  n_t <- ctx$n_t
+  n <- n_x * n_t
+  G <- length(ctx$points)
+  setting <- rep(seq_len(n_x), each = n_t)
+  col_of <- function(g) (setting - 1L) * G + g        # column (k, g): grid point fastest
+  Wd <- matrix(0, n, G * n_x)
+  Wo <- matrix(0, max(n - 1L, 1L), G * n_x)
+  for (g in seq_len(G)) {
+    point <- ctx$points[[g]]
+    rx <- diag(point$Rx_inv)[setting]
+    Wd[cbind(seq_len(n), col_of(g))] <- rx * rep(attr(point$Pt, "diag"), n_x)
+    if (n_t > 1L) {
+      # lag-one pairs within a setting (the pair across two settings has weight 0)
+      inside <- rep(c(rep(TRUE, n_t - 1L), FALSE), n_x)[-n]
+      off <- rep(c(attr(point$Pt, "off"), 0), n_x)[-n]
+      Wo[cbind(which(inside), col_of(g)[which(inside)])] <- 2 * (rx[-n] * off)[inside]
+    }
+  }
+  D <- (E * E) %*% Wd
+  if (n_t > 1L) D <- D + (E[, -n, drop = FALSE] * E[, -1L, drop = FALSE]) %*% Wo
+  array(D, c(nrow(E), G, n_x))
 }
 
 # D_k = h_B' P_BB^-1 h_B (runs x settings) at one grid point, for B the

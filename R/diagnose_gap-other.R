@@ -64,18 +64,20 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
     point <- ctx$points[[g]]
     unlist(lapply(seq_along(factors), function(i) {
       B <- factors[[i]]
+      # every ratio's sum_i s z_i^2 / (1 + s l_i) from one product (runs x ratios)
       if (kron) {
-        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t)
+        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t, ratios)
         l <- kp$l
-        Z2 <- kp$Z^2
+        drop_by <- kp$drop_by
       } else {
         PB <- precision_times(ctx, point, B)
         eig <- eigen(crossprod(B, PB), symmetric = TRUE)
         l <- pmax(eig$values, 0)
-        Z2 <- (E %*% (PB %*% eig$vectors))^2
+        drop_by <- (E %*% (PB %*% eig$vectors))^2 %*% ratio_weights(l, ratios)
       }
-      vapply(ratios, function(s) {
-        Q <- base_terms$Q[, g] - drop(Z2 %*% (s / (1 + s * l)))
+      vapply(seq_along(ratios), function(k) {
+        s <- ratios[k]
+        Q <- base_terms$Q[, g] - drop_by[, k]
         log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
                                         ctx$logdet[g] + sum(log1p(s * l)), ctx$prior,
                                         base_terms$log_prior_run, point$log_prior))
@@ -92,14 +94,29 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
 # n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
 # (the x step, kronecker_x_step(), once per kernel) + rx n_t rt products
 # instead of n_x n_t rx rt (the same quantities as the full factor, to
-# rounding). Z: runs x (rx rt), column (ix - 1) rt + it.
-kronecker_products <- function(point, xs, Bt, J, n_t) {
+# rounding). Z (column (ix - 1) rt + it) is reduced at once to drop_by, runs x
+# ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s.
+kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
   PtBt <- ar1_precision_times(point$Pt, Bt)
   et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
   Mt <- PtBt %*% et$vectors
   rx <- ncol(xs$Ex)
-  Z <- do.call(cbind, lapply(seq_len(rx), function(ix) matrix(xs$Ex[, ix], J, n_t) %*% Mt))
-  list(Z = Z, l = kronecker(xs$lx, pmax(et$values, 0)))
+  l <- kronecker(xs$lx, pmax(et$values, 0))
+  weights <- ratio_weights(l, ratios)
+  rt <- ncol(Mt)
+  # Z's columns of x direction ix, squared and weighted, summed block by block
+  # (no runs x (rx rt) matrix)
+  drop_by <- matrix(0, J, length(ratios))
+  for (ix in seq_len(rx)) {
+    Zx <- matrix(xs$Ex[, ix], J, n_t) %*% Mt
+    drop_by <- drop_by + (Zx * Zx) %*% weights[(ix - 1L) * rt + seq_len(rt), , drop = FALSE]
+  }
+  list(drop_by = drop_by, l = l)
+}
+
+# s / (1 + s l_i): one column per ratio s, one row per eigenvalue l_i.
+ratio_weights <- function(l, ratios) {
+  vapply(ratios, function(s) s / (1 + s * l), numeric(length(l)))
 }
 
 # The x step: Ex = the runs' residuals (rows of n_t, one column per x

@@ -225,9 +225,14 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
-                              matched$base$log_prior_run, matched$base$C, matched$base$library)
+                              matched$base$log_prior_run, matched$base$C, matched$base$library,
+                              is_plain = is.null(run_errors(matched$base$library)))
   cand_terms <- lapply(matched$candidates, function(m) {
-    matched_terms(ctx, m$Y, m$log_prior, m$C)
+    # the zero level of a refined candidate is the refined base: its rows'
+    # leave-out pieces are the base's
+    shared <- if (!is.null(m$base_rows)) base_terms
+    matched_terms(ctx, m$Y, m$log_prior, m$C, is_plain = m$is_plain, shared = shared,
+                  keep_E = FALSE)
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
