@@ -48,7 +48,8 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   } else {
     lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
   }
-  E <- base_terms$E[, ctx$obs, drop = FALSE]
+  E <- if (length(ctx$obs) == ncol(base_terms$E)) base_terms$E else
+    base_terms$E[, ctx$obs, drop = FALSE]
   # the x step of kronecker_products() depends on the kernel and R_x^-1 only:
   # kept for the grid points that share R_x^-1 (all of them without rho_x)
   x_steps <- vector("list", length(factors))

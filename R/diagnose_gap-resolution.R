@@ -102,7 +102,11 @@ matched_terms <- function(ctx, Y, log_prior, C, library = NULL, is_plain = FALSE
                           shared = NULL, keep_E = TRUE) {
   # a table known to be the plain forms (no predicted run) is not recomputed
   if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
-  plain <- plain_quad_forms(Y, ctx$y, ctx$setup)
+  # the shared rows' plain forms are the other model's Q
+  plain <- if (is.null(shared)) plain_quad_forms(Y, ctx$y, ctx$setup) else {
+    head <- nrow(shared$Q)
+    rbind(shared$Q, plain_quad_forms(Y[-seq_len(head), , drop = FALSE], ctx$y, ctx$setup))
+  }
   if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
     return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
   }
