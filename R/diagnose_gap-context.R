@@ -94,8 +94,10 @@ gap_terms <- function(ctx, Y, log_prior_run,
   J <- nrow(Y)
   head <- if (is.null(shared)) 0L else nrow(shared$D)
   rest <- if (head > 0L) Y[-seq_len(head), , drop = FALSE] else Y
-  E <- rep(ctx$y, each = nrow(rest)) - rest              # residuals y - eta, runs in rows
-  D <- leave_setting_pieces(ctx, E)
+  apart <- settings_apart(ctx)
+  # residuals y - eta, runs in rows (not needed for the pieces of settings apart)
+  E <- if (keep_E || !apart) rep(ctx$y, each = nrow(rest)) - rest
+  D <- if (apart) setting_quad_forms(ctx, rest) else leave_setting_pieces(ctx, E)
   if (head > 0L) {
     D_rest <- D
     D <- array(0, c(J, length(ctx$points), ctx$n_x))
@@ -111,9 +113,8 @@ gap_terms <- function(ctx, Y, log_prior_run,
 }
 
 # The leave-setting-out pieces D (runs x grid points x settings) of the
-# residuals E (runs in rows).
+# residuals E (runs in rows), one grid point at a time.
 leave_setting_pieces <- function(ctx, E) {
-  if (settings_apart(ctx)) return(setting_quad_forms(ctx, E))
   D <- array(0, c(nrow(E), length(ctx$points), ctx$n_x))
   for (g in seq_along(ctx$points)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
   D
@@ -131,35 +132,26 @@ settings_apart <- function(ctx) {
 
 # setting_pieces() at every grid point at once when the settings are apart
 # (settings_apart()): with R^-1 = R_x^-1 (x) Pt and R_x^-1 diagonal, D_k =
-# (R_x^-1)_kk e_k' Pt e_k, and for the tridiagonal Pt (diagonal d, off-diagonal
-# o) e' Pt e = sum_t d_t e_t^2 + 2 sum_t o_t e_t e_(t+1): two products of the
-# runs' squares and lag-one products with a (data points x grid points
-# settings) weight matrix, instead of whitening every run at every grid point.
-# The same numbers as setting_pieces() to rounding. Returns runs x grid points
-# x settings.
-setting_quad_forms <- function(ctx, E) {
-  n_x <- ctx$n_x
+# (R_x^-1)_kk e_k' Pt e_k, and e_k' Pt e_k is setting k's own misfit under
+# the AR(1) precision alone, which the compiled misfit pass gives at every
+# rho_t at once (quad_forms_cpp() with one x setting): one pass per setting
+# over the outputs Y, without residuals or whitened copies. The same numbers
+# as setting_pieces() to rounding. Returns runs x grid points x settings.
+setting_quad_forms <- function(ctx, Y) {
   n_t <- ctx$n_t
-  n <- n_x * n_t
+  setup <- ctx$setup
   G <- length(ctx$points)
-  setting <- rep(seq_len(n_x), each = n_t)
-  col_of <- function(g) (setting - 1L) * G + g        # column (k, g): grid point fastest
-  Wd <- matrix(0, n, G * n_x)
-  Wo <- matrix(0, max(n - 1L, 1L), G * n_x)
-  for (g in seq_len(G)) {
-    point <- ctx$points[[g]]
-    rx <- diag(point$Rx_inv)[setting]
-    Wd[cbind(seq_len(n), col_of(g))] <- rx * rep(attr(point$Pt, "diag"), n_x)
-    if (n_t > 1L) {
-      # lag-one pairs within a setting (the pair across two settings has weight 0)
-      inside <- rep(c(rep(TRUE, n_t - 1L), FALSE), n_x)[-n]
-      off <- rep(c(attr(point$Pt, "off"), 0), n_x)[-n]
-      Wo[cbind(which(inside), col_of(g)[which(inside)])] <- 2 * (rx[-n] * off)[inside]
+  one <- array(1, c(1L, 1L, 1L))
+  D <- array(0, c(nrow(Y), G, ctx$n_x))
+  for (k in seq_len(ctx$n_x)) {
+    cols <- (k - 1L) * n_t + seq_len(n_t)
+    # one column per rho_t value; grid point g uses column gt[g]
+    Qt <- quad_forms_cpp(Y[, cols, drop = FALSE], ctx$y[cols], one, setup$phi, griddy_threads())
+    for (g in seq_len(G)) {
+      D[, g, k] <- ctx$points[[g]]$Rx_inv[k, k] * Qt[, setup$gt[g]]
     }
   }
-  D <- (E * E) %*% Wd
-  if (n_t > 1L) D <- D + (E[, -n, drop = FALSE] * E[, -1L, drop = FALSE]) %*% Wo
-  array(D, c(nrow(E), G, n_x))
+  D
 }
 
 # D_k = h_B' P_BB^-1 h_B (runs x settings) at one grid point, for B the

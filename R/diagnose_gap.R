@@ -22,8 +22,12 @@
 #' [refine()] does without a simulator (runs predicted from the library,
 #' their prediction error in the likelihood; at most `max_runs` runs each),
 #' and a candidate's zero level is the refined base itself. Models that are
-#' already resolved are left as they are. Every part of the diagnosis below
-#' uses the refined libraries.
+#' already resolved are left as they are, and a model that more predicted runs
+#' cannot resolve stops after its first round: when that round moved no
+#' interval and every parameter still short of effective values has a 95%
+#' interval spanning the library's whole range (a strength the data leave
+#' flat, as for an effect a shift of theta imitates). Every part of the
+#' diagnosis below uses the refined libraries.
 #'
 #' **Missing data and relative sd.** Field data with missing cells or a
 #' relative `sd` (see [field_data()]) are diagnosed on the observed points

@@ -64,7 +64,7 @@ test_that("leave-setting-out pieces in closed form are the whitened ones", {
   ctx <- gap_context(toy$fit)
   expect_true(settings_apart(ctx))
   E <- rep(ctx$y, each = nrow(toy$lib$y)) - toy$lib$y
-  D <- setting_quad_forms(ctx, E)
+  D <- setting_quad_forms(ctx, toy$lib$y)
   for (g in seq_along(ctx$points)) {
     expect_equal(D[, g, ], setting_pieces(ctx, E, ctx$points[[g]]), tolerance = 1e-11)
   }
