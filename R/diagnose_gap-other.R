@@ -101,7 +101,7 @@ kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
   PtBt <- ar1_precision_times(point$Pt, Bt)
   et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
   Mt <- PtBt %*% et$vectors
-  rx <- ncol(xs$Ex)
+  rx <- length(xs$Ex)
   l <- kronecker(xs$lx, pmax(et$values, 0))
   weights <- ratio_weights(l, ratios)
   rt <- ncol(Mt)
@@ -109,7 +109,7 @@ kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
   # (no runs x (rx rt) matrix)
   drop_by <- matrix(0, J, length(ratios))
   for (ix in seq_len(rx)) {
-    Zx <- matrix(xs$Ex[, ix], J, n_t) %*% Mt
+    Zx <- xs$Ex[[ix]] %*% Mt
     drop_by <- drop_by + (Zx * Zx) %*% weights[(ix - 1L) * rt + seq_len(rt), , drop = FALSE]
   }
   list(drop_by = drop_by, l = l)
@@ -121,12 +121,15 @@ ratio_weights <- function(l, ratios) {
 }
 
 # The x step: Ex = the runs' residuals (rows of n_t, one column per x
-# setting) times Mx = R_x^-1 Bx Vx, and lx the eigenvalues of Bx'R_x^-1 Bx.
+# setting) times Mx = R_x^-1 Bx Vx, as one runs x n_t matrix per x direction,
+# and lx the eigenvalues of Bx'R_x^-1 Bx.
 kronecker_x_step <- function(Rx_inv, Bx, E, n_t) {
   RxBx <- Rx_inv %*% Bx
   ex <- eigen(crossprod(Bx, RxBx), symmetric = TRUE)
-  list(Rx_inv = Rx_inv, Ex = matrix(E, nrow(E) * n_t, nrow(Bx)) %*%
-         (RxBx %*% ex$vectors), lx = pmax(ex$values, 0))
+  J <- nrow(E)
+  Ex <- matrix(E, J * n_t, nrow(Bx)) %*% (RxBx %*% ex$vectors)
+  list(Rx_inv = Rx_inv, Ex = lapply(seq_len(ncol(Ex)), function(ix) matrix(Ex[, ix], J, n_t)),
+       lx = pmax(ex$values, 0))
 }
 
 # B with K = B B' to rounding (K positive semi-definite): the rows of the
