@@ -61,8 +61,12 @@
 #' [refine()] does without a simulator (runs predicted from the library,
 #' their prediction error in the likelihood; at most `max_runs` runs each),
 #' and a candidate's zero level is the refined base itself. Models that are
-#' already resolved are left as they are. Every part of the diagnosis below
-#' uses the refined libraries.
+#' already resolved are left as they are, and a model that more predicted runs
+#' cannot resolve stops after its first round: when that round moved no
+#' interval and every parameter still short of effective values has a 95%
+#' interval spanning the library's whole range (a strength the data leave
+#' flat, as for an effect a shift of theta imitates). Every part of the
+#' diagnosis below uses the refined libraries.
 #'
 #' **Missing data and relative sd.** Field data with missing cells or a
 #' relative `sd` (see [field_data()]) are diagnosed on the observed points
@@ -283,9 +287,14 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
-                              matched$base$log_prior_run, matched$base$C, matched$base$library)
+                              matched$base$log_prior_run, matched$base$C, matched$base$library,
+                              is_plain = is.null(run_errors(matched$base$library)))
   cand_terms <- lapply(matched$candidates, function(m) {
-    matched_terms(ctx, m$Y, m$log_prior, m$C)
+    # the zero level of a refined candidate is the refined base: its rows'
+    # leave-out pieces are the base's
+    shared <- if (!is.null(m$base_rows)) base_terms
+    matched_terms(ctx, m$Y, m$log_prior, m$C, is_plain = m$is_plain, shared = shared,
+                  keep_E = FALSE)
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
