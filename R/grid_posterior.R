@@ -268,6 +268,10 @@ whiten_groups <- function(M, point) {
   Map(`%*%`, group_columns(M, point$dense), point$dense$A)
 }
 
+# Is A the identity matrix (a factor of independent noise, rho = 0)? Then
+# rotating by it is a copy, not an O(N n^2) product.
+is_identity <- function(A) nrow(A) == ncol(A) && all(A == diag(nrow(A)))
+
 # The observed columns of rows M (full library-order vectors), divided by
 # their sd, cut into the noise groups of dense factors `d`: what the groups'
 # factors multiply.
@@ -332,7 +336,7 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
   # weighs its squared rotated residuals (dense_factors())
   for (r in unique(dense$rot)) {
     at <- which(dense$rot == r)
-    Z2 <- Map(function(B, A) (B %*% A)^2, blocks, dense$W[[r]])
+    Z2 <- Map(function(B, A) (if (is_identity(A)) B else B %*% A)^2, blocks, dense$W[[r]])
     Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
     for (k in seq_along(Z2)) {
       weights <- vapply(at, function(g) {
