@@ -337,13 +337,16 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
   for (r in unique(dense$rot)) {
     at <- which(dense$rot == r)
     Z2 <- Map(function(B, A) (if (is_identity(A)) B else B %*% A)^2, blocks, dense$W[[r]])
-    Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
-    for (k in seq_along(Z2)) {
-      weights <- vapply(at, function(g) {
-        if (is.null(dense$w[[g]])) rep(1, ncol(Z2[[k]])) else dense$w[[g]][[k]]
-      }, numeric(ncol(Z2[[k]])))
-      Ck[, , k] <- Z2[[k]] %*% weights + setup$pure_ss[k]
+    weights <- lapply(seq_along(Z2), function(k) vapply(at, function(g) {
+      if (is.null(dense$w[[g]])) rep(1, ncol(Z2[[k]])) else dense$w[[g]][[k]]
+    }, numeric(ncol(Z2[[k]]))))
+    if (length(Z2) == 1L) {
+      # one noise group: its forms are C itself (no per-column copies)
+      C[, at] <- Z2[[1]] %*% weights[[1]] + setup$pure_ss[1]
+      next
     }
+    Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
+    for (k in seq_along(Z2)) Ck[, , k] <- Z2[[k]] %*% weights[[k]] + setup$pure_ss[k]
     for (j in seq_along(at)) C[, at[j]] <- fold_groups(Ck[, j, ], setup)
   }
   if (!all(is.finite(C))) {

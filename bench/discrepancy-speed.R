@@ -8,10 +8,10 @@
 #  * griddy: calibrate() over the 59,319-run library, 35,000 iterations
 #    (burn-in 15,000), default collapsed update, with
 #      - no discrepancy (discrepancy = NULL, rho fixed: the thesis's model),
-#      - gp_discrepancy() (the default grid: ratio 0 and 10 positive ratios
+#      - gp_discrepancy() (the default grid: ratio 0 and 11 positive ratios
 #        x 3 length_x; this library has one output per x setting, so no
-#        length_t axis: 1 + 10 x 3 = 34 discrepancy points),
-#      - gp_discrepancy(length_x = 9 values from 0.05 to 2): 1 + 10 x 9 =
+#        length_t axis: 1 + 11 x 3 = 34 discrepancy points),
+#      - gp_discrepancy(length_x = 9 values from 0.05 to 2): 1 + 11 x 9 =
 #        100 discrepancy points, "a hundred or so",
 #    each timed as the median of DISC_REPEATS calls (default 3).
 #  * RobustCalibration: koh_calibrate() (rcalibration() with a ppgasp emulator
@@ -92,7 +92,7 @@ rows <- list()
 params <- list()
 for (d in names(discrepancies)) {
   disc <- discrepancies[[d]]
-  n_points <- if (is.null(disc)) 1L else nrow(discrepancy_points(disc, lib39))
+  n_points <- if (is.null(disc)) 1L else nrow(griddy:::discrepancy_points(disc, lib39))
   calls <- lapply(seq_len(repeats), function(i) measure_call(suppressWarnings(
     calibrate(lib39, field, n_iter = griddy_iter, burn_in = griddy_burn, seed = seed,
               discrepancy = disc, progress = FALSE))))

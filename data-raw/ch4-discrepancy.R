@@ -90,7 +90,7 @@ for (n in sizes) {
   m <- measure_call(calibrate(lib39, f, n_iter = griddy_iter, burn_in = griddy_burn,
                               seed = n, progress = FALSE))
   rows[[length(rows) + 1]] <- fit_rows(n, "griddy, no discrepancy", m)
-  hyper <- nrow(discrepancy_points(discrepancy, lib39))
+  hyper <- nrow(griddy:::discrepancy_points(discrepancy, lib39))
   # the gap warning is the point of the fit; its Bayes factor is stored
   m <- measure_call(suppressWarnings(calibrate(lib39, f, n_iter = griddy_iter,
                                                burn_in = griddy_burn, seed = n,
