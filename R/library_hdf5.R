@@ -301,6 +301,14 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
   if (dir.exists(file)) {
     griddy_abort("`file` (", file, ") is a directory; give the path of an HDF5 file.")
   }
+  commit_runs(library, file, append, chunk_size)
+  invisible(hdf5_library(file))
+}
+
+# write_library()'s work, without opening the result: under the lock, the
+# file created (append = FALSE) and the runs of `library` (any number, one
+# is enough) appended and committed.
+commit_runs <- function(library, file, append, chunk_size = NULL) {
   token <- library_lock(file, "library file")
   on.exit(library_unlock(token), add = TRUE)
   write_hook("locked")
@@ -316,9 +324,9 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
     }
     h5_create_library(library, file, chunk_size)
   }
-  h5_append_runs(library, file)
+  n <- h5_append_runs(library, file)
   write_hook("done")
-  invisible(hdf5_library(file))
+  invisible(n)
 }
 
 #' Repair a library left incomplete by an interrupted write
@@ -861,6 +869,29 @@ h5_append_runs <- function(library, file) {
   h5$flush()
   write_hook("committed")
   invisible(n0 + k)
+}
+
+# The committed runs of a file written by write_library(), read without the
+# checks of a library (it may hold one run, or none): list(theta = a
+# data.frame, n_out). NULL when the file does not exist.
+h5_committed_theta <- function(file) {
+  if (!file.exists(file)) return(NULL)
+  h5 <- h5_open(file, "r")
+  on.exit(h5_close(h5), add = TRUE)
+  meta <- h5_griddy_meta(h5)
+  if (!meta$griddy) {
+    griddy_abort("`file` (", file, ") was not written by write_library(): griddy adds ",
+                 "runs only to its own files.", class = "library")
+  }
+  ds <- h5[["theta"]]
+  names <- h5_names_attr(ds)
+  theta <- if (meta$n_runs > 0L) {
+    ds$read(args = list(seq_len(meta$n_runs), seq_along(names)), drop = FALSE)
+  } else {
+    matrix(0, 0L, length(names))
+  }
+  colnames(theta) <- names
+  list(theta = as.data.frame(theta), n_out = as.integer(h5[["y"]]$dims[2]))
 }
 
 repair_h5_library <- function(file) {
