@@ -17,8 +17,9 @@
 # each chunk is a future (future::future()) of its own: at most one per
 # worker runs at a time, and a finished one is handed on while the others
 # run, in the order they finish. A future that cannot deliver its value (a
-# worker that died, a Slurm job cancelled) fails its chunk like an error,
-# and its rows are run again one by one. Otherwise the chunks run in this
+# worker that died, a Slurm job cancelled: a FutureError) fails its chunk
+# like an error, and its rows are run again one by one (a chunk of one row
+# too, once). Otherwise the chunks run in this
 # process, in order.
 
 # A function(theta, n_out, progress, on_chunk) that runs the user's simulator
@@ -69,7 +70,8 @@ run_chunks <- function(job, theta, n_out, progress, on_chunk) {
       for (r in rows[!ok]) {
         state$failed[[length(state$failed) + 1L]] <- list(row = r, condition = non_finite(theta, r))
       }
-    } else if (length(rows) > 1L) {
+    } else if (length(rows) > 1L || (first_pass && inherits(result$error, "FutureError"))) {
+      # a chunk that failed, or a run whose worker was lost, runs again alone
       retry <<- c(retry, as.list(rows))
       return(invisible())
     } else {
@@ -78,7 +80,9 @@ run_chunks <- function(job, theta, n_out, progress, on_chunk) {
     if (progress) cli::cli_progress_update(inc = length(rows), id = bar)
   }
   chunks <- simulator_chunks(nrow(theta))
+  first_pass <- TRUE
   run_tasks(job, theta, chunks, seeds[vapply(chunks, `[`, 1L, 1L)], finish)
+  first_pass <- FALSE
   if (length(retry) > 0L) {
     rows <- unlist(retry)
     run_tasks(job, theta, retry, seeds[rows], finish)
@@ -98,6 +102,7 @@ run_tasks <- function(job, theta, chunks, seeds, finish) {
   }
   running <- list()
   next_i <- 1L
+  idle <- 0L
   while (next_i <= length(chunks) || length(running) > 0L) {
     while (length(running) < workers && next_i <= length(chunks)) {
       running[[length(running) + 1L]] <- list(
@@ -109,9 +114,13 @@ run_tasks <- function(job, theta, chunks, seeds, finish) {
       tryCatch(future::resolved(r$future), error = function(e) TRUE)
     }, logical(1))
     if (!any(done)) {
-      Sys.sleep(0.05)
+      # each poll of a scheduler's future asks the scheduler: slow down
+      # while nothing finishes
+      idle <- idle + 1L
+      Sys.sleep(min(1, 0.02 * 1.3^idle))
       next
     }
+    idle <- 0L
     for (r in running[done]) {
       finish(r$rows, tryCatch(future::value(r$future), error = function(e) list(error = e)))
     }

@@ -172,9 +172,11 @@ record_failed <- function(file, report) {
 
 warn_failed <- function(report, n_todo, file) {
   theta <- report[setdiff(names(report), c("row", "message"))]
+  # the first line of each message (a scheduler's may run on for pages)
+  first_line <- substr(sub("(?s)\n.*", "", report$message, perl = TRUE), 1L, 200L)
   lines <- paste0("design row ", report$row, " (",
                   vapply(seq_len(nrow(report)), function(i) show_theta(theta, i), ""), "): ",
-                  report$message)
+                  first_line)
   griddy_warn("The simulator failed on ", nrow(report), " of ", n_todo, " run(s); ",
               "they are left out of ", file, " (listed in its dataset `failed` and in ",
               "attr(, \"failed\") of the result) and run again by the next ",
