@@ -105,10 +105,17 @@ run_tasks <- function(job, theta, chunks, seeds, finish) {
   idle <- 0L
   while (next_i <= length(chunks) || length(running) > 0L) {
     while (length(running) < workers && next_i <= length(chunks)) {
-      running[[length(running) + 1L]] <- list(
-        rows = chunks[[next_i]],
-        future = launch_job(job, theta[chunks[[next_i]], , drop = FALSE], seeds[next_i]))
+      rows <- chunks[[next_i]]
+      # a worker that died stays dead under some plans (multisession with
+      # future < 1.32): launching on it fails like the chunk itself
+      launched <- tryCatch(launch_job(job, theta[rows, , drop = FALSE], seeds[next_i]),
+                           FutureError = function(e) e)
       next_i <- next_i + 1L
+      if (inherits(launched, "FutureError")) {
+        finish(rows, list(error = launched))
+      } else {
+        running[[length(running) + 1L]] <- list(rows = rows, future = launched)
+      }
     }
     done <- vapply(running, function(r) {
       tryCatch(future::resolved(r$future), error = function(e) TRUE)

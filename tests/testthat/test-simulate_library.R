@@ -147,3 +147,42 @@ test_that("a campaign on two future workers gives the library of a sequential on
   expect_equal(as.matrix(parallel)[keys(parallel), ], as.matrix(sequential)[keys(sequential), ])
   expect_equal(attr(parallel, "failed"), attr(sequential, "failed"))
 })
+
+test_that("a run whose worker is lost (a FutureError) runs again, once", {
+  skip_if_not_installed("hdf5r")
+  skip_on_cran()
+  skip_if_not(installed_griddy_is_current("run_chunks"), "the installed griddy is not this version")
+  design <- design_lhs(6, k = c(1, 4), c = c(0, 1), seed = 8)
+  dir <- withr::local_tempdir()
+  # the run of design row 2 kills its worker the first time (a lost node);
+  # that of row 5 kills it every time
+  sim <- function(theta, marker, victim, doomed) {
+    if (victim %in% theta$k && !file.exists(marker)) {
+      file.create(marker)
+      tools::pskill(Sys.getpid(), tools::SIGKILL)
+    }
+    if (doomed %in% theta$k) tools::pskill(Sys.getpid(), tools::SIGKILL)
+    t <- seq(0, 1, length.out = 20)
+    t(mapply(function(k, c) sin(k * t) + c, theta$k, theta$c))
+  }
+  environment(sim) <- globalenv()
+  future::plan("multisession", workers = 2)
+  withr::defer(future::plan("sequential"))
+  file <- file.path(dir, "lost.h5")
+  expect_warning(
+    lib <- simulate_library(sim, design, file, t = campaign_t, marker = file.path(dir, "m"),
+                            victim = design$k[2], doomed = design$k[5], progress = FALSE),
+    class = "griddy_warning")
+  expect_true(file.exists(file.path(dir, "m")))
+  expect_true(5L %in% attr(lib, "failed")$row)
+  # a dead multisession worker may not be relaunched (future < 1.32), and the
+  # runs sent to it fail: they are recorded, and run by the next call on
+  # fresh workers
+  future::plan("sequential")
+  future::plan("multisession", workers = 2)
+  lib <- suppressWarnings(simulate_library(
+    sim, design, file, t = campaign_t, marker = file.path(dir, "m"),
+    victim = design$k[2], doomed = Inf, progress = FALSE))
+  expect_equal(nrow(attr(lib, "failed")), 0L)
+  expect_complete_campaign(lib, design)
+})
