@@ -20,7 +20,7 @@
 #' (at least ten). Under the default sequential plan they run in this
 #' process, one after the other; under a plan with more workers (a
 #' `multisession` plan, or cluster jobs through future.batchtools, see
-#' `vignette("simulation-campaign")`) each chunk is a future, one per worker
+#' `vignette("simulate-library")`) each chunk is a future, one per worker
 #' at a time, and each is committed as soon as it finishes. Workers need
 #' griddy installed (and the simulator's own packages). Each chunk has its
 #' own seed drawn from R's stream, so `set.seed()` (or `seed`) makes a
