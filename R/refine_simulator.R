@@ -138,7 +138,9 @@ run_tasks <- function(job, theta, chunks, seeds, finish) {
 
 launch_job <- function(job, theta_rows, seed) {
   task <- function() job(theta_rows, seed)
-  future::future(task(), globals = list(task = task), packages = "griddy", seed = NULL)
+  # the label names a scheduler's jobs (squeue shows griddy-simulator)
+  future::future(task(), globals = list(task = task), packages = "griddy", seed = NULL,
+                 label = "griddy-simulator")
 }
 
 # Chunks of rows: about four per worker, and at least ten for the progress

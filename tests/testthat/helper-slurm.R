@@ -30,8 +30,9 @@ local_slurm <- function(env = parent.frame()) {
   template
 }
 
-# Cancels the Slurm jobs still queued or running under the name prefix
-# future.batchtools gives ours (left by a writer that was killed).
-cancel_own_jobs <- function(ids) {
-  if (length(ids) > 0L) system2("scancel", ids, stdout = FALSE, stderr = FALSE)
+# Cancels the Slurm jobs of griddy's simulator chunks still queued or
+# running (left by a writer that was killed), and no others: they carry the
+# job name of their futures' label.
+cancel_simulator_jobs <- function() {
+  system2("scancel", c("--name", "griddy-simulator"), stdout = FALSE, stderr = FALSE)
 }

@@ -35,7 +35,9 @@ test_that("a campaign on Slurm survives a cancelled job and a killed writer with
             deparse(marker)))
   # the writer runs in its own R process, killed (SIGKILL) once some runs
   # are committed, as a lost session would be
-  run_child(campaign, wait = FALSE)
+  writer_log <- file.path(dir, "writer.log")
+  run_child(campaign, wait = FALSE, stdout = writer_log, stderr = writer_log)
+  log <- function() paste(c("", "the writer's output:", readLines(writer_log)), collapse = "\n")
   wait_for_file(pid_file)
   pid <- as.integer(readLines(pid_file))
   withr::defer(tools::pskill(pid, tools::SIGKILL))
@@ -43,19 +45,25 @@ test_that("a campaign on Slurm survives a cancelled job and a killed writer with
     if (!file.exists(file) || dir.exists(paste0(file, ".lock"))) return(0L)
     tryCatch(nrow(h5_committed_theta(file)$theta), error = function(e) 0L)
   }
+  slurm_jobs <- function() {
+    suppressWarnings(system2("squeue", c("-h", "--name", "griddy-simulator", "-o", "%i"),
+                             stdout = TRUE, stderr = FALSE))
+  }
+  seen_jobs <- character(0)
   start <- Sys.time()
   while ((committed() < 4L || !file.exists(marker)) &&
          difftime(Sys.time(), start, units = "secs") < 120) {
+    seen_jobs <- union(seen_jobs, slurm_jobs())
     Sys.sleep(0.2)
   }
+  expect_gte(length(seen_jobs), 2L)  # the runs were Slurm jobs
   tools::pskill(pid, tools::SIGKILL)
   n_before <- committed()
-  expect_gte(n_before, 4L)
+  expect_gte(n_before, 4L, label = paste0("runs committed (", n_before, ")", log()))
   expect_lt(n_before, nrow(design))  # killed midway: the rerun has runs to do
   expect_true(file.exists(marker))  # the victim's job was cancelled
   # the jobs the killed writer left are cancelled, as a user would
-  jobs <- system2("squeue", c("-h", "-o", "%i"), stdout = TRUE)
-  cancel_own_jobs(jobs)
+  cancel_simulator_jobs()
 
   # resumed in this session, on the same cluster
   future::plan(future.batchtools::batchtools_slurm, template = template, workers = 2)
