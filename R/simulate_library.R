@@ -22,7 +22,12 @@
 #' `multisession` plan, or cluster jobs through future.batchtools, see
 #' `vignette("simulate-library")`) each chunk is a future, one per worker
 #' at a time, and each is committed as soon as it finishes. Workers need
-#' griddy installed (and the simulator's own packages). Each chunk has its
+#' griddy installed (and the simulator's own packages). For Slurm, griddy
+#' ships a batchtools template, `system.file("templates",
+#' "batchtools.slurm.tmpl", package = "griddy")`; its jobs are named
+#' `griddy-simulator`. The library can be opened (with [hdf5_library()])
+#' from another session while the campaign runs: a commit waits for such
+#' readers (up to a minute). Each chunk has its
 #' own seed drawn from R's stream, so `set.seed()` (or `seed`) makes a
 #' stochastic simulator reproducible.
 #'

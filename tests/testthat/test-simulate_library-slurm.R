@@ -78,3 +78,20 @@ test_that("a campaign on Slurm survives a cancelled job and a killed writer with
   expect_complete_campaign(lib, design)
   expect_true(victim %in% as.data.frame(lib)$k)
 })
+
+test_that("refine(file =) on Slurm keeps every run of its rounds in the file", {
+  template <- local_slurm()
+  toy <- refine_toy()
+  file <- file.path(withr::local_tempdir(), "refine.h5")
+  future::plan(future.batchtools::batchtools_slurm, template = template, workers = 2)
+  withr::defer(future::plan("sequential"))
+  sim <- refine_sim
+  environment(sim) <- globalenv()
+  ref <- suppressWarnings(refine(toy$fit, sim, max_runs = 8, runs_per_round = 4, file = file,
+                                 seed = 1, progress = FALSE))
+  on_disk <- hdf5_library(file)
+  added <- lib_theta(ref$library)$k[-seq_len(lib_n_runs(toy$lib))]
+  expect_length(added, 8L)
+  expect_setequal(lib_theta(on_disk)$k, added)
+  expect_equal(lib_outputs(on_disk), refine_sim(lib_theta(on_disk)))
+})
