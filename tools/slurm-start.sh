@@ -14,9 +14,19 @@ node_ready() {
   sinfo -h -o '%T' 2>/dev/null | grep -Eq '^(idle|mixed|allocated|completing)'
 }
 
+# a job runs to its end within a minute
+job_runs() {
+  timeout 60 sbatch --wait --quiet --job-name=griddy-probe --output=/dev/null \
+    --wrap true >/dev/null 2>&1
+}
+
 if command -v sinfo >/dev/null 2>&1 && node_ready; then
-  say "Slurm is already running"
-  exit 0
+  if job_runs; then
+    say "Slurm is already running"
+    exit 0
+  fi
+  say "Slurm is running but a test job did not run within a minute"
+  exit 1
 fi
 for cmd in munged munge slurmctld slurmd sinfo sbatch; do
   if ! command -v "$cmd" >/dev/null 2>&1 && [ ! -x "/usr/sbin/$cmd" ]; then
@@ -94,8 +104,12 @@ if ! node_ready; then
   sleep 1
 fi
 if node_ready; then
-  say "Slurm started: $(sinfo -h -o '%P %D %T' | head -1)"
-  exit 0
+  if job_runs; then
+    say "Slurm started: $(sinfo -h -o '%P %D %T' | head -1)"
+    exit 0
+  fi
+  say "Slurm started but a test job did not run within a minute (see /var/log/slurm/)"
+  exit 1
 fi
 say "Slurm started but its node is not ready: $(sinfo -h -N -o '%N %T %E' 2>&1 | head -1)"
 exit 1
