@@ -28,7 +28,12 @@ griddy_map <- function(X, FUN, ..., seeds = NULL) {
     call <- FUN
   }
   if (griddy_workers() > 1L) {
-    future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy")
+    # a worker lost, or a batch job the scheduler reports expired (batchtools
+    # may, for a moment, of one that has just finished): the map runs again
+    # here, with the same results (each element has its own seed)
+    tryCatch(
+      future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy"),
+      FutureError = function(e) lapply(X, call, ...))
   } else {
     lapply(X, call, ...)
   }

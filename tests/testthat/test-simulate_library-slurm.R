@@ -74,7 +74,8 @@ test_that("a campaign on Slurm survives a cancelled job and a killed writer with
   }
   environment(sim) <- globalenv()
   lib <- simulate_library(sim, design, file, t = campaign_t, progress = FALSE)
-  expect_equal(nrow(attr(lib, "failed")), 0L)
+  expect_equal(nrow(attr(lib, "failed")), 0L,
+               info = paste(substr(attr(lib, "failed")$message, 1, 1000), collapse = "\n"))
   expect_complete_campaign(lib, design)
   expect_true(victim %in% as.data.frame(lib)$k)
 })
