@@ -72,12 +72,19 @@
 #' separates it from the discrepancy (the cell means carry \eqn{R_g / r +
 #' \lambda K}, the pure error carries noise only).
 #'
-#' **What a discrepancy can promise.** It makes the intervals honest about a
-#' simulator that misses the data, and the Bayes factor answers *is there a
-#' gap*. It cannot recover a physical \eqn{\theta} that the missing effect
-#' imitates: then \eqn{\theta} is the value that best fits the data together
-#' with a discrepancy, not necessarily the physical one (Brynjarsdóttir and
-#' O'Hagan 2014). See the *Gap diagnosis* vignette.
+#' **What a discrepancy can promise.** The Bayes factor answers *is there a
+#' gap* reliably (decisively with replicated field data), and the posterior
+#' of \eqn{\delta} shows where it lies. It cannot recover a physical
+#' \eqn{\theta} that the missing effect imitates, even in part: then
+#' \eqn{\theta} is the value that best fits the data together with a
+#' discrepancy, not necessarily the physical one (Brynjarsdóttir and O'Hagan
+#' 2014). A plain GaSP (`orthogonal = FALSE`) widens the intervals of
+#' \eqn{\theta} around that best fit without restoring the coverage of the
+#' physical value; the orthogonal default keeps them about as narrow as
+#' without a discrepancy and states what \eqn{\theta} is, the best fit
+#' (Plumlee 2017). On our oscillator study no discrepancy, GaSP or S-GaSP,
+#' covered the physical frequency under a hardening spring; see
+#' `vignette("discrepancy")`.
 #'
 #' **Cost.** Every combination of correlation grid point and length scales
 #' needs one eigen-decomposition of the observed points' covariance
