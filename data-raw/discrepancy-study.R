@@ -9,7 +9,15 @@
 # logLik(), diagnose_gap(fit) without candidates ($which, $where), and the
 # 95% intervals of theta against the truth. Run from the package root:
 #   Rscript data-raw/discrepancy-study.R
-# Results: inst/extdata/discrepancy_study.csv (one row per trial and fit).
+# (15 minutes on a shared 2-core machine; DISC_STUDY_TRIALS=2 runs 2 trials
+# per arm instead of 10, and overwrites the CSV too.)
+# Results: inst/extdata/discrepancy_study.csv (one row per trial and fit):
+# the arm (gap, reps), trial, seed, true w and c; diagnose_gap() on the fit
+# without a discrepancy (diagnosis = top of $which, prob_other, n_flagged
+# blocks of $where, those on the bump's windows and at the largest
+# amplitude); and per fit (none, orthogonal, gasp, sgasp, orthogonal_sgasp)
+# logLik (loglik_none: without a discrepancy), log_bayes_factor, the 95%
+# intervals of w and c, their posterior means and whether they cover.
 pkgload::load_all(".", quiet = TRUE)
 
 # The simulator: x = amplitude a, t = time; theta = (w, c) the linear

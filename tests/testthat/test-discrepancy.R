@@ -157,18 +157,20 @@ test_that("an emulated library's error and a discrepancy enter together", {
 test_that("refine() keeps the discrepancy in every round", {
   skip_if_not_installed("RobustGaSP")
   toy <- gap_toy(bump = 0.1)
-  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
-  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1,
-                                    discrepancy = disc))
   sim <- function(theta) {
     t <- lib_t(toy$library)
     t(mapply(function(a, b) unlist(lapply(c(1, 2, 3), function(l) a * l * exp(-b * t))),
              theta$a, theta$b))
   }
-  ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
-  expect_identical(names(ref$grid), names(fit$grid))
-  expect_equal(nrow(ref$grid), nrow(fit$grid))
-  expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+  for (scaled in c(FALSE, TRUE)) {
+    disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1, scaled = scaled)
+    fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100,
+                                      seed = 1, discrepancy = disc))
+    ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
+    expect_identical(names(ref$grid), names(fit$grid))
+    expect_equal(nrow(ref$grid), nrow(fit$grid))
+    expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+  }
 })
 
 test_that("an orthogonal discrepancy cannot imitate a change of theta", {
