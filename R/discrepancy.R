@@ -89,7 +89,9 @@
 #' **Cost.** Every combination of correlation grid point and length scales
 #' needs one eigen-decomposition of the observed points' covariance
 #' (\eqn{O(n^3)}) and one rotation of every run's residuals (\eqn{O(N n^2)});
-#' the ratios then cost \eqn{O(N n)} each.
+#' the ratios then cost \eqn{O(N n)} each. A scaled discrepancy's kernel
+#' depends on the ratio, so there every ratio costs a decomposition and a
+#' rotation.
 #'
 #' @param ratio The grid of \eqn{\lambda}, the discrepancy's variance
 #'   relative to the noise variance: non-negative values; 0 is the model
