@@ -56,7 +56,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   x_step <- function(i, point) {
     last <- x_steps[[i]]
     if (is.null(last) || !identical(last$Rx_inv, point$Rx_inv)) {
-      last <- kronecker_x_step(point$Rx_inv, factors[[i]]$Kx, E, ctx$n_t)
+      last <- kronecker_x_step(point$Rx_inv, factors[[i]]$Kx)
       x_steps[[i]] <<- last
     }
     last
@@ -67,7 +67,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
       B <- factors[[i]]
       # every ratio's sum_i s z_i^2 / (1 + s l_i) from one product (runs x ratios)
       if (kron) {
-        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t, ratios)
+        kp <- kronecker_products(point, x_step(i, point), B$Kt, E, ratios)
         l <- kp$l
         drop_by <- kp$drop_by
       } else {
@@ -93,25 +93,16 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
 # Bx) (x) (Bt'Pt Bt) has eigenvalues lx (x) lt and eigenvectors Vx (x) Vt,
 # so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j as an
 # n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
-# (the x step, kronecker_x_step(), once per kernel) + rx n_t rt products
-# instead of n_x n_t rx rt (the same quantities as the full factor, to
-# rounding). Z (column (ix - 1) rt + it) is reduced at once to drop_by, runs x
-# ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s.
-kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
+# + rx n_t rt products instead of n_x n_t rx rt (the same quantities as the
+# full factor, to rounding). Z (entry (ix - 1) rt + it) is reduced at once to
+# drop_by, runs x ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s, by
+# other_drops_cpp() a block of runs at a time (src/other_products.cpp).
+kronecker_products <- function(point, xs, Bt, E, ratios) {
   PtBt <- ar1_precision_times(point$Pt, Bt)
   et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
   Mt <- PtBt %*% et$vectors
-  rx <- length(xs$Ex)
   l <- kronecker(xs$lx, pmax(et$values, 0))
-  weights <- ratio_weights(l, ratios)
-  rt <- ncol(Mt)
-  # Z's columns of x direction ix, squared and weighted, summed block by block
-  # (no runs x (rx rt) matrix)
-  drop_by <- matrix(0, J, length(ratios))
-  for (ix in seq_len(rx)) {
-    Zx <- xs$Ex[[ix]] %*% Mt
-    drop_by <- drop_by + (Zx * Zx) %*% weights[(ix - 1L) * rt + seq_len(rt), , drop = FALSE]
-  }
+  drop_by <- other_drops_cpp(E, xs$Mx, Mt, ratio_weights(l, ratios), griddy_threads())
   list(drop_by = drop_by, l = l)
 }
 
@@ -120,16 +111,12 @@ ratio_weights <- function(l, ratios) {
   vapply(ratios, function(s) s / (1 + s * l), numeric(length(l)))
 }
 
-# The x step: Ex = the runs' residuals (rows of n_t, one column per x
-# setting) times Mx = R_x^-1 Bx Vx, as one runs x n_t matrix per x direction,
-# and lx the eigenvalues of Bx'R_x^-1 Bx.
-kronecker_x_step <- function(Rx_inv, Bx, E, n_t) {
+# The x step of a kernel: Mx = R_x^-1 Bx Vx and lx, the eigenvalues of
+# Bx'R_x^-1 Bx (Vx their eigenvectors).
+kronecker_x_step <- function(Rx_inv, Bx) {
   RxBx <- Rx_inv %*% Bx
   ex <- eigen(crossprod(Bx, RxBx), symmetric = TRUE)
-  J <- nrow(E)
-  Ex <- matrix(E, J * n_t, nrow(Bx)) %*% (RxBx %*% ex$vectors)
-  list(Rx_inv = Rx_inv, Ex = lapply(seq_len(ncol(Ex)), function(ix) matrix(Ex[, ix], J, n_t)),
-       lx = pmax(ex$values, 0))
+  list(Rx_inv = Rx_inv, Mx = RxBx %*% ex$vectors, lx = pmax(ex$values, 0))
 }
 
 # B with K = B B' to rounding (K positive semi-definite): the rows of the

@@ -238,8 +238,8 @@ lib_prediction_errors <- function(library) UseMethod("lib_prediction_errors")
 lib_prediction_errors.default <- function(library) NULL
 
 # A sim_library of any number of runs (one is enough), unchecked: a piece of
-# runs to write to a file (write_library(append = TRUE)) whose runs were
-# checked where they came from.
+# runs to write to a file (write_library(append = TRUE)), or a part of a
+# library, whose runs were checked where they came from.
 runs_piece <- function(theta, y, x, t) {
   structure(list(theta = as.data.frame(theta), y = y, x = x, t = t), class = "sim_library")
 }
