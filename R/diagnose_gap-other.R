@@ -48,8 +48,9 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   } else {
     lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
   }
-  E <- if (length(ctx$obs) == ncol(base_terms$E)) base_terms$E else
-    base_terms$E[, ctx$obs, drop = FALSE]
+  # the runs' residuals over the observed points (the Kronecker path forms
+  # them block by block from the outputs)
+  E <- if (!kron) (rep(ctx$y, each = nrow(base_terms$Y)) - base_terms$Y)[, ctx$obs, drop = FALSE]
   # the x step of kronecker_products() depends on the kernel and R_x^-1 only:
   # kept for the grid points that share R_x^-1 (all of them without rho_x)
   x_steps <- vector("list", length(factors))
@@ -67,7 +68,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
       B <- factors[[i]]
       # every ratio's sum_i s z_i^2 / (1 + s l_i) from one product (runs x ratios)
       if (kron) {
-        kp <- kronecker_products(point, x_step(i, point), B$Kt, E, ratios)
+        kp <- kronecker_products(point, x_step(i, point), B$Kt, base_terms$Y, ctx$y, ratios)
         l <- kp$l
         drop_by <- kp$drop_by
       } else {
@@ -76,33 +77,33 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
         l <- pmax(eig$values, 0)
         drop_by <- (E %*% (PB %*% eig$vectors))^2 %*% ratio_weights(l, ratios)
       }
-      vapply(seq_along(ratios), function(k) {
-        s <- ratios[k]
-        Q <- base_terms$Q[, g] - drop_by[, k]
-        log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
-                                        ctx$logdet[g] + sum(log1p(s * l)), ctx$prior,
-                                        base_terms$log_prior_run, point$log_prior))
-      }, numeric(1))
+      # the log evidence summed over the ratios (as the ratios' columns of a
+      # grid posterior, src/exact_posterior.cpp), up to the constant added below
+      grid_posterior_cpp(pmax(base_terms$Q[, g] - drop_by, 0), ctx$prior$shape + sum(ctx$n) / 2,
+                         ctx$prior$rate, ctx$logdet[g] + colSums(log1p(outer(l, ratios))),
+                         base_terms$log_prior_run, rep(point$log_prior, length(ratios)),
+                         FALSE, griddy_threads())$log_norm
     }))
   }))
-  log_sum_exp(pieces) - log(length(kernels) * length(ratios))
+  log_sum_exp(pieces) + log_evidence_constant(ctx$prior, ctx$n) -
+    log(length(kernels) * length(ratios))
 }
 
 # The Woodbury pieces of other_log_evidence() for K = Kx (x) Kt = (Bx Bx')
 # (x) (Bt Bt') and P = R_x^-1 (x) Pt (no noise pattern): B'PB = (Bx'R_x^-1
 # Bx) (x) (Bt'Pt Bt) has eigenvalues lx (x) lt and eigenvectors Vx (x) Vt,
-# so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j as an
-# n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
+# so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j = y -
+# Y_j as an n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
 # + rx n_t rt products instead of n_x n_t rx rt (the same quantities as the
 # full factor, to rounding). Z (entry (ix - 1) rt + it) is reduced at once to
 # drop_by, runs x ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s, by
 # other_drops_cpp() a block of runs at a time (src/other_products.cpp).
-kronecker_products <- function(point, xs, Bt, E, ratios) {
+kronecker_products <- function(point, xs, Bt, Y, y, ratios) {
   PtBt <- ar1_precision_times(point$Pt, Bt)
   et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
   Mt <- PtBt %*% et$vectors
   l <- kronecker(xs$lx, pmax(et$values, 0))
-  drop_by <- other_drops_cpp(E, xs$Mx, Mt, ratio_weights(l, ratios), griddy_threads())
+  drop_by <- other_drops_cpp(Y, y, xs$Mx, Mt, ratio_weights(l, ratios), griddy_threads())
   list(drop_by = drop_by, l = l)
 }
 

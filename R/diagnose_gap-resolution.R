@@ -103,15 +103,15 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
 # quadratic forms of Y unless some runs were predicted (their C holds the
 # prediction error), which the leave-out algebra then computes apart.
 matched_terms <- function(ctx, Y, log_prior, C, library = NULL, is_plain = FALSE,
-                          shared = NULL, keep_E = TRUE) {
+                          shared = NULL) {
   # a table known to be the plain forms (no predicted run) is not recomputed
-  if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
+  if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared))
   # the shared rows' plain forms are the other model's Q (Y holds the rest)
   plain <- rbind(shared$Q, plain_quad_forms(Y, ctx$y, ctx$setup))
   if (same_table(plain, C)) {
-    return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
+    return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared))
   }
-  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C, shared = shared, keep_E = keep_E)
+  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C, shared = shared)
   terms$emulation <- run_errors(library)
   terms
 }

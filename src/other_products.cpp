@@ -1,15 +1,15 @@
 // The runs' products of diagnose_gap()'s "other" model (R/diagnose_gap-other.R,
-// kronecker_products()): for every run j, with its residual E_j as an
-// n_t x n_x matrix (column k the residuals at x setting k),
+// kronecker_products()): for every run j, with its residual E_j = y - Y_j as
+// an n_t x n_x matrix (column k the residuals at x setting k),
 //   Z_j = Mt' E_j Mx            (rt x rx)
 //   drop_j(s) = sum_(it, ix) W[ix rt + it, s] Z_j[it, ix]^2   for each ratio s.
 // In R this is a runs x n_x n_t product with Mx (the "x step"), kept as rx
 // runs x n_t matrices, then per grid point rx products with Mt on the
 // reference BLAS and a weighted sum of squares: most of the diagnosis with
-// two candidates. Here a block of runs at a time: the x step packed straight
-// into the panels of the register-tiled product (tiled_product.h), Z's tile
-// squared and weighted while in cache; no runs x n matrix besides E is
-// formed. Each run is computed the same way in the same order whichever
+// two candidates. Here a block of runs at a time: the residuals and the x
+// step packed straight into the panels of the register-tiled product
+// (tiled_product.h), Z's tile squared and weighted while in cache; no runs x
+// n matrix is formed. Each run is computed the same way in the same order whichever
 // thread takes its block, so the result does not depend on the threads.
 #include <RcppArmadillo.h>
 #include <algorithm>
@@ -23,28 +23,28 @@ constexpr int kRows = griddy::kTileRows;
 constexpr int kCols = griddy::kTileCols;
 
 struct OtherWork {
-  griddy::AlignedBuffer Q, Z;
+  griddy::AlignedBuffer Q, Z, e;
   OtherWork(int n_t, int block, int col_panels, int rx)
       : Q(static_cast<std::size_t>(n_t) * block * rx),
-        Z(static_cast<std::size_t>(block) * col_panels * kCols) {}
+        Z(static_cast<std::size_t>(block) * col_panels * kCols), e(block) {}
 };
 
 }  // namespace
 
-// E: runs x (n_x n_t), library layout (x setting k's n_t outputs in columns
-// k n_t .. k n_t + n_t - 1); Mx: n_x x rx; Mt: n_t x rt; W: (rx rt) x ratios.
-// Returns runs x ratios.
+// Y: the runs' outputs, runs x (n_x n_t), library layout (x setting k's n_t
+// outputs in columns k n_t .. k n_t + n_t - 1); y: the field data (complete);
+// Mx: n_x x rx; Mt: n_t x rt; W: (rx rt) x ratios. Returns runs x ratios.
 // [[Rcpp::export]]
-Rcpp::NumericMatrix other_drops_cpp(const arma::mat& E, const arma::mat& Mx,
+Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx,
                                     const arma::mat& Mt, const arma::mat& W,
                                     int threads = 1) {
-  const arma::uword J = E.n_rows;
+  const arma::uword J = Y.n_rows;
   const arma::uword n_x = Mx.n_rows, rx = Mx.n_cols;
   const arma::uword n_t = Mt.n_rows, rt = Mt.n_cols;
   const arma::uword n_ratio = W.n_cols;
-  if (E.n_cols != n_x * n_t || W.n_rows != rx * rt) {
-    Rcpp::stop("other_drops: shapes do not fit (E %d columns, Mx %d x %d, Mt %d x %d, W %d rows)",
-               static_cast<int>(E.n_cols), static_cast<int>(n_x), static_cast<int>(rx),
+  if (Y.n_cols != n_x * n_t || y.n_elem != Y.n_cols || W.n_rows != rx * rt) {
+    Rcpp::stop("other_drops: shapes do not fit (Y %d columns, y %d, Mx %d x %d, Mt %d x %d, "
+               "W %d rows)", static_cast<int>(Y.n_cols), static_cast<int>(y.n_elem), static_cast<int>(n_x), static_cast<int>(rx),
                static_cast<int>(n_t), static_cast<int>(rt), static_cast<int>(W.n_rows));
   }
   Rcpp::NumericMatrix out(J, n_ratio);  // zero-filled: the blocks add into it
@@ -78,14 +78,17 @@ Rcpp::NumericMatrix other_drops_cpp(const arma::mat& E, const arma::mat& Mx,
     const int row_panels = (rows + kRows - 1) / kRows;
     double* Q = ws.Q.data();
     double* Z = ws.Z.data();
-    // the x step into Q's panels, every x direction from one read of E:
-    // q_ix[t, r] = sum_k Mx[k, ix] E[first + r, k n_t + t], each column of E
-    // read down the block (rows beyond the block's stay 0)
+    // the x step into Q's panels, every x direction from one read of Y:
+    // q_ix[t, r] = sum_k Mx[k, ix] (y[c] - Y[first + r, c]), c = k n_t + t,
+    // each column of Y read down the block (rows beyond the block's stay 0)
     const std::size_t q_size = static_cast<std::size_t>(row_panels) * K * kRows;
     std::fill(Q, Q + rx * q_size, 0.0);
     for (arma::uword k = 0; k < n_x; ++k) {
       for (arma::uword t = 0; t < n_t; ++t) {
-        const double* e = E.colptr(k * n_t + t) + first;
+        const double* yc = Y.colptr(k * n_t + t) + first;
+        const double yk = y[k * n_t + t];
+        double* e = ws.e.data();
+        for (int r = 0; r < rows; ++r) e[r] = yk - yc[r];
         for (arma::uword ix = 0; ix < rx; ++ix) {
           const double m = mx[ix * n_x + k];
           if (m == 0.0) continue;
