@@ -110,18 +110,20 @@ BEGIN_RCPP
 END_RCPP
 }
 // other_drops_cpp
-Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx, const arma::mat& Mt, const arma::mat& W, int threads);
-RcppExport SEXP _griddy_other_drops_cpp(SEXP YSEXP, SEXP ySEXP, SEXP MxSEXP, SEXP MtSEXP, SEXP WSEXP, SEXP threadsSEXP) {
+Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx, const Rcpp::List& Mts, const Rcpp::List& Ws, const Rcpp::IntegerVector& x_first, const Rcpp::IntegerVector& x_count, int threads);
+RcppExport SEXP _griddy_other_drops_cpp(SEXP YSEXP, SEXP ySEXP, SEXP MxSEXP, SEXP MtsSEXP, SEXP WsSEXP, SEXP x_firstSEXP, SEXP x_countSEXP, SEXP threadsSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const arma::mat& >::type Y(YSEXP);
     Rcpp::traits::input_parameter< const arma::vec& >::type y(ySEXP);
     Rcpp::traits::input_parameter< const arma::mat& >::type Mx(MxSEXP);
-    Rcpp::traits::input_parameter< const arma::mat& >::type Mt(MtSEXP);
-    Rcpp::traits::input_parameter< const arma::mat& >::type W(WSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type Mts(MtsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type Ws(WsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type x_first(x_firstSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type x_count(x_countSEXP);
     Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
-    rcpp_result_gen = Rcpp::wrap(other_drops_cpp(Y, y, Mx, Mt, W, threads));
+    rcpp_result_gen = Rcpp::wrap(other_drops_cpp(Y, y, Mx, Mts, Ws, x_first, x_count, threads));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -288,7 +290,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
-    {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 6},
+    {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 8},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
