@@ -11,7 +11,9 @@
 #   over theta only while the runs fill the parameter box evenly. refine()
 #   adds runs by rounds of Latin hypercubes in smaller boxes, so the design
 #   density is a sum of uniform densities: N0 / vol(B0) over the base
-#   library's box B0, plus n_r / vol(B_r) over each round's box B_r. Each run
+#   library's box B0, plus n_r / vol(B_r) over each round's box B_r (or, in
+#   four or more parameters, n_r times the density of the round's proposal,
+#   a defensive uniform plus a t mixture: refine_proposal.R). Each run
 #   is weighed by prior density / design density (the balance heuristic of
 #   multiple importance sampling), which keeps the prior uniform over B0.
 # * Emulation error. Runs predicted by an emulator rather than simulated
@@ -280,13 +282,18 @@ lib_log_prior.refined_library <- function(library) {
 
 # The design density of a refined library at the rows of `theta`: the base
 # library's runs spread evenly over its box, plus each round's runs over its
-# box. Constant columns take no part in the volumes.
+# box, or by its proposal's density (refine_proposal.R, four or more
+# parameters). Constant columns take no part in the volumes.
 design_density <- function(library, theta) {
   theta <- as.matrix(theta)
   box0 <- library_box(library$base)
   density <- lib_n_runs(library$base) / box_volume(box0) * in_box(theta, box0)
   for (round in library$rounds) {
-    density <- density + round$n / box_volume(round$box, box0) * in_box(theta, round$box)
+    density <- density + if (is.null(round$proposal)) {
+      round$n / box_volume(round$box, box0) * in_box(theta, round$box)
+    } else {
+      round$n * proposal_density(round$proposal, theta)
+    }
   }
   density
 }

@@ -55,6 +55,13 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
   })
   out <- cbind(data.frame(parameter = names(theta)), do.call(rbind, rows))
   rownames(out) <- NULL
+  # from four parameters, the posterior over runs as an importance sample
+  # (resolution_runs.R): a parameter is limited while it is not resolved
+  runs <- run_resolution(p, sum(!out$constant))
+  out$effective_runs <- runs$effective_runs
+  out$pareto_k <- runs$pareto_k
+  out$limited <- out$limited | (!runs$resolved & !out$constant)
+  attr(out, "runs") <- runs
   out
 }
 
@@ -140,6 +147,15 @@ warn_resolution <- function(fit) {
   if (nrow(tab) == 0L) {
     return(invisible(NULL))
   }
+  runs <- run_resolution_reason(attr(resolution_limited(fit), "runs"))
+  if (!is.null(runs)) {
+    griddy_warn(
+      "The posterior is limited by the library's resolution: it rests on ", runs,
+      ", so its intervals show where the runs are, not the data's uncertainty, and may ",
+      "miss the truth. Add runs where the posterior has its mass (see ?refine).",
+      class = "resolution")
+    return(invisible(NULL))
+  }
   griddy_warn(
     "The posterior is limited by the library's resolution: ",
     paste0(tab$parameter, " (", format_values(tab$effective_values), " effective values)",
@@ -180,6 +196,11 @@ format_adequacy <- function(adequacy) {
   # a summary saved before 0.1.1.9000 counted the library's values instead
   constant <- if (is.null(tab$constant)) tab$library_values <= 1L else tab$constant
   lim <- tab$limited & !constant
+  runs <- run_resolution_reason(attr(tab, "runs"))
+  if (!is.null(runs)) {
+    lines <- c(lines, paste0("Runs: the posterior rests on ", runs, "; see ?refine"))
+    lim <- lim & tab$effective_values < resolution_min_values
+  }
   c(lines,
     paste0(tab$parameter[constant], ": constant in the library, not calibrated.",
            recycle0 = TRUE),

@@ -186,8 +186,13 @@ check_refinable <- function(fit) {
 
 default_runs_per_round <- function(theta) {
   p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
+  # a proposal that follows the posterior (four or more parameters) needs
+  # no box's doubling per parameter, and more rounds adapt it better
+  if (p >= proposal_min_parameters) return(as.integer(proposal_round_per_parameter * p))
   100L * 2L^(max(p, 1L) - 1L)
 }
+
+proposal_round_per_parameter <- 250
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or
@@ -255,11 +260,24 @@ warn_unresolved <- function(state, rounds) {
   cut <- colSums(truncated_sides(state)) > 0
   moved <- pmax(abs(tab$lower - previous$lower), abs(tab$upper - previous$upper)) >
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
-  why <- ifelse(tab$limited & !tab$constant,
+  runs <- run_resolution_reason(attr(tab, "runs"))
+  few_values <- tab$effective_values < resolution_min_values
+  why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
          ifelse(moved, "its interval still moved in the last round", NA)))
   bad <- !is.na(why)
+  extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
+             if (state$far_mass > far_mass_tol) {
+               paste0(format(100 * state$far_mass, digits = 2), "% of the posterior lies ",
+                      "far from where the last round's runs went: a mode may be lost or ",
+                      "unresolved")
+             })
+  if (length(extra) > 0L) {
+    why <- c(why[bad], extra)
+    tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))
+    bad <- rep(TRUE, length(why))
+  }
   if (rounds$source == "simulator" && predicted_mass(state) > predicted_tol) {
     why <- c(why[bad], "the posterior still rests on predicted runs")
     tab <- data.frame(parameter = c(tab$parameter[bad], "all"))

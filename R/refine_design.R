@@ -1,5 +1,22 @@
 # Where refine()'s new runs go: the box of a round around the posterior,
-# a Latin hypercube in it, and which predicted runs a simulator replaces.
+# a Latin hypercube in it (or, in four or more parameters, a proposal fitted
+# to the posterior: refine_proposal.R), and which predicted runs a
+# simulator replaces.
+
+# The new runs of a round of n: list(theta, round = the round's design as
+# the refined library keeps it, box or proposal). The box's Latin hypercube
+# up to three parameters, the proposal from four (see uses_proposal()).
+round_design <- function(state, n) {
+  library <- state$problem$library
+  names <- names(lib_theta(library))
+  if (uses_proposal(library)) {
+    proposal <- fit_proposal(state)
+    return(list(theta = draw_proposal(n, proposal, names),
+                round = list(box = NULL, proposal = proposal)))
+  }
+  box <- refine_box(state)
+  list(theta = latin_hypercube(n, box, names), round = list(box = box, proposal = NULL))
+}
 
 # The box of the marginal posteriors' central 99%, widened on each side by
 # the local spacing around the most probable run or a quarter of its width,

@@ -1,0 +1,266 @@
+# refine()'s proposal in four or more parameters: where a round's new runs go
+# when a box cannot hold the posterior (issue 24). A box of the marginals'
+# ranges is mostly empty of posterior mass past three parameters (its volume
+# grows like the product of the ranges while a correlated posterior's
+# shrinks) and cannot hold two modes. A round instead draws its runs from a
+# mixture fitted to the weighted library, as population Monte Carlo and
+# adaptive multiple importance sampling do (Cappe et al. 2004, JCGS 13:907;
+# Cornuet et al. 2012, Scand. J. Stat. 39:798):
+#
+# * one multivariate t component (df `proposal_df`) per cluster of the
+#   weighted runs, so that separated modes each get one;
+# * fitted to the posterior over runs tempered (its likelihood raised to a
+#   power beta <= 1) until it rests on `proposal_ess()` effective runs: when
+#   the library is too coarse for the posterior (the first rounds) the
+#   proposal is the wider tempered posterior, never a covariance of one run;
+# * plus a defensive share (`proposal_defensive`) drawn uniformly over the
+#   base library's range (Hesterberg 1995, Technometrics 37:185), so a mode
+#   the components miss keeps receiving runs, and every run's prior weight
+#   (prior over the deterministic mixture of all rounds' densities, see
+#   design_density()) stays bounded.
+#
+# Everything is computed in unit coordinates u = (theta - lower) / width of
+# the base library's range over its varying columns; constant columns keep
+# their value. The mixture is truncated to the range (draws outside it are
+# redrawn); its mass inside, `inside`, is estimated once per round from
+# `proposal_mass_draws` draws, so the density is exact up to that estimate's
+# relative error (about 0.5%).
+
+# Parameters (varying) from which rounds use the proposal; below, the box
+# Latin hypercube of refine_box() (validated in 2 and 3 parameters by
+# bench/between-the-runs.R and bench/refine-max-runs.R).
+proposal_min_parameters <- 4L
+
+proposal_df <- 4
+proposal_defensive <- 0.15
+proposal_max_components <- 6L
+proposal_mass_draws <- 50000L
+
+# Effective runs the proposal is fitted to: enough for a p x p covariance
+# per component (about 2p each) over a few components.
+proposal_ess <- function(q) max(50, 10 * q)
+
+uses_proposal <- function(library) {
+  range0 <- library_box(lib_base(library))
+  sum(range0[2, ] > range0[1, ]) >= proposal_min_parameters
+}
+
+# ---- fitting -------------------------------------------------------------------
+
+# The proposal of the next round from a refine state: list(range, varies,
+# components = list(weight, centre, chol), df, defensive, inside, beta).
+fit_proposal <- function(state) {
+  library <- state$problem$library
+  range0 <- library_box(lib_base(library))
+  varies <- range0[2, ] > range0[1, ]
+  u <- unit_coordinates(lib_theta(library), range0, varies)
+  q <- ncol(u)
+  tempered <- tempered_weights(state$p, lib_log_prior(library), proposal_ess(q))
+  w <- tempered$w
+  # the runs that hold all but 0.1% of the tempered mass
+  ord <- order(w, decreasing = TRUE)
+  keep <- ord[seq_len(min(which(cumsum(w[ord]) >= 0.999)[1], 5000L))]
+  components <- weighted_components(u[keep, , drop = FALSE], w[keep] / sum(w[keep]))
+  proposal <- list(range = range0, varies = varies, components = components,
+                   df = proposal_df, defensive = proposal_defensive, inside = 1,
+                   beta = tempered$beta)
+  proposal$inside <- mixture_mass_inside(proposal)
+  proposal
+}
+
+# The posterior over runs tempered: log w = log prior + beta * log likelihood
+# (log likelihood = log p - log prior), beta the largest in (0, 1] whose
+# Kish ESS reaches `target` (1 when the posterior's own does).
+tempered_weights <- function(p, log_prior, target) {
+  pos <- p > 0
+  loglik <- rep(-Inf, length(p))
+  loglik[pos] <- log(p[pos]) - log_prior[pos]
+  at <- function(beta) {
+    lw <- log_prior + beta * loglik
+    w <- exp(lw - max(lw[pos]))
+    w[!pos] <- 0
+    w / sum(w)
+  }
+  ess <- function(w) 1 / sum(w^2)
+  if (ess(at(1)) >= target) return(list(w = at(1), beta = 1))
+  lo <- 0
+  hi <- 1
+  for (i in 1:30) {
+    mid <- (lo + hi) / 2
+    if (ess(at(mid)) >= target) lo <- mid else hi <- mid
+  }
+  beta <- max(lo, 1e-6)
+  list(w = at(beta), beta = beta)
+}
+
+# Components of a weighted sample (rows of u, weights w summing to 1):
+# k-means on a weighted resample, whitened by the weighted covariance, so
+# separated modes fall in different clusters; each cluster's weighted mean
+# and covariance, shrunk toward the whole sample's covariance by p effective
+# runs (a cluster of few runs borrows the sample's spread instead of
+# collapsing).
+weighted_components <- function(u, w) {
+  q <- ncol(u)
+  ess <- 1 / sum(w^2)
+  whole <- weighted_moments(u, w)
+  cov_all <- regularised_cov(whole$cov, u)
+  k <- max(1L, min(proposal_max_components, floor(ess / (2 * q)),
+                   sum(!duplicated(u))))
+  cluster <- rep(1L, nrow(u))
+  if (k > 1L) {
+    white <- t(backsolve(chol(cov_all), t(u) - whole$mean, transpose = TRUE))
+    pick <- sample.int(nrow(u), 2000L, replace = TRUE, prob = w)
+    km <- stats::kmeans(white[pick, , drop = FALSE], centers = k, nstart = 3L, iter.max = 30L)
+    d2 <- vapply(seq_len(k), function(j) colSums((t(white) - km$centers[j, ])^2),
+                 numeric(nrow(u)))
+    cluster <- max.col(-matrix(d2, nrow(u)), ties.method = "first")
+  }
+  comps <- lapply(sort(unique(cluster)), function(j) {
+    in_j <- cluster == j
+    wj <- w[in_j]
+    m <- weighted_moments(u[in_j, , drop = FALSE], wj / sum(wj))
+    ess_j <- sum(wj)^2 / sum(wj^2)
+    cov_j <- (ess_j * m$cov + q * cov_all) / (ess_j + q)
+    list(weight = sum(wj), centre = m$mean, chol = chol(cov_j))
+  })
+  comps
+}
+
+weighted_moments <- function(u, w) {
+  mean <- colSums(u * w)
+  centred <- sweep(u, 2, mean)
+  list(mean = mean, cov = crossprod(centred * sqrt(w)))
+}
+
+# A covariance made positive definite: a floor of the library's typical
+# spacing in unit coordinates (N^(-1/q) per axis), so a sample of one run
+# still spreads over its neighbourhood.
+regularised_cov <- function(cov, u) {
+  q <- ncol(u)
+  floor <- (0.5 * nrow(u)^(-1 / q))^2
+  cov + diag(floor, q)
+}
+
+# ---- drawing and density -----------------------------------------------------
+
+# n runs from a proposal: the defensive share as a Latin hypercube over the
+# range, the rest from the t mixture, redrawn until inside the range.
+draw_proposal <- function(n, proposal, names) {
+  n_def <- round(proposal$defensive * n)
+  q <- sum(proposal$varies)
+  u <- rbind(latin_hypercube_unit(n_def, q), draw_mixture_inside(n - n_def, proposal))
+  u <- u[sample.int(nrow(u)), , drop = FALSE]
+  stats::setNames(as.data.frame(from_unit(u, proposal$range, proposal$varies)), names)
+}
+
+latin_hypercube_unit <- function(n, q) {
+  matrix(vapply(seq_len(q), function(j) (sample.int(n) - stats::runif(n)) / n, numeric(n)),
+         n, q)
+}
+
+draw_mixture <- function(n, proposal) {
+  comps <- proposal$components
+  q <- length(comps[[1]]$centre)
+  which_comp <- sample.int(length(comps), n, replace = TRUE,
+                           prob = vapply(comps, `[[`, numeric(1), "weight"))
+  z <- matrix(stats::rnorm(n * q), n, q)
+  scale <- sqrt(proposal$df / stats::rchisq(n, proposal$df))
+  out <- matrix(0, n, q)
+  for (j in unique(which_comp)) {
+    at <- which_comp == j
+    out[at, ] <- sweep((z[at, , drop = FALSE] %*% comps[[j]]$chol) * scale[at], 2,
+                       comps[[j]]$centre, "+")
+  }
+  out
+}
+
+in_unit_cube <- function(u) rowSums(u >= 0 & u <= 1) == ncol(u)
+
+draw_mixture_inside <- function(n, proposal) {
+  q <- sum(proposal$varies)
+  out <- matrix(0, 0, q)
+  tries <- 0L
+  while (nrow(out) < n) {
+    need <- n - nrow(out)
+    batch <- draw_mixture(ceiling(need / max(proposal$inside, 0.01)) + 10L, proposal)
+    out <- rbind(out, batch[in_unit_cube(batch), , drop = FALSE])
+    tries <- tries + 1L
+    if (tries > 200L) {
+      # the mixture hardly reaches the range: the rest uniformly (the
+      # density below does not know it, so this must not happen in practice)
+      griddy_abort("refine()'s proposal put almost no mass inside the library's range.",
+                   class = "numeric")
+    }
+  }
+  out[seq_len(n), , drop = FALSE]
+}
+
+mixture_mass_inside <- function(proposal) {
+  mean(in_unit_cube(draw_mixture(proposal_mass_draws, proposal)))
+}
+
+# The proposal's density at theta rows (a data.frame or matrix of the
+# library's columns), per unit of theta over the varying columns: the
+# defensive uniform plus the t mixture truncated to the range.
+proposal_density <- function(proposal, theta) {
+  u <- unit_coordinates(theta, proposal$range, proposal$varies)
+  width <- proposal$range[2, proposal$varies] - proposal$range[1, proposal$varies]
+  inside <- in_unit_cube(u)
+  mix <- exp(log_mixture_density(u, proposal))
+  ((proposal$defensive + (1 - proposal$defensive) * mix / proposal$inside) * inside) /
+    prod(width)
+}
+
+log_mixture_density <- function(u, proposal) {
+  comps <- proposal$components
+  q <- ncol(u)
+  nu <- proposal$df
+  const <- lgamma((nu + q) / 2) - lgamma(nu / 2) - q / 2 * log(nu * pi)
+  logs <- vapply(comps, function(cmp) {
+    z <- backsolve(cmp$chol, t(u) - cmp$centre, transpose = TRUE)
+    log(cmp$weight) + const - sum(log(diag(cmp$chol))) -
+      (nu + q) / 2 * log1p(colSums(z^2) / nu)
+  }, numeric(nrow(u)))
+  logs <- matrix(logs, nrow(u))
+  top <- apply(logs, 1, max)
+  top + log(rowSums(exp(logs - top)))
+}
+
+unit_coordinates <- function(theta, range, varies) {
+  theta <- as.matrix(theta)[, varies, drop = FALSE]
+  lower <- range[1, varies]
+  width <- range[2, varies] - lower
+  sweep(sweep(theta, 2, lower), 2, width, "/")
+}
+
+from_unit <- function(u, range, varies) {
+  out <- matrix(range[1, ], nrow(u), ncol(range), byrow = TRUE)
+  out[, varies] <- sweep(sweep(u, 2, range[2, varies] - range[1, varies], "*"), 2,
+                         range[1, varies], "+")
+  out
+}
+
+# ---- a mode the proposal misses ----------------------------------------------
+
+# The posterior mass on runs far from every component of a proposal (beyond
+# the 99.9% quantile of chi-square with q degrees of freedom in a
+# component's metric, at 3 times its scale): a mode the last round's
+# components did not cover, found by the defensive runs or the base library.
+far_mass <- function(p, theta, proposal) {
+  if (is.null(proposal)) return(0)
+  held <- which(p > 0)
+  u <- unit_coordinates(theta[held, , drop = FALSE], proposal$range, proposal$varies)
+  q <- ncol(u)
+  limit <- 9 * stats::qchisq(0.999, q)
+  near <- Reduce(`|`, lapply(proposal$components, function(cmp) {
+    z <- backsolve(cmp$chol, t(u) - cmp$centre, transpose = TRUE)
+    colSums(z^2) <= limit
+  }))
+  sum(p[held][!near])
+}
+
+last_proposal <- function(library) {
+  rounds <- lib_rounds(library)
+  if (length(rounds) == 0L) return(NULL)
+  rounds[[length(rounds)]]$proposal
+}
