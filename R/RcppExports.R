@@ -45,6 +45,14 @@ quad_forms_avx2_cpp <- function() {
     .Call(`_griddy_quad_forms_avx2_cpp`)
 }
 
+stream_add_cpp <- function(C, outputs, column, y, prev, y_prev, phi, scale, offset) {
+    invisible(.Call(`_griddy_stream_add_cpp`, C, outputs, column, y, prev, y_prev, phi, scale, offset))
+}
+
+stream_log_sum_cpp <- function(C, shape_post, rate, grid_term, log_prior_run) {
+    .Call(`_griddy_stream_log_sum_cpp`, C, shape_post, rate, grid_term, log_prior_run)
+}
+
 omp_limits_cpp <- function() {
     .Call(`_griddy_omp_limits_cpp`)
 }

@@ -83,6 +83,19 @@
 #' `update = "thesis"` conditions on a single \eqn{\tau}, so it takes one
 #' group only.
 #'
+#' **Discrepancy.** With `discrepancy = gp_discrepancy()` the model is
+#' \eqn{y = g(x, \theta) + \delta(x, t) + \epsilon}, \eqn{\delta} a Gaussian
+#' process with covariance \eqn{\tau^{-1} \lambda K_\ell}: the covariance
+#' of the data becomes \eqn{\tau^{-1}(S R_g S + \lambda K_\ell)}, and each
+#' combination of \eqn{\rho}, the ratio \eqn{\lambda} and the length
+#' scales \eqn{\ell} is one grid point (`fit$grid` gains the columns
+#' `delta_ratio`, `delta_length_x` and `delta_length_t`). Everything above
+#' holds with \eqn{R_g} read as that covariance. The fit then reports the
+#' Bayes factor for a discrepancy ([discrepancy_evidence()]), and warns
+#' (class `griddy_warning_gap`) when the data show one: \eqn{\theta} is
+#' then the value that best fits the data with a discrepancy, not
+#' necessarily the physical one (see [gp_discrepancy()]).
+#'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'
@@ -146,6 +159,10 @@
 #'   t (shared across x settings) or one per library output (`n_x * n_t`,
 #'   library order). See Details, Noise groups. Every group needs at least
 #'   one field measurement.
+#' @param discrepancy `NULL` (no model discrepancy, the thesis's model) or a
+#'   [gp_discrepancy()]: a Gaussian-process discrepancy \eqn{\delta(x, t)}
+#'   added to the model, its ratio and length scales integrated out on a
+#'   grid like \eqn{\rho}. See Details, Discrepancy.
 #' @param control Settings shared by the calibrating functions, from
 #'   [griddy_control()]: the defaults of `n_iter`, `burn_in`, `thin`,
 #'   `chains` and `progress`; an argument given in the call overrides its
@@ -190,7 +207,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_i
                       chains = control$chains, prior = NULL,
                       update = c("collapsed", "thesis"), seed = NULL,
                       progress = control$progress, x_power = 2, run_weights = NULL,
-                      noise_groups = NULL, control = griddy_control()) {
+                      noise_groups = NULL, discrepancy = NULL, control = griddy_control()) {
   start <- proc.time()[["elapsed"]]
   call <- match.call()
   control <- assert_control(control)
@@ -198,12 +215,16 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_i
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
-                                 noise_groups, update)
+                                 noise_groups, update, discrepancy)
   check_update_groups(problem, update)
   fit <- sample_problem(problem, update, control, seed, call, start)
   checks_start <- proc.time()[["elapsed"]]
+  fit$gap_screen <- gap_screen(fit, field, rho_x, rho_t, prior, x_power, run_weights,
+                               noise_groups)
   warn_resolution(fit)
   warn_convergence(fit)
+  warn_gap(fit)
+  warn_gap_screen(fit)
   fit$runtime[["checks"]] <- fit$runtime[["checks"]] + proc.time()[["elapsed"]] - checks_start
   fit
 }

@@ -4,14 +4,22 @@
 # problem also takes a fit.
 
 calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
-                                run_weights, noise_groups = NULL, update = NULL) {
+                                run_weights, noise_groups = NULL, update = NULL,
+                                discrepancy = NULL) {
   check_library(library)
+  discrepancy <- assert_discrepancy(discrepancy)
   layout <- field_layout(library, field)
   default_prior <- is.null(prior)
   prior <- assert_prior(if (default_prior) thesis_prior() else prior)
   log_prior_run <- log_run_weights(run_weights, library)
-  pattern <- noise_pattern(library, layout, noise_groups, prior)
-  setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern)
+  if (!is.null(discrepancy)) {
+    discrepancy <- discrepancy_for_data(discrepancy, library, layout$y,
+                                        noise_pattern(library, layout, noise_groups, prior))
+  }
+  # a discrepancy breaks the Kronecker structure: dense factors throughout
+  pattern <- noise_pattern(library, layout, noise_groups, prior,
+                           dense = !is.null(discrepancy))
+  setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern, discrepancy)
   setup$noise_prior <- prior  # an emulated library's noise plug-in (emulation_error.R)
   inform_memory(library, n_grid_points(setup), update)
   problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
@@ -37,7 +45,7 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
   # degrees of freedom (see noise_pattern())
   list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),
        prior = prior, log_prior_run = log_prior_run, setup = setup,
-       grid = grid_table(library, list(x = setup$rho_x, t = setup$rho_t)), C = C,
+       grid = setup_grid_table(library, setup), C = C,
        log_prior_grid = grid_log_prior(setup), emulation_error = emulation_error)
 }
 
@@ -46,10 +54,32 @@ problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
 # that give it. (A rho_j = 0 makes R_x the identity whatever the other x
 # columns' rho when every setting differs in column j, so a prior uniform
 # over grid points would favour independence.)
+#
+# With a discrepancy, each discrepancy point's prior (discrepancy_points())
+# multiplies the prior of the correlation structure.
 grid_log_prior <- function(setup) {
-  key <- paste(setup$x_class[setup$gx], setup$gt)
+  base <- seq_len(length(setup$gx) / max(nrow(setup$discrepancy), 1L))
+  key <- paste(setup$x_class[setup$gx[base]], setup$gt[base])
   count <- table(key)[key]
-  as.vector(-log(length(unique(key))) - log(count))
+  lp <- as.vector(-log(length(unique(key))) - log(count))
+  if (is.null(setup$discrepancy)) return(lp)
+  rep(lp, nrow(setup$discrepancy)) + setup$discrepancy$log_prior[setup$gd]
+}
+
+# The grid as a table, one row per grid point of `setup`: the correlation
+# parameters (grid_table()) and, with a discrepancy, its ratio and length
+# scales (columns delta_ratio, delta_length_x, delta_length_t; NA where a
+# length does not apply).
+setup_grid_table <- function(library, setup) {
+  grid <- grid_table(library, list(x = setup$rho_x, t = setup$rho_t))
+  disc <- setup$discrepancy
+  if (is.null(disc)) return(grid)
+  out <- grid[rep(seq_len(nrow(grid)), nrow(disc)), , drop = FALSE]
+  out$delta_ratio <- disc$ratio[setup$gd]
+  if (lib_n_x(library) > 1L) out$delta_length_x <- disc$length_x[setup$gd]
+  if (lib_n_t(library) > 1L) out$delta_length_t <- disc$length_t[setup$gd]
+  rownames(out) <- NULL
+  out
 }
 
 # ---- the noise pattern ----------------------------------------------------------
@@ -62,12 +92,14 @@ grid_log_prior <- function(setup) {
 # groups; and the replicates' pure error (see field_layout()): each group's
 # sum of squares `pure_ss` and degrees of freedom `pure_df`, and the
 # constant `log_sd_excess` of the log-determinant.
-# NULL for complete data with one group, no sd and no replicates: the
-# Kronecker case.
-noise_pattern <- function(library, layout, noise_groups, prior) {
+# NULL for complete data with one group, no sd and no replicates (the
+# Kronecker case), unless `dense` asks for the pattern anyway.
+noise_pattern <- function(library, layout, noise_groups, prior, dense = FALSE) {
   observed <- !is.na(layout$y)
   groups <- noise_group_index(noise_groups, lib_n_x(library), lib_n_t(library))
-  if (all(observed) && is.null(layout$sd_mean) && length(groups$labels) == 1L) return(NULL)
+  if (!dense && all(observed) && is.null(layout$sd_mean) && length(groups$labels) == 1L) {
+    return(NULL)
+  }
   empty <- setdiff(seq_along(groups$labels), groups$group[observed])
   if (length(empty) > 0L) {
     griddy_abort("Noise group(s) ", show_some(groups$labels[empty]), " hold no field ",

@@ -15,23 +15,23 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
   strength <- as.matrix(lib_theta(cand)[setdiff(names(lib_theta(cand)), base_cols)])
   level <- strength_levels(strength)
   zero <- rowSums(abs(strength)) == 0
-  Wb <- white$Wb
-  Wb_norm2 <- white$norm2
+  Wb <- white$rows
   near <- function(from, pool) pool[which.min(colSums((t(tc[pool, , drop = FALSE]) - from)^2))]
   m <- min(nrow(tb) - 2L, 3L * ncol(tb) + 3L)
   # the part of output w that no base run (best one, refined linearly on its
   # theta neighbours) reproduces, leaving out base run `drop`
   imitate <- function(w, drop = 0L) {
-    j <- nearest_row(Wb, w, Wb_norm2, drop)
+    j <- nearest_row(NULL, w, white$norm2, drop, rows = Wb, dot = white$dot)
     dist <- colSums((t(tb) - tb[j, ])^2)
     dist[c(j, drop)] <- Inf
     nb <- order(dist)[seq_len(m)]
-    Dm <- t(sweep(Wb[nb, , drop = FALSE], 2, Wb[j, ], "-"))
-    list(e = sqrt(sum(stats::lm.fit(Dm, w - Wb[j, ])$residuals^2)), j = j, nb = nb)
+    wj <- drop(Wb(j))
+    Dm <- t(sweep(Wb(nb), 2, wj, "-"))
+    list(e = sqrt(sum(stats::lm.fit(Dm, w - wj)$residuals^2)), j = j, nb = nb)
   }
   # the library's own resolution: how well the other runs imitate runs near the mode
   around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
-  e_grid <- sqrt(mean(vapply(around, function(j) imitate(Wb[j, ], j)$e^2, numeric(1))))
+  e_grid <- sqrt(mean(vapply(around, function(j) imitate(drop(Wb(j)), j)$e^2, numeric(1))))
   res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
     i1 <- near(tb[top[1], ], which(level == lv))
     i0 <- near(tc[i1, ], which(zero))
@@ -55,24 +55,38 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
                                       res[[best]]$imitator, absorbed_by, effect))
 }
 
-# The base runs' outputs whitened at the base posterior's top grid point,
-# with their squared norms: the same for every candidate's screen, so
-# diagnose_gap() computes them once.
+# The base runs' outputs whitened at the base posterior's top grid point, as
+# the screen reads them: `rows(i)` the whitened rows i, `dot(w)` every
+# whitened run's product with w, and `norm2` their squared norms, the same
+# for every candidate's screen, so diagnose_gap() computes them once.
+# Whitening is linear, Wb = Y A' with A' the whitened identity, so only the
+# few rows the screen looks at are whitened: the products with all runs are
+# Y (A' w), and the norms are the runs' quadratic forms y_j' P y_j (the
+# compiled misfit with zero field data), not a whitened copy of the library.
 screen_white <- function(ctx, base_terms) {
   top <- arrayInd(which.max(base_terms$lj), dim(base_terms$lj))
   point <- ctx$points[[top[2]]]
-  Wb <- whiten_rows(base_terms$Y, point, ctx$n_x, ctx$n_t)
-  list(top = top, point = point, Wb = Wb, norm2 = rowSums(Wb * Wb))
+  Y <- base_terms$Y
+  At <- whiten_rows(diag(ctx$n_x * ctx$n_t), point, ctx$n_x, ctx$n_t)
+  zero <- ctx$y
+  zero[!is.na(zero)] <- 0
+  list(top = top, point = point, norm2 = plain_quad_forms(Y, zero, ctx$setup)[, top[2]],
+       rows = function(i) Y[i, , drop = FALSE] %*% At,
+       dot = function(w) drop(Y %*% (At %*% w)))
 }
 
 # The row of W nearest w (squared distance), not row `drop`: |W_j|^2 - 2 W_j'w
 # over all rows (one product), then the exact distance among the rows within
 # rounding of the least, so that the choice is that of the exact distances.
-nearest_row <- function(W, w, norm2, drop = 0L) {
-  d2 <- norm2 - 2 * drop(W %*% w) + sum(w * w)
+#
+# `rows(i)` and `dot(w)` give W's rows i and W w where W is not held whole
+# (screen_white()).
+nearest_row <- function(W, w, norm2, drop = 0L, rows = function(i) W[i, , drop = FALSE],
+                        dot = function(w) drop(W %*% w)) {
+  d2 <- norm2 - 2 * dot(w) + sum(w * w)
   d2[drop] <- Inf
   slack <- 1e-9 * (max(norm2) + sum(w * w))
   close <- which(d2 <= min(d2) + slack)
-  exact <- colSums((t(W[close, , drop = FALSE]) - w)^2)
+  exact <- colSums((t(rows(close)) - w)^2)
   close[which.min(exact)]
 }

@@ -83,18 +83,75 @@ block_positions <- function(obs, k, W, n_t) {
 # quadratic forms, which leave-out identities hold for. `E` holds NA at
 # missing cells. Every step is a pass over the runs x data points (no
 # per-run loop, no n x n algebra per run).
+#
+# `shared`, when given, is the terms of a model whose runs are the first rows
+# of Y (a candidate's zero level is the refined base): their leave-out pieces
+# are taken from it, and only the other rows are computed. `keep_E = FALSE`
+# drops the residuals from the result (only the base model's are read later).
 gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL) {
+                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL, shared = NULL,
+                      keep_E = TRUE) {
   J <- nrow(Y)
-  G <- length(ctx$points)
-  E <- rep(ctx$y, each = J) - Y                          # residuals y - eta, runs in rows
-  D <- array(0, c(J, G, ctx$n_x))
-  for (g in seq_len(G)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
+  head <- if (is.null(shared)) 0L else nrow(shared$D)
+  rest <- if (head > 0L) Y[-seq_len(head), , drop = FALSE] else Y
+  apart <- settings_apart(ctx)
+  # residuals y - eta, runs in rows (not needed for the pieces of settings apart)
+  E <- if (keep_E || !apart) rep(ctx$y, each = nrow(rest)) - rest
+  D <- if (apart) setting_quad_forms(ctx, rest) else leave_setting_pieces(ctx, E)
+  if (head > 0L) {
+    D_rest <- D
+    D <- array(0, c(J, length(ctx$points), ctx$n_x))
+    D[seq_len(head), , ] <- shared$D
+    D[head + seq_len(J - head), , ] <- D_rest
+  }
   lj_plain <- collapsed_log_joint(Q, ctx$n, ctx$logdet, ctx$prior, log_prior_run,
                                   ctx$log_prior_grid)
   lj <- if (is.null(C)) lj_plain else
     collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
-  list(Y = Y, E = E, Q = Q, lj = lj, lj_plain = lj_plain, D = D, log_prior_run = log_prior_run)
+  list(Y = Y, E = if (keep_E) E, Q = Q, lj = lj, lj_plain = lj_plain, D = D,
+       log_prior_run = log_prior_run)
+}
+
+# The leave-setting-out pieces D (runs x grid points x settings) of the
+# residuals E (runs in rows), one grid point at a time.
+leave_setting_pieces <- function(ctx, E) {
+  D <- array(0, c(nrow(E), length(ctx$points), ctx$n_x))
+  for (g in seq_along(ctx$points)) D[, g, ] <- setting_pieces(ctx, E, ctx$points[[g]])
+  D
+}
+
+# Whether the settings are independent under every grid point's noise model
+# (complete data, no relative sd, R_x^-1 diagonal: no rho_x): then a
+# setting's leave-out piece is its own quadratic form (setting_quad_forms()).
+settings_apart <- function(ctx) {
+  !ctx$dense && is.null(ctx$sd) && all(vapply(ctx$points, function(point) {
+    R <- point$Rx_inv
+    all(R[row(R) != col(R)] == 0)
+  }, logical(1)))
+}
+
+# setting_pieces() at every grid point at once when the settings are apart
+# (settings_apart()): with R^-1 = R_x^-1 (x) Pt and R_x^-1 diagonal, D_k =
+# (R_x^-1)_kk e_k' Pt e_k, and e_k' Pt e_k is setting k's own misfit under
+# the AR(1) precision alone, which the compiled misfit pass gives at every
+# rho_t at once (quad_forms_cpp() with one x setting): one pass per setting
+# over the outputs Y, without residuals or whitened copies. The same numbers
+# as setting_pieces() to rounding. Returns runs x grid points x settings.
+setting_quad_forms <- function(ctx, Y) {
+  n_t <- ctx$n_t
+  setup <- ctx$setup
+  G <- length(ctx$points)
+  one <- array(1, c(1L, 1L, 1L))
+  D <- array(0, c(nrow(Y), G, ctx$n_x))
+  for (k in seq_len(ctx$n_x)) {
+    cols <- (k - 1L) * n_t + seq_len(n_t)
+    # one column per rho_t value; grid point g uses column gt[g]
+    Qt <- quad_forms_cpp(Y[, cols, drop = FALSE], ctx$y[cols], one, setup$phi, griddy_threads())
+    for (g in seq_len(G)) {
+      D[, g, k] <- ctx$points[[g]]$Rx_inv[k, k] * Qt[, setup$gt[g]]
+    }
+  }
+  D
 }
 
 # D_k = h_B' P_BB^-1 h_B (runs x settings) at one grid point, for B the

@@ -48,7 +48,8 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   } else {
     lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
   }
-  E <- base_terms$E[, ctx$obs, drop = FALSE]
+  E <- if (length(ctx$obs) == ncol(base_terms$E)) base_terms$E else
+    base_terms$E[, ctx$obs, drop = FALSE]
   # the x step of kronecker_products() depends on the kernel and R_x^-1 only:
   # kept for the grid points that share R_x^-1 (all of them without rho_x)
   x_steps <- vector("list", length(factors))
@@ -64,18 +65,20 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
     point <- ctx$points[[g]]
     unlist(lapply(seq_along(factors), function(i) {
       B <- factors[[i]]
+      # every ratio's sum_i s z_i^2 / (1 + s l_i) from one product (runs x ratios)
       if (kron) {
-        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t)
+        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t, ratios)
         l <- kp$l
-        Z2 <- kp$Z^2
+        drop_by <- kp$drop_by
       } else {
         PB <- precision_times(ctx, point, B)
         eig <- eigen(crossprod(B, PB), symmetric = TRUE)
         l <- pmax(eig$values, 0)
-        Z2 <- (E %*% (PB %*% eig$vectors))^2
+        drop_by <- (E %*% (PB %*% eig$vectors))^2 %*% ratio_weights(l, ratios)
       }
-      vapply(ratios, function(s) {
-        Q <- base_terms$Q[, g] - drop(Z2 %*% (s / (1 + s * l)))
+      vapply(seq_along(ratios), function(k) {
+        s <- ratios[k]
+        Q <- base_terms$Q[, g] - drop_by[, k]
         log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
                                         ctx$logdet[g] + sum(log1p(s * l)), ctx$prior,
                                         base_terms$log_prior_run, point$log_prior))
@@ -92,23 +95,41 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
 # n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
 # (the x step, kronecker_x_step(), once per kernel) + rx n_t rt products
 # instead of n_x n_t rx rt (the same quantities as the full factor, to
-# rounding). Z: runs x (rx rt), column (ix - 1) rt + it.
-kronecker_products <- function(point, xs, Bt, J, n_t) {
+# rounding). Z (column (ix - 1) rt + it) is reduced at once to drop_by, runs x
+# ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s.
+kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
   PtBt <- ar1_precision_times(point$Pt, Bt)
   et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
   Mt <- PtBt %*% et$vectors
-  rx <- ncol(xs$Ex)
-  Z <- do.call(cbind, lapply(seq_len(rx), function(ix) matrix(xs$Ex[, ix], J, n_t) %*% Mt))
-  list(Z = Z, l = kronecker(xs$lx, pmax(et$values, 0)))
+  rx <- length(xs$Ex)
+  l <- kronecker(xs$lx, pmax(et$values, 0))
+  weights <- ratio_weights(l, ratios)
+  rt <- ncol(Mt)
+  # Z's columns of x direction ix, squared and weighted, summed block by block
+  # (no runs x (rx rt) matrix)
+  drop_by <- matrix(0, J, length(ratios))
+  for (ix in seq_len(rx)) {
+    Zx <- xs$Ex[[ix]] %*% Mt
+    drop_by <- drop_by + (Zx * Zx) %*% weights[(ix - 1L) * rt + seq_len(rt), , drop = FALSE]
+  }
+  list(drop_by = drop_by, l = l)
+}
+
+# s / (1 + s l_i): one column per ratio s, one row per eigenvalue l_i.
+ratio_weights <- function(l, ratios) {
+  vapply(ratios, function(s) s / (1 + s * l), numeric(length(l)))
 }
 
 # The x step: Ex = the runs' residuals (rows of n_t, one column per x
-# setting) times Mx = R_x^-1 Bx Vx, and lx the eigenvalues of Bx'R_x^-1 Bx.
+# setting) times Mx = R_x^-1 Bx Vx, as one runs x n_t matrix per x direction,
+# and lx the eigenvalues of Bx'R_x^-1 Bx.
 kronecker_x_step <- function(Rx_inv, Bx, E, n_t) {
   RxBx <- Rx_inv %*% Bx
   ex <- eigen(crossprod(Bx, RxBx), symmetric = TRUE)
-  list(Rx_inv = Rx_inv, Ex = matrix(E, nrow(E) * n_t, nrow(Bx)) %*%
-         (RxBx %*% ex$vectors), lx = pmax(ex$values, 0))
+  J <- nrow(E)
+  Ex <- matrix(E, J * n_t, nrow(Bx)) %*% (RxBx %*% ex$vectors)
+  list(Rx_inv = Rx_inv, Ex = lapply(seq_len(ncol(Ex)), function(ix) matrix(Ex[, ix], J, n_t)),
+       lx = pmax(ex$values, 0))
 }
 
 # B with K = B B' to rounding (K positive semi-definite): the rows of the

@@ -12,7 +12,30 @@
 # The refined base problem.
 matched_base <- function(fit, max_runs) {
   if (max_runs == 0L) return(fit)
-  refine_rounds(fit, NULL, max_runs, default_runs_per_round(lib_theta(fit$library)))$problem
+  refine_rounds(fit, NULL, max_runs, default_runs_per_round(lib_theta(fit$library)),
+                settled = settled_in_range)$problem
+}
+
+# Whether more predicted runs cannot resolve a model further: after a round
+# that moved no interval bound by more than `interval_tol` of its width and
+# cut off no side, every parameter still limited (too few effective values,
+# see resolution_table()) has a 95% interval that already spans the
+# library's whole range in it (to the edge band of resolution_table()). The
+# data do not narrow such a parameter inside the range, and runs predicted in
+# it (the box stays inside the range) only add values to a flat marginal: on
+# a candidate whose strength a shift of theta imitates, refine_rounds() would
+# otherwise spend all of `max_runs` on it. The evidence such runs would still
+# change is an average over a marginal the data leave flat.
+settled_in_range <- function(state, previous) {
+  tab <- state$table
+  width <- pmax(tab$upper - tab$lower, previous$upper - previous$lower)
+  moved <- pmax(abs(tab$lower - previous$lower), abs(tab$upper - previous$upper))
+  if (!all(moved <= interval_tol * width) || any(truncated_sides(state))) return(FALSE)
+  range0 <- library_box(lib_base(state$problem$library))
+  band <- edge_band_share * (range0[2, ] - range0[1, ])
+  spans <- tab$lower <= range0[1, ] + band & tab$upper >= range0[2, ] - band
+  open <- tab$limited & !tab$constant
+  all(spans[open])
 }
 
 # A candidate at matched resolution: its runs' theta (base columns plus
@@ -32,7 +55,7 @@ matched_candidate <- function(cand, base_problem, max_runs) {
     Y <- lib_outputs(cand)
     return(list(theta = lib_theta(cand), Y = Y,
                 C = plain_quad_forms(Y, base_problem$y_field, base_problem$setup),
-                log_prior = candidate_log_prior(cand, base_cols)))
+                log_prior = candidate_log_prior(cand, base_cols), is_plain = TRUE))
   }
   zero <- problem_part(base_problem)
   zero$theta <- cbind(zero$theta, matrix(0, nrow(zero$theta), length(strength_cols),
@@ -41,8 +64,13 @@ matched_candidate <- function(cand, base_problem, max_runs) {
   on <- nonzero_part(cand, which(rowSums(abs(strength)) > 0), base_problem, max_runs)
   on$theta <- on$theta[names(zero$theta)]
   on$log_prior <- on$log_prior + log((n_levels - 1) / n_levels)
-  list(theta = rbind(zero$theta, on$theta), Y = rbind(zero$Y, on$Y), C = rbind(zero$C, on$C),
-       log_prior = c(zero$log_prior, on$log_prior))
+  # theta stacked column by column (rbind() of two long data frames costs more)
+  theta <- as.data.frame(lapply(stats::setNames(nm = names(zero$theta)),
+                                function(nm) c(zero$theta[[nm]], on$theta[[nm]])),
+                         check.names = FALSE)
+  list(theta = theta, Y = rbind(zero$Y, on$Y), C = rbind(zero$C, on$C),
+       log_prior = c(zero$log_prior, on$log_prior), is_plain = FALSE,
+       base_rows = nrow(zero$Y))
 }
 
 problem_part <- function(problem) {
@@ -63,19 +91,26 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
   part <- suppressWarnings(sim_library(theta, Y, x = lib_x(cand), t = lib_t(cand)))
   problem <- problem_from_parts(part, base_problem$y_field, base_problem$prior,
                                 lib_log_prior(part), base_problem$setup)
-  problem_part(refine_rounds(problem, NULL, max_runs,
-                             default_runs_per_round(lib_theta(part)))$problem)
+  problem_part(refine_rounds(problem, NULL, max_runs, default_runs_per_round(lib_theta(part)),
+                             settled = settled_in_range)$problem)
 }
 
 # gap_terms() of a model at matched resolution: its table C is the plain
 # quadratic forms of Y unless some runs were predicted (their C holds the
 # prediction error), which the leave-out algebra then computes apart.
-matched_terms <- function(ctx, Y, log_prior, C, library = NULL) {
-  plain <- plain_quad_forms(Y, ctx$y, ctx$setup)
-  if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
-    return(gap_terms(ctx, Y, log_prior, Q = C))
+matched_terms <- function(ctx, Y, log_prior, C, library = NULL, is_plain = FALSE,
+                          shared = NULL, keep_E = TRUE) {
+  # a table known to be the plain forms (no predicted run) is not recomputed
+  if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
+  # the shared rows' plain forms are the other model's Q
+  plain <- if (is.null(shared)) plain_quad_forms(Y, ctx$y, ctx$setup) else {
+    head <- nrow(shared$Q)
+    rbind(shared$Q, plain_quad_forms(Y[-seq_len(head), , drop = FALSE], ctx$y, ctx$setup))
   }
-  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C)
+  if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
+    return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
+  }
+  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C, shared = shared, keep_E = keep_E)
   terms$emulation <- run_errors(library)
   terms
 }

@@ -102,8 +102,17 @@ plain_block <- function(h_B, U, Q) {
 
 # Indices of the largest weights holding `mass` of the total (at most `cap`).
 top_pairs <- function(w, mass, cap) {
-  o <- order(w, decreasing = TRUE)
+  # only the `cap` largest can be chosen: order those (a partial sort finds
+  # them), the same indices in the same order as ordering all of w
+  if (length(w) > cap) {
+    least <- -sort(-as.vector(w), partial = cap)[cap]
+    pool <- which(w >= least)
+  } else {
+    pool <- seq_along(w)
+  }
+  o <- pool[order(w[pool], decreasing = TRUE)]
   k <- which(cumsum(w[o]) >= mass * sum(w))[1]
+  if (is.na(k)) k <- length(o)
   o[seq_len(min(cap, k))]
 }
 

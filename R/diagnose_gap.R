@@ -14,6 +14,45 @@
 #' * **how much** each candidate shrinks the gap on data it has not seen:
 #'   each x setting is left out in turn and predicted from the others.
 #'
+#' **Without candidates** (`candidates` missing, `NULL` or an empty list),
+#' the question is whether the field data show a gap the simulator cannot
+#' absorb at all, and where. `$which` weighs "none" (the base model) against
+#' "other", the base model plus the Gaussian-process discrepancy
+#' `discrepancy` (a [gp_discrepancy()]; its `prior_none` is its prior
+#' probability of no gap within "other"'s grid and its ratio 0 is "none"),
+#' by their exact evidence: the fit recomputed with the discrepancy, with
+#' the fit's correlation grids, Gamma prior, run weights, noise groups,
+#' relative sd and replicates (whose pure error pins the noise, so that it
+#' is told from the discrepancy); `$evidence` is its
+#' [discrepancy_evidence()]. The answer is "other" when the evidence for it
+#' is at least positive: posterior log odds of "other" against "none" above
+#' 1 (with equal model priors, a log Bayes factor above 1; Kass and
+#' Raftery's inconclusive band is \eqn{\pm 1}); otherwise "none" (with
+#' `verdict$reason` `"inconclusive"` when "other" is the more probable of the
+#' two), unless the base model fails its own leave-block-out checks (see
+#' "Where" below; one noise precision and no replicates only): a gap too
+#' local or rough for a
+#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`), and
+#' `$where` is then those checks (`settings$where` is `"check"`, else
+#' `"discrepancy"`). At matched resolution: the base library is
+#' refined as below, then the model with the discrepancy is refined in turn
+#' (its posterior over theta may lie elsewhere), predicted runs keeping their
+#' prediction error beside the discrepancy, so a truth between coarse runs
+#' is not called a gap. `$where` has the same blocks, but a block's `score`
+#' and `p_value` say where the discrepancy's posterior is away from zero: at
+#' a grid point with a discrepancy, the discrepancy given the run is
+#' multivariate t; `score` is its block mean's squared distance from zero in
+#' the block's posterior metric per dimension, F-distributed about the mean,
+#' `p_value` the posterior probability of a discrepancy further from its mean
+#' than zero, both averaged over the exact posterior given a discrepancy
+#' (\eqn{\lambda > 0}); Benjamini-Hochberg at level `fdr` gives `flagged`,
+#' only when the answer is "other". `$map` is the discrepancy's
+#' posterior mean (`residual`) and its size in posterior sds (`z`), given a
+#' discrepancy. An effect that a shift of theta imitates is spread by the
+#' discrepancy over the settings where the shifted simulator misses, not
+#' only where the effect acts (Brynjarsdóttir and O'Hagan 2014). `shrinkage`
+#' has no rows, `folds` and `separation` are `NULL`.
+#'
 #' **Matched resolution.** On a coarse library a truth between runs leaves
 #' a misfit no run removes, which a candidate with one more dimension, or the
 #' smooth discrepancy "other", would explain although there is no effect. So
@@ -22,8 +61,12 @@
 #' [refine()] does without a simulator (runs predicted from the library,
 #' their prediction error in the likelihood; at most `max_runs` runs each),
 #' and a candidate's zero level is the refined base itself. Models that are
-#' already resolved are left as they are. Every part of the diagnosis below
-#' uses the refined libraries.
+#' already resolved are left as they are, and a model that more predicted runs
+#' cannot resolve stops after its first round: when that round moved no
+#' interval and every parameter still short of effective values has a 95%
+#' interval spanning the library's whole range (a strength the data leave
+#' flat, as for an effect a shift of theta imitates). Every part of the
+#' diagnosis below uses the refined libraries.
 #'
 #' **Missing data and relative sd.** Field data with missing cells or a
 #' relative `sd` (see [field_data()]) are diagnosed on the observed points
@@ -32,10 +75,12 @@
 #' block (of "where") or x setting (of "how much") is its observed cells; a
 #' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
 #' never flagged) and a setting with none has no fold. Candidates' quadratic
-#' forms use the same observed points and sd. **Not yet supported:** noise
-#' groups (see [calibrate()]): with a precision per group the block
-#' statistic has no single F distribution; and replicated field
-#' measurements. Such a fit is an error of class `griddy_error_unsupported`.
+#' forms use the same observed points and sd. **Not yet supported with
+#' candidates:** noise groups (see [calibrate()]): with a precision per group
+#' the block statistic has no single F distribution; and replicated field
+#' measurements (the leave-block-out checks of predicted runs are not
+#' calibrated for them). Such a fit is an error of class
+#' `griddy_error_unsupported` (without candidates both are supported).
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
@@ -109,7 +154,8 @@
 #'
 #' @param fit A `griddy_fit` from [calibrate()].
 #' @param candidates A named list of candidate effects, each a [sim_library()]
-#'   as described in Details.
+#'   as described in Details; `NULL` (the default) or an empty list asks only
+#'   whether there is a gap, and where (see "Without candidates").
 #' @param windows Blocks over t: `NULL` (default) picks windows at least one
 #'   fitted correlation length long (at most 8 per setting); a single whole
 #'   number gives that many equal windows; a vector of more than one value
@@ -127,6 +173,8 @@
 #'   places are random).
 #' @param progress Show a progress bar over the steps (refining the base
 #'   library and each candidate, the evidence, the checks).
+#' @param discrepancy Without candidates, the [gp_discrepancy()] that
+#'   "other" adds to the base model (its `ratio` must hold 0).
 #' @param control Settings shared by the calibrating functions, from
 #'   [griddy_control()]: the defaults of `max_runs` and `progress`; an
 #'   argument given in the call overrides its field.
@@ -165,7 +213,10 @@
 #'     measure to separate them, from `separation`; where that says nothing
 #'     (one x setting, or alike at every one), a sentence per absorbing
 #'     parameter and the generic advice: outside the control settings'
-#'     ranges), `n_flagged` and `prob_none`.
+#'     ranges), `n_flagged` and `prob_none` (and `mode = "discrepancy"`
+#'     without candidates);
+#'   * `evidence` (without candidates): the [discrepancy_evidence()] of the
+#'     fit with the discrepancy, at matched resolution.
 #'
 #'   `print()` gives the short result: the verdict (answer, probability,
 #'   held-out shrinkage), the worst flagged block, one line per model and the
@@ -188,14 +239,25 @@
 #' gap <- diagnose_gap(fit, list(quadratic = quad))
 #' gap
 #' gap$which
+#' # without candidates: is there a gap at all, and where?
+#' diagnose_gap(fit, discrepancy = gp_discrepancy(ratio = c(0, 1, 10, 100)), seed = 1)
 #' @export
-diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_models = NULL,
-                         other_scales = c(0.03, 0.1, 0.3), confounding_threshold = 0.05,
-                         max_runs = control$max_runs, seed = NULL,
-                         progress = control$progress, control = griddy_control()) {
+diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
+                         prior_models = NULL, other_scales = c(0.03, 0.1, 0.3),
+                         confounding_threshold = 0.05, max_runs = control$max_runs,
+                         seed = NULL, progress = control$progress,
+                         discrepancy = gp_discrepancy(), control = griddy_control()) {
   control <- assert_control(control)
   if (!inherits(fit, "griddy_fit")) {
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
+  }
+  if (no_candidates(candidates)) {
+    # is there a gap at all, and where (diagnose_gap-discrepancy.R)
+    discrepancy <- check_gap_discrepancy(discrepancy)
+    return(gap_without_candidates(
+      fit, discrepancy, windows, assert_level(fdr, "fdr"), prior_models,
+      assert_count(max_runs, "max_runs", min = 0L), assert_seed(seed),
+      gap_progress(assert_flag(progress, "progress"), 0L)))
   }
   check_gap_pattern(fit)
   base <- fit$library
@@ -225,9 +287,14 @@ diagnose_gap <- function(fit, candidates, windows = NULL, fdr = 0.05, prior_mode
   ctx <- gap_context(matched$base)
   # the base model's runs x grid table, built once for the whole call
   base_terms <- matched_terms(ctx, lib_outputs(matched$base$library),
-                              matched$base$log_prior_run, matched$base$C, matched$base$library)
+                              matched$base$log_prior_run, matched$base$C, matched$base$library,
+                              is_plain = is.null(run_errors(matched$base$library)))
   cand_terms <- lapply(matched$candidates, function(m) {
-    matched_terms(ctx, m$Y, m$log_prior, m$C)
+    # the zero level of a refined candidate is the refined base: its rows'
+    # leave-out pieces are the base's
+    shared <- if (!is.null(m$base_rows)) base_terms
+    matched_terms(ctx, m$Y, m$log_prior, m$C, is_plain = m$is_plain, shared = shared,
+                  keep_E = FALSE)
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 
@@ -304,19 +371,25 @@ check_gap_pattern <- function(fit) {
   n_groups <- length(fit$setup$group_sizes)
   if (n_groups > 1L) {
     griddy_abort("diagnose_gap() does not yet support fits with noise groups (this fit has ",
-                 n_groups, "); missing field data and relative `sd` are supported. Refit ",
-                 "without `noise_groups` (one tau) to diagnose the gap.",
+                 n_groups, ") with candidates; missing field data and relative `sd` are supported. ",
+                 "Refit without `noise_groups` (one tau) to weigh candidates, or diagnose ",
+                 "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
   # replicates enter the likelihood as their cell means plus a pure-error sum
-  # of squares, which the leave-block-out pieces (on the means) leave out
-  if (fit$n_obs > sum(!is.na(fit$y_field))) {
-    griddy_abort("diagnose_gap() does not yet support replicated field measurements (",
-                 fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)), " cells). ",
-                 "Diagnose the gap on the replicates' means (one row per setting in ",
+  # of squares; the leave-block-out checks of refined libraries (predicted
+  # runs' error) are not calibrated for them yet
+  if (has_replicates(fit)) {
+    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
+                 "candidates (", fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)),
+                 " cells). Diagnose without candidates (is there a gap, and where), or ",
+                 "weigh candidates on the replicates' means (one row per setting in ",
                  "field_data()).", class = "unsupported")
   }
 }
+
+# More measurements than measured cells: replicates.
+has_replicates <- function(fit) fit$n_obs > sum(!is.na(fit$y_field))
 
 check_candidates <- function(candidates, base) {
   if (inherits(candidates, "sim_library") || !is.list(candidates) || length(candidates) == 0L) {

@@ -267,11 +267,46 @@ noise_var_pooled <- function(problem, s2) {
 # emulator inflates by its misfit) and the best run's misfit per data point
 # under the model with the error (C, extra log-determinant folded), which
 # the error can only lower.
-reference_noise_var <- function(setup, s2, C) {
+#
+# Both of those still hold the emulator's misfit when no run fits (a useless
+# emulator once scored 0.72 against a noise sd it had inflated five-fold),
+# so the field data's roughness bounds them too (roughness_noise_var()).
+reference_noise_var <- function(setup, s2, C, rough = NULL) {
   n <- sum(setup$group_sizes)
   df <- if (is.null(setup$dense)) 0 else setup$group_sizes - lengths(setup$dense$groups)
   if (sum(df) >= 5L) return(sum(setup$pure_ss) / sum(df))
-  min(sum(s2 * setup$group_sizes) / n, max(min(C), 0) / n)
+  min(sum(s2 * setup$group_sizes) / n, max(min(C), 0) / n, rough)
+}
+
+# The noise variance from the roughness of the best run's residuals: their
+# third differences along the data (within each x setting, or each noise
+# group's observed points), after whitening under the most probable grid
+# point. White noise gives a third difference the variance 20 sigma^2
+# (choose(6, 3)); a smooth misfit (the emulator's error, a discrepancy)
+# barely reaches it, so neither can inflate this estimate. On a robust scale
+# (MAD), since an edge between settings makes a few differences large. NULL
+# with fewer than 10 differences.
+roughness_order <- 3L
+
+roughness_noise_var <- function(state) {
+  problem <- state$problem
+  lib <- problem$library
+  n_x <- lib_n_x(lib)
+  n_t <- lib_n_t(lib)
+  g <- if (is.null(state$joint)) 1L else which.max(colSums(state$joint))
+  resid <- matrix(problem$y_field - lib_outputs(lib, which.max(state$p))[1, ], 1)
+  point <- grid_point(problem$setup, g)
+  sequences <- if (is.null(point$dense)) {
+    w <- whiten_rows(resid, point, n_x, n_t, over_x = FALSE)
+    split(w[1, ], rep(seq_len(n_x), each = n_t))
+  } else {
+    lapply(whiten_groups(resid, point), function(W) W[1, ])
+  }
+  d <- unlist(lapply(sequences, function(v) {
+    if (length(v) > roughness_order) diff(v, differences = roughness_order)
+  }))
+  if (length(d) < 10L) return(NULL)
+  stats::mad(d)^2 / choose(2L * roughness_order, roughness_order)
 }
 
 # Every round's prediction error on the scale of the current posterior's
@@ -339,7 +374,7 @@ emulation_error_ratio <- function(emulator, state) {
   theta <- as.matrix(lib_theta(state$problem$library))
   loo_error_near(emulator, theta[which.max(state$p), ],
                  reference_noise_var(state$problem$setup, posterior_noise_var(state),
-                                     state$problem$C))
+                                     state$problem$C, roughness_noise_var(state)))
 }
 
 # The root mean square of an emulator's leave-one-out residuals (`loo`, at

@@ -90,8 +90,16 @@ gap_verdict <- function(which_tab, separation, base, where) {
 # nothing about it).
 verdict_label <- function(v) {
   switch(v$answer,
-         none = paste0("no gap (", prob_phrase(v$prob), ")"),
-         other = if (identical(v$reason, "blocks")) "a local gap no candidate explains" else
+         none = if (identical(v$reason, "inconclusive")) {
+           paste0("no detectable gap (inconclusive evidence, ",
+                  prob_phrase(1 - v$prob_none, "P(other)"), ")")
+         } else paste0("no gap (", prob_phrase(v$prob), ")"),
+         other = if (identical(v$reason, "blocks")) {
+           if (without_candidates(v)) "a local gap the smooth discrepancy misses" else
+             "a local gap no candidate explains"
+         } else if (without_candidates(v)) {
+           paste0("a gap the simulator cannot absorb (", prob_phrase(v$prob, "P(other)"), ")")
+         } else
            paste0("a gap no candidate explains (", prob_phrase(v$prob, "P(other)"), ")"),
          paste0("best explained by '", v$answer, "' (", prob_phrase(v$prob), ")"))
 }
@@ -138,8 +146,12 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
     spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), ", t ",
                     ends[, 1], "-", ends[, 2],
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
+    # without candidates a block is flagged for its discrepancy, not its misfit
+    away <- identical(x$settings$where, "discrepancy")
     paste0("Where: ", nrow(fl), " of ", nrow(wh), " blocks ",
-           if (!scores) "flagged" else if (nrow(fl) == 1L) "departs from the fitted noise" else
+           if (!scores) "flagged" else if (away) {
+             paste0(if (nrow(fl) == 1L) "has" else "have", " a discrepancy away from zero")
+           } else if (nrow(fl) == 1L) "departs from the fitted noise" else
              "depart from the fitted noise", " (", fdr, "); worst at ",
            paste(spots, collapse = "; "))
   }
@@ -171,9 +183,10 @@ wrap_lines <- function(s) {
 #' @export
 print.gap_diagnosis <- function(x, ...) {
   n_cand <- nrow(x$which) - 2L
-  cli::cat_line("<gap_diagnosis> ", n_cand, " candidate", if (n_cand != 1L) "s", ", ",
-                nrow(x$where), " blocks")
-  cli::cat_line(wrap_lines(c(verdict_line(x), where_line(x))))
+  what <- if (without_candidates(x$verdict)) "no candidates (a discrepancy against none)" else
+    paste0(n_cand, " candidate", if (n_cand != 1L) "s")
+  cli::cat_line("<gap_diagnosis> ", what, ", ", nrow(x$where), " blocks")
+  cli::cat_line(wrap_lines(c(verdict_line(x), evidence_line(x), where_line(x))))
   cli::cat_line(model_lines(x))
   # the table's notes say what absorbs each confounded candidate
   cli::cat_line(wrap_lines(gap_advice(x$which, x$separation, x$x, explain = FALSE)))
@@ -225,7 +238,7 @@ summary.gap_diagnosis <- function(object, ...) {
   fl <- object$where[object$where$flagged, ]
   fl <- fl[order(fl$score, decreasing = TRUE), ]
   rownames(fl) <- NULL
-  structure(list(explanation = verdict_explanation(object),
+  structure(list(explanation = c(verdict_explanation(object), evidence_line(object)),
                  where = where_line(object, n_worst = 3L, scores = TRUE),
                  advice = gap_advice(object$which, object$separation, object$x),
                  models = models, flagged = fl,
@@ -238,7 +251,11 @@ verdict_explanation <- function(x) {
   v <- x$verdict
   conf <- x$which[x$which$confounded, ]
   out <- switch(v$answer,
-    none = if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
+    none = if (identical(v$reason, "inconclusive")) {
+      paste0("No detectable gap: the evidence for a discrepancy is inconclusive (",
+             prob_phrase(1 - v$prob_none, "P(other)"), ", below the log odds of ",
+             gap_detect_log_odds, " that a gap needs), so the base model stands.")
+    } else if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
       paste0("No gap that theta cannot absorb: the base model and the confounded ",
              "candidate", if (nrow(conf) > 1L) "s", " ", quoted_list(conf$effect),
              " fit alike once theta is recalibrated (", prob_phrase(v$prob, "P(none)"),
@@ -247,7 +264,12 @@ verdict_explanation <- function(x) {
       paste0("No detectable gap: the base model explains the data (",
              prob_phrase(v$prob, "P(none)"), ").")
     },
-    other = if (identical(v$reason, "blocks")) {
+    other = if (without_candidates(v) && !identical(v$reason, "blocks")) {
+      paste0("There is a gap the simulator cannot absorb: the base model plus a Gaussian-",
+             "process discrepancy explains the data better than the base model (",
+             prob_phrase(v$prob, "P(other)"), "). theta is then the value that best fits ",
+             "the data with a discrepancy, not necessarily the physical one.")
+    } else if (identical(v$reason, "blocks")) {
       paste0("There is a gap that no candidate explains: ", v$n_flagged, " block",
              if (v$n_flagged != 1L) "s", " depart from the fitted noise, though no candidate ",
              "or smooth discrepancy beats the base model in evidence (",
@@ -272,11 +294,17 @@ verdict_explanation <- function(x) {
 print.gap_diagnosis_summary <- function(x, digits = 3, ...) {
   s <- x$settings
   n_cand <- nrow(x$models) - 2L
-  cli::cat_line(wrap_lines(paste0(
-    "Gap diagnosis: ", n_cand, " candidate", if (n_cand != 1L) "s",
-    " against the base model ('none') ",
-    "and a smooth discrepancy ('other'); blocks flagged at FDR ", format(100 * s$fdr),
-    "%; confounded below a separable fraction of ", format(s$confounding_threshold), ".")))
+  head <- if (is.null(s$confounding_threshold)) {
+    paste0("Gap diagnosis without candidates: the base model ('none') against it plus a ",
+           "Gaussian-process discrepancy ('other'); blocks flagged where the discrepancy's ",
+           "posterior is away from zero, at FDR ", format(100 * s$fdr), "%.")
+  } else {
+    paste0("Gap diagnosis: ", n_cand, " candidate", if (n_cand != 1L) "s",
+           " against the base model ('none') ",
+           "and a smooth discrepancy ('other'); blocks flagged at FDR ", format(100 * s$fdr),
+           "%; confounded below a separable fraction of ", format(s$confounding_threshold), ".")
+  }
+  cli::cat_line(wrap_lines(head))
   cli::cat_line(wrap_lines(c(x$explanation, x$where, x$advice)))
   m <- x$models
   # each number to `digits` significant digits on its own (a column of
@@ -286,8 +314,12 @@ print.gap_diagnosis_summary <- function(x, digits = 3, ...) {
   })
   m$prob <- format_prob(x$models$prob)
   cli::cat_line("Models:")
-  print(m[c("effect", "prob", "log_evidence", "confounded", "separable", "detectable",
-            "absorbed_by")], row.names = FALSE)
+  cols <- c("effect", "prob", "log_evidence")
+  # the confounding columns say something only of candidates
+  if (!is.null(s$confounding_threshold)) {
+    cols <- c(cols, "confounded", "separable", "detectable", "absorbed_by")
+  }
+  print(m[cols], row.names = FALSE)
   cand <- m[!is.na(x$models$shrink), ]
   if (nrow(cand) > 0L) {
     cli::cat_line("Held-out settings (each x setting left out in turn):")
@@ -327,6 +359,10 @@ plot.gap_diagnosis <- function(x, ...) {
   wh <- x$where
   wh$setting <- factor(lab[wh$x], levels = lab)
   lim <- max(3, max(abs(map$z), na.rm = TRUE))
+  # without candidates the map is the discrepancy's posterior mean, in its
+  # posterior sds
+  discrepancy <- identical(x$settings$where, "discrepancy")
+  z_name <- if (discrepancy) "Discrepancy /\nposterior sd" else "Residual /\nnoise sd"
   # two lines, the verdict on the second: on one it ran past a vignette-width figure
   title <- paste0("Gap map: ", sum(wh$flagged, na.rm = TRUE), " of ", nrow(wh),
                   " blocks flagged\n", paste(strwrap(verdict_label(x$verdict), 60), collapse = "\n"))
@@ -336,7 +372,8 @@ plot.gap_diagnosis <- function(x, ...) {
              ggplot2::geom_col() +
              ggplot2::geom_hline(yintercept = c(-2, 2), linetype = 2, colour = "grey40") +
              ggplot2::scale_fill_manual(values = c(`FALSE` = "grey60", `TRUE` = "firebrick")) +
-             ggplot2::labs(x = "x setting", y = "Residual / noise sd", fill = "Flagged",
+             ggplot2::labs(x = "x setting", y = sub("\n", " ", z_name, fixed = TRUE),
+                           fill = "Flagged",
                            title = title) +
              ggplot2::theme_bw() +
              ggplot2::theme(axis.text.x = ggplot2::element_text(angle = 90, hjust = 1)))
@@ -346,7 +383,7 @@ plot.gap_diagnosis <- function(x, ...) {
   p <- ggplot2::ggplot(map, ggplot2::aes(.data$t, .data$setting, fill = .data$z)) +
     ggplot2::geom_tile() +
     ggplot2::scale_fill_gradient2(low = "#2166ac", mid = "white", high = "#b2182b",
-                                  limits = c(-lim, lim), name = "Residual /\nnoise sd")
+                                  limits = c(-lim, lim), name = z_name)
   if (nrow(fl) > 0L) {
     p <- p + ggplot2::geom_rect(data = fl, inherit.aes = FALSE,
                                 ggplot2::aes(xmin = .data$from - dt, xmax = .data$to + dt,
@@ -355,8 +392,23 @@ plot.gap_diagnosis <- function(x, ...) {
                                 fill = NA, colour = "black", linewidth = 0.8)
   }
   p + ggplot2::labs(x = "t", y = "x setting", title = title,
-                    subtitle = "Outlined: blocks the fitted noise does not explain") +
+                    subtitle = if (discrepancy) {
+                      "Outlined: blocks where the discrepancy is away from zero"
+                    } else "Outlined: blocks the fitted noise does not explain") +
     ggplot2::theme_bw()
+}
+
+# A diagnosis made without candidates (diagnose_gap-discrepancy.R): its
+# verdict weighs the base model against a Gaussian-process discrepancy.
+without_candidates <- function(v) identical(v$mode, "discrepancy")
+
+# print()'s line on the discrepancy's evidence, without candidates.
+evidence_line <- function(x) {
+  ev <- x$evidence
+  if (is.null(ev)) return(character(0))
+  paste0("Evidence: log Bayes factor for a discrepancy ", format(ev$log_bayes_factor, digits = 3),
+         " (", evidence_words(ev$log_bayes_factor), "), at matched resolution (",
+         x$settings$runs, " runs).")
 }
 
 gap_x_labels <- function(x) {

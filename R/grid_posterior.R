@@ -33,7 +33,8 @@
 # `pattern` (noise_pattern()) is NULL for complete data with one tau and no
 # sd; otherwise the setup also holds `dense`, the dense factors of every grid
 # point, and log|R_g| is that of the observed, scaled and grouped covariance.
-correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL) {
+correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL,
+                              discrepancy = NULL) {
   if (!is.numeric(x_power) || length(x_power) != 1L || !is.finite(x_power) ||
       x_power <= 0 || x_power > 2) {
     griddy_abort("`x_power` must be a single number in (0, 2]; received ",
@@ -75,9 +76,19 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
                 x_power = x_power, rho_x = grids$x, rho_t = grids$t,
                 x_class = same_matrix_class(Rx_chol), group_sizes = n_x * n_t)
   if (is.null(pattern)) return(setup)
-  setup$dense <- dense_factors(setup, lib_t(library), pattern)
+  disc <- if (!is.null(discrepancy)) discrepancy_points(discrepancy, library)
+  kernels <- if (!is.null(disc)) discrepancy_kernels(library, attr(disc, "kernels"))
+  setup$dense <- dense_factors(setup, lib_t(library), pattern, disc, kernels)
   setup$logdet <- setup$dense$logdet
   setup$dense$logdet <- NULL
+  if (!is.null(disc)) {
+    # grid point g = (d - 1) G + h: base point h (rho) within discrepancy point d
+    G <- length(setup$gx)
+    setup$gd <- rep(seq_len(nrow(disc)), each = G)
+    setup$gx <- rep(setup$gx, nrow(disc))
+    setup$gt <- rep(setup$gt, nrow(disc))
+    setup$discrepancy <- disc
+  }
   # a group's size counts its replicates: its observed cells plus their
   # pure-error degrees of freedom; the pure error's sum of squares enters
   # every run's form in group_quad_forms()
@@ -116,27 +127,50 @@ same_matrix_class <- function(stack) {
   cls
 }
 
-# The dense factors of a noise pattern at every grid point: for each noise
-# group k, the upper Cholesky factor U_k of the observed block R_kk of R_g,
-# kept as A_k = U_k^-1 (R_kk^-1 = A_k A_k'), and the log-determinant of the
-# covariance S R S restricted to the observed points and grouped. An
-# observed block that is numerically singular (settings too close for the
-# correlation) is an error.
-dense_factors <- function(setup, t, pattern) {
+# The dense factors of a noise pattern at every grid point. For each noise
+# group k, with U_k the upper Cholesky factor of the observed block R_kk of
+# R_g, the inverse covariance is R_kk^-1 = A_k A_k' with A_k = U_k^-1. With a
+# discrepancy (discrepancy.R) the block is R_kk + lambda K_kk (K scaled by
+# 1/sd on both sides, as R is): with U_k^-T K_kk U_k^-1 = V diag(s) V', it is
+# U_k' V (I + lambda diag(s)) V' U_k, so A_k = W_k diag((1 + lambda s)^-1/2)
+# for the rotation W_k = U_k^-1 V, and its log-determinant gains
+# sum log(1 + lambda s). One rotation serves every ratio lambda of a
+# (rho, length scale) pair, so the factors are kept as rotations `W` (one
+# per pair, a list over groups), the rotation `rot` of each grid point and
+# its column weights `w` ((1 + lambda s)^-1, NULL for lambda = 0):
+# grid_point() assembles A. The grid points are the base points (one per
+# rho) within each discrepancy point, base points fastest. An observed
+# block that is numerically singular (settings too close for the
+# correlation) is an error. Also returned: the log-determinant of the
+# covariance S R S (+ lambda K) restricted to the observed points and
+# grouped.
+dense_factors <- function(setup, t, pattern, disc = NULL, kernels = NULL) {
   obs <- which(pattern$observed)
   groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
   names(groups) <- pattern$labels
+  scale <- if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs]
   # log|S R S| over the cells, plus the constant that makes it the
   # replicates' own (field_layout())
   log_sd <- if (is.null(pattern$sd_mean)) 0 else
     2 * sum(log(pattern$sd_mean[obs])) + pattern$log_sd_excess
+  if (is.null(disc)) {
+    disc <- data.frame(ratio = 0, kernel = 0L)
+  }
+  # the kernels over the observed points, scaled like R and cut into groups
+  kernel_blocks <- lapply(kernels, function(K) {
+    K <- K[obs, obs, drop = FALSE]
+    if (!is.null(scale)) K <- K * outer(scale, scale)
+    lapply(groups, function(idx) K[idx, idx, drop = FALSE])
+  })
   G <- length(setup$logdet)
-  A <- vector("list", G)
-  logdet <- numeric(G)
+  n_kernels <- length(kernels)
+  W <- vector("list", G * (n_kernels + 1L))
+  s <- W
+  base_logdet <- numeric(G)
   for (g in seq_len(G)) {
     R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
     R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs, drop = FALSE]
-    A[[g]] <- lapply(groups, function(idx) {
+    U <- lapply(groups, function(idx) {
       U <- tryCatch(chol(R[idx, idx, drop = FALSE]), error = function(e) NULL)
       if (is.null(U) || any(diag(U) < 1e-7)) {
         griddy_abort("The correlation of the observed points is numerically singular at ",
@@ -144,14 +178,41 @@ dense_factors <- function(setup, t, pattern) {
                      "coordinates are too close for this correlation. Use smaller values ",
                      "in `rho_x` or `rho_t`.", class = "numeric")
       }
-      logdet[g] <<- logdet[g] + 2 * sum(log(diag(U)))
-      backsolve(U, diag(length(idx)))
+      U
     })
-    logdet[g] <- logdet[g] + log_sd
+    base_logdet[g] <- sum(vapply(U, function(u) 2 * sum(log(diag(u))), 0)) + log_sd
+    A <- lapply(U, function(u) backsolve(u, diag(nrow(u))))
+    W[[rotation_index(g, 0L, G)]] <- A
+    for (k in seq_len(n_kernels)) {
+      eig <- Map(function(a, K) eigen(crossprod(a, K %*% a), symmetric = TRUE), A,
+                 kernel_blocks[[k]])
+      r <- rotation_index(g, k, G)
+      W[[r]] <- Map(function(a, e) a %*% e$vectors, A, eig)
+      s[[r]] <- lapply(eig, function(e) pmax(e$values, 0))
+    }
   }
-  list(obs = obs, scale = if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs],
-       groups = groups, A = A, logdet = logdet)
+  D <- nrow(disc)
+  rot <- integer(G * D)
+  w <- vector("list", G * D)
+  logdet <- numeric(G * D)
+  for (d in seq_len(D)) {
+    for (g in seq_len(G)) {
+      j <- (d - 1L) * G + g
+      rot[j] <- rotation_index(g, disc$kernel[d], G)
+      logdet[j] <- base_logdet[g]
+      if (disc$ratio[d] > 0) {
+        w[[j]] <- lapply(s[[rot[j]]], function(v) 1 / (1 + disc$ratio[d] * v))
+        logdet[j] <- logdet[j] - sum(log(unlist(w[[j]])))
+      }
+    }
+  }
+  used <- sort(unique(rot))
+  W[-used] <- list(NULL)
+  list(obs = obs, scale = scale, groups = groups, W = W, rot = rot, w = w, logdet = logdet)
 }
+
+# The rotation of base grid point g under kernel k (0: no discrepancy).
+rotation_index <- function(g, k, G) k * G + g
 
 # One grid point g: its R_x factor (upper Cholesky U, R_x = U'U) and inverse,
 # its AR(1) lag coefficients and log|R_g|; for a noise pattern that breaks
@@ -163,9 +224,17 @@ grid_point <- function(setup, g) {
                 Rx_inv = matrix(setup$Rx_inv[, , setup$gx[g]], n_x, n_x),
                 phi = setup$phi[, setup$gt[g]], logdet = setup$logdet[g])
   if (!is.null(setup$dense)) {
-    point$dense <- c(setup$dense[c("obs", "scale", "groups")], list(A = setup$dense$A[[g]]))
+    point$dense <- c(setup$dense[c("obs", "scale", "groups")], list(A = dense_point_factors(setup$dense, g)))
   }
   point
+}
+
+# The factors A_k of dense grid point g (see dense_factors()).
+dense_point_factors <- function(dense, g) {
+  W <- dense$W[[dense$rot[g]]]
+  w <- dense$w[[g]]
+  if (is.null(w)) return(W)
+  Map(function(M, v) sweep(M, 2, sqrt(v), "*"), W, w)
 }
 
 n_grid_points <- function(setup) length(setup$logdet)
@@ -248,8 +317,22 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
     return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi, threads))
   }
   C <- matrix(0, nrow(Y), n_grid_points(setup))
-  for (g in seq_len(ncol(C))) {
-    C[, g] <- fold_groups(group_quad_forms(Y, y_field, setup, g), setup)
+  dense <- setup$dense
+  resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
+  # one rotation per (rho, length scale) pair; each ratio lambda then
+  # weighs its squared rotated residuals (dense_factors())
+  for (r in unique(dense$rot)) {
+    at <- which(dense$rot == r)
+    Z2 <- lapply(whiten_groups(resid, list(dense = c(dense[c("obs", "scale", "groups")],
+                                                    list(A = dense$W[[r]])))), `^`, 2)
+    Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
+    for (k in seq_along(Z2)) {
+      weights <- vapply(at, function(g) {
+        if (is.null(dense$w[[g]])) rep(1, ncol(Z2[[k]])) else dense$w[[g]][[k]]
+      }, numeric(ncol(Z2[[k]])))
+      Ck[, , k] <- Z2[[k]] %*% weights + setup$pure_ss[k]
+    }
+    for (j in seq_along(at)) C[, at[j]] <- fold_groups(Ck[, j, ], setup)
   }
   if (!all(is.finite(C))) {
     griddy_abort("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or ",
@@ -348,6 +431,17 @@ normalise_log <- function(lj) {
   exp(lj - log_sum_exp(lj))
 }
 
+# log sum_i p(run i, grid point g, y) per grid point g, up to the constant
+# shared by all (log_evidence_constant()): one column of C at a time, so no
+# temporary is as large as C.
+grid_log_mass <- function(problem) {
+  n <- problem$n_obs
+  vapply(seq_len(ncol(problem$C)), function(g) {
+    log_sum_exp(collapsed_log_lik(problem$C[, g], n, problem$setup$logdet[g], problem$prior) +
+                  problem$log_prior_run + problem$log_prior_grid[g])
+  }, numeric(1))
+}
+
 # The posterior of a calibration problem (see calibration_problem()): the
 # posterior over runs (`run`) and over grid points (`grid`), the log
 # evidence and, with `joint = TRUE`, the joint probabilities over (run, grid
@@ -360,6 +454,6 @@ grid_posterior <- function(problem, joint = TRUE) {
                              problem$prior$rate, problem$setup$logdet, problem$log_prior_run,
                              problem$log_prior_grid, joint, griddy_threads())
   log_norm <- post$log_norm + log_evidence_constant(problem$prior, sizes)
-  list(joint = post$joint, run = post$run, grid = post$grid,
+  list(joint = post$joint, run = post$run, grid = post$grid, log_mass = log_norm,
        log_evidence = if (problem$prior$rate > 0) log_norm else NA_real_)
 }

@@ -55,7 +55,10 @@ tau_columns <- function(fit) grep("^tau(_|$)", names(fit$draws), value = TRUE)
 parameter_draws <- function(fit) {
   d <- as.data.frame(fit)
   fixed <- names(fit$grid)[vapply(fit$grid, function(v) length(unique(v)) == 1L, logical(1))]
-  d[setdiff(names(d), c("chain", "iteration", "run", fixed))]
+  # a discrepancy's length scales mean nothing at ratio 0 (NA there): its
+  # size is summarised by delta_ratio, its shape by discrepancy_evidence()
+  lengths <- c("delta_length_x", "delta_length_t")
+  d[setdiff(names(d), c("chain", "iteration", "run", fixed, lengths))]
 }
 
 #' @rdname griddy_fit-draws

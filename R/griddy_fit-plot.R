@@ -24,14 +24,22 @@
 #'   trade off) show; the truth is marked when given. With one pair the axes
 #'   are titled by the parameters' names; with several each panel is titled
 #'   "a (x), b (y)".
+#' * `"discrepancy"`: for a fit with a [gp_discrepancy()], where the
+#'   simulator misses the data: the posterior of the discrepancy
+#'   \eqn{\delta} ([discrepancy_posterior()]: mean and pointwise band)
+#'   against t, one panel per x setting, with the field data's residuals from
+#'   the simulator's posterior mean outputs as points. Where the band leaves
+#'   0 (the dashed line), the data show a gap there.
 #'
 #' @param x A `griddy_fit` from [calibrate()].
-#' @param type `"trace"`, `"posterior"`, `"ppc"` or `"pairs"`.
+#' @param type `"trace"`, `"posterior"`, `"ppc"`, `"pairs"` or
+#'   `"discrepancy"`.
 #' @param truth Optional named numeric vector of true \eqn{\theta} values,
 #'   marked in red on the `"posterior"` and `"pairs"` plots.
 #' @param max_points For `"trace"`, the most draws per chain drawn.
 #' @param ... Passed to [predict.griddy_fit()] for `"ppc"` (e.g. `level`,
-#'   `ndraws`, `seed`).
+#'   `ndraws`, `seed`, `discrepancy`), and to [discrepancy_posterior()] for
+#'   `"discrepancy"` (`level`, `ndraws`, `seed`).
 #' @return A ggplot object.
 #' @examples
 #' ex <- griddy_example()
@@ -39,17 +47,21 @@
 #' plot(fit, "posterior", truth = ex$truth)
 #' plot(fit, "ppc", ndraws = 200, seed = 1)
 #' plot(fit, "pairs", truth = ex$truth)
+#' fit_d <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1,
+#'                    discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
+#' plot(fit_d, "discrepancy", ndraws = 200, seed = 1)
 #' @importFrom ggplot2 .data
 #' @export
-plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc", "pairs"), truth = NULL,
-                            max_points = 1000, ...) {
-  type <- assert_choice(type, "type", c("trace", "posterior", "ppc", "pairs"),
+plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc", "pairs", "discrepancy"),
+                            truth = NULL, max_points = 1000, ...) {
+  type <- assert_choice(type, "type", c("trace", "posterior", "ppc", "pairs", "discrepancy"),
                         vector_default = TRUE)
   switch(type,
          trace = plot_trace(x, assert_count(max_points, "max_points", min = 2L)),
          posterior = plot_posterior(x, truth),
          ppc = plot_ppc(x, ...),
-         pairs = plot_pairs(x, truth))
+         pairs = plot_pairs(x, truth),
+         discrepancy = plot_discrepancy(x, ...))
 }
 
 # Thousands of draws per chain draw as a solid block (and take seconds to
@@ -231,8 +243,8 @@ library_ticks <- function(theta, bars) {
   }))
 }
 
-plot_ppc <- function(fit, level = 0.95, ...) {
-  pred <- predict(fit, level = level, ...)
+plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...) {
+  pred <- predict(fit, level = level, discrepancy = discrepancy, ...)
   single_t <- lib_n_t(fit$library) == 1L
   pred$position <- if (single_t) pred$x else pred$t
   pred$setting <- factor(setting_labels(fit$library)[pred$x], levels = setting_labels(fit$library))
@@ -260,9 +272,59 @@ plot_ppc <- function(fit, level = 0.95, ...) {
   p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
                     # two lines: one does not fit a vignette-width figure
                     subtitle = paste0("Black: field data (missing cells left out). Blue: ",
-                                      "simulator at the drawn runs\n(mean, ",
+                                      "simulator", if (isTRUE(discrepancy)) " + discrepancy",
+                                      " at the drawn runs\n(mean, ",
                                       format(100 * level), "% band). Grey: with fitted noise.")) +
     ggplot2::theme_bw()
+}
+
+# The discrepancy's posterior mean and band against t, one panel per x
+# setting (against the x column, or the setting's row, for one output per
+# setting), with the residuals of the field data from the simulator's
+# posterior mean outputs. One noise group: the panels share the y axis, so
+# the gap's size compares across settings; several (maybe other units):
+# each panel its own.
+plot_discrepancy <- function(fit, level = 0.95, ...) {
+  post <- discrepancy_posterior(fit, level = level, ...)
+  lib <- fit$library
+  replicated <- fit$n_obs > sum(!is.na(fit$y_field))
+  single_t <- lib_n_t(lib) == 1L
+  one_x_col <- !is.null(lib_x(lib)) && ncol(lib_x(lib)) == 1L
+  post$position <- if (!single_t) post$t else if (one_x_col) lib_x(lib)[[1]][post$x] else post$x
+  labels <- setting_labels(lib)
+  post$setting <- factor(labels[post$x], levels = labels)
+  p <- ggplot2::ggplot(post, ggplot2::aes(x = .data$position)) +
+    ggplot2::geom_hline(yintercept = 0, linetype = "dashed", colour = "grey40")
+  if (single_t) {
+    p <- p +
+      ggplot2::geom_pointrange(ggplot2::aes(y = .data$mean, ymin = .data$lower,
+                                            ymax = .data$upper), colour = "firebrick") +
+      ggplot2::geom_point(ggplot2::aes(y = .data$residual), colour = "black", shape = 4,
+                          size = 2.5, na.rm = TRUE) +
+      ggplot2::labs(x = if (one_x_col) names(lib_x(lib)) else "x setting (row of the library's x)")
+  } else {
+    several_groups <- length(fit$setup$pattern$labels) > 1L
+    p <- p +
+      ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper),
+                           fill = "firebrick", alpha = 0.25) +
+      ggplot2::geom_line(ggplot2::aes(y = .data$mean), colour = "firebrick") +
+      ggplot2::geom_point(ggplot2::aes(y = .data$residual), size = 0.8, na.rm = TRUE) +
+      ggplot2::facet_wrap(ggplot2::vars(.data$setting),
+                          scales = if (several_groups) "free_y" else "fixed") +
+      # few breaks: several panels side by side leave each little width
+      ggplot2::scale_x_continuous(n.breaks = 4,
+                                  guide = ggplot2::guide_axis(check.overlap = TRUE)) +
+      ggplot2::labs(x = "t")
+  }
+  p + ggplot2::labs(y = "Discrepancy (data minus simulator)",
+                    title = "Where the simulator misses the data",
+                    # short lines: one long line does not fit a narrow figure
+                    subtitle = paste0("Red: the discrepancy's posterior mean, ",
+                                      format(100 * level), "% band.\n",
+                                      "Black: data", if (replicated) " (replicates' means)\n" else " ",
+                                      "minus the simulator's posterior mean.\n",
+                                      "Dashed: no gap.")) +
+    posterior_theme()
 }
 
 # "height = 10, speed = 20" for each x setting.

@@ -14,32 +14,45 @@
 #'   settings are an error.
 #' @param level Probability of the central intervals.
 #' @param ndraws How many draws (evenly spaced over the kept ones) to add noise
-#'   to for the predictive bounds; the mean and the bounds without noise use
-#'   every kept draw.
+#'   (and with `discrepancy = TRUE` the discrepancy) to, for the bounds; the
+#'   mean, and the bounds of the simulator alone, use every kept draw.
 #' @param seed `NULL`, or a seed for the noise draws of this call only.
+#' @param discrepancy For a fit with a [gp_discrepancy()]: `TRUE` to predict
+#'   the simulator plus the discrepancy (bias-corrected), `FALSE` the
+#'   simulator alone. Must be `FALSE` for a fit without a discrepancy.
 #' @param ... Ignored.
 #' @return A data.frame with one row per library output at the settings
 #'   predicted (the library's order, or `newdata`'s), measured or not: `x`
 #'   (the row of the library's x settings), the x columns, `t`,
 #'   `observed` (the field data, the mean of a cell's replicates, `NA`
 #'   where missing), `mean`, `lower` and
-#'   `upper` (the simulator outputs at the drawn runs) and `pred_lower`,
+#'   `upper` (the simulator outputs at the drawn runs, plus the discrepancy
+#'   with `discrepancy = TRUE`) and `pred_lower`,
 #'   `pred_upper` (with noise: each noise group's at its own precision, times
 #'   the field's relative `sd` where given, `NA` where the field has no sd;
 #'   for one measurement, also where the field has replicates: a replicated
 #'   cell's sd is \eqn{\sqrt{n_{rep} / \sum_r sd_r^{-2}}}, its replicates'
 #'   when they share one).
+#' @references Bayarri, M. J., Berger, J. O., Paulo, R., Sacks, J., Cafeo,
+#'   J. A., Cavendish, J., Lin, C.-H. and Tu, J. (2007). A framework for
+#'   validation of computer models. *Technometrics* 49(2), 138-154.
 #' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1)
 #' head(predict(fit, ndraws = 200, seed = 1))
 #' predict(fit, newdata = data.frame(mass = 2), ndraws = 200, seed = 1)
+#' fit_d <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1,
+#'                    discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
+#' corrected <- predict(fit_d, ndraws = 200, seed = 1)
+#' simulator <- predict(fit_d, ndraws = 200, seed = 1, discrepancy = FALSE)
 #' @export
 predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 1000,
-                               seed = NULL, ...) {
+                               seed = NULL, discrepancy = has_discrepancy(object), ...) {
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   seed <- assert_seed(seed)
+  discrepancy <- assert_flag(discrepancy, "discrepancy")
+  if (discrepancy) assert_discrepancy_fit(object)
   lib <- object$library
   settings <- predict_settings(lib, newdata)
   cols <- as.vector(outer(seq_len(lib_n_t(lib)), (settings - 1L) * lib_n_t(lib), "+"))
@@ -48,14 +61,26 @@ predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 10
   visited <- which(freq > 0)
   Y <- lib_outputs(lib, visited)[, cols, drop = FALSE]
   w <- freq[visited] / sum(freq)
-  bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
-  pick <- unique(round(seq(1, nrow(object$draws), length.out = min(ndraws, nrow(object$draws)))))
-  noisy <- with_seed(seed, noisy_outputs(object, pick))[, cols, drop = FALSE]
+  mean <- colSums(Y * w)
+  pick <- evenly_spaced_draws(object, ndraws)
+  if (discrepancy) {
+    # the same draws' discrepancy joins their outputs and their noise
+    drawn <- with_seed(seed, list(delta = discrepancy_draws(object, pick),
+                                  noisy = noisy_outputs(object, pick)))
+    delta <- drawn$delta[, cols, drop = FALSE]
+    noisy <- drawn$noisy[, cols, drop = FALSE] + delta
+    mean <- mean + discrepancy_moments(object)$mean[cols]
+    corrected <- lib_outputs(lib, object$draws$run[pick])[, cols, drop = FALSE] + delta
+    bounds <- apply(corrected, 2, stats::quantile, probs = probs, names = FALSE)
+  } else {
+    bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
+    noisy <- with_seed(seed, noisy_outputs(object, pick))[, cols, drop = FALSE]
+  }
   pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE, na.rm = TRUE)
   out <- data.frame(x = rep(settings, each = lib_n_t(lib)))
   if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[out$x, , drop = FALSE])
   out <- cbind(out, t = rep(lib_t(lib), length(settings)), observed = object$y_field[cols],
-               mean = colSums(Y * w), lower = bounds[1, ], upper = bounds[2, ],
+               mean = mean, lower = bounds[1, ], upper = bounds[2, ],
                pred_lower = pred[1, ], pred_upper = pred[2, ])
   rownames(out) <- NULL
   out

@@ -109,7 +109,38 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
                                                                      tab$parameter)]
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
-            info = fit_description(object))
+            info = fit_description(object), discrepancy = fit_discrepancy_evidence(object),
+            gap_screen = if (screen_shows_gap(object)) object$gap_screen)
+}
+
+# The discrepancy evidence of a fit with one to weigh, else NULL.
+fit_discrepancy_evidence <- function(fit) {
+  if (is.null(fit$setup$discrepancy)) return(NULL)
+  ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
+  if (!is.null(ev) && ev$log_bayes_factor > gap_log_bf_threshold) {
+    ev$where <- discrepancy_where_text(fit)
+  }
+  ev
+}
+
+# summary()'s line on the gap screen of a fit without a discrepancy, when it
+# found a gap (screen_shows_gap()).
+format_gap_screen <- function(screen) {
+  if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(character())
+  paste("Gap:", gap_screen_message(screen$log_bf))
+}
+
+# summary()'s line on the discrepancy: the Bayes factor and, when it shows a
+# gap, what theta then means.
+format_discrepancy <- function(ev) {
+  if (is.null(ev)) return(character())
+  paste0("Discrepancy: log Bayes factor ", format(ev$log_bayes_factor, digits = 3), " (",
+         evidence_words(ev$log_bayes_factor), "); posterior probability of none ",
+         format(ev$prob_none, digits = 3), ".",
+         if (ev$log_bayes_factor > gap_log_bf_threshold) {
+           paste0(" The data show a gap: theta is the value that best fits them with a ",
+                  "discrepancy, not necessarily the physical one. ", ev$where)
+         })
 }
 
 # summary()'s rows for a data.frame of draws (one column per parameter) from
@@ -187,6 +218,8 @@ print.griddy_summary <- function(x, digits = 4, width = getOption("width"), ...)
   print_summary_table(x, digits, width, level)
   adequacy <- attr(x, "adequacy")
   if (!is.null(adequacy)) cat_wrapped(format_adequacy(adequacy), width)
+  cat_wrapped(format_discrepancy(attr(x, "discrepancy")), width)
+  cat_wrapped(format_gap_screen(attr(x, "gap_screen")), width)
   if (!is.null(x$rhat) && !is.null(adequacy$tv_reference)) {
     problems <- convergence_problems(stats::setNames(x$rhat, x$parameter),
                                      adequacy$tv_distance, adequacy$tv_reference)

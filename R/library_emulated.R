@@ -67,6 +67,16 @@
 #'   each, with `x`'s columns; `NULL` takes the distinct settings of `x`.
 #'   Must be `NULL` when `x` is.
 #' @param n_runs The number of \eqn{\theta} values in the library.
+#' @param t_out `NULL` (the library's outputs are at `t`), or the output
+#'   coordinates of the library to build when they are not the runs' (e.g.
+#'   the field's heights between the simulator's): each run's outputs are
+#'   first interpolated along `t` to `t_out` by a cubic spline
+#'   ([stats::splinefun()], `"fmm"`), within `t`'s range. The interpolation
+#'   error, estimated by leaving each interior coordinate of `t` out, is kept
+#'   as `interpolation$loo_rms` and printed; unlike the emulator's it is not
+#'   in the likelihood, so `t` should be dense enough for it to be small
+#'   against the noise. [read_calibration_inputs()] passes its `t_field`
+#'   this way.
 #' @param seed `NULL`, or a seed for this call only; either way the library
 #'   is reproducible with [set.seed()].
 #' @return An object of class `emulated_library`, a library usable wherever
@@ -75,8 +85,10 @@
 #'   by setting), `x` (the settings), `t`, `rel_var` (each run's
 #'   \eqn{\kappa_i}, before it is averaged),
 #'   `error` (the error model: `U`, `lambda`), `emulator` (the fitted GP and
-#'   its leave-one-out residuals), `design` (the runs) and `loo_rms`, the
-#'   root mean square leave-one-out error over the design's outputs.
+#'   its leave-one-out residuals), `design` (the runs, their outputs at the
+#'   library's `t`), `loo_rms`, the root mean square leave-one-out error over
+#'   the design's outputs, and `interpolation` (`NULL`, or with `t_out` the
+#'   runs' own coordinates `t` and the interpolation error `loo_rms`).
 #' @seealso [sim_library()], [read_calibration_inputs()], [refine()]
 #' @examplesIf requireNamespace("RobustGaSP", quietly = TRUE)
 #' set.seed(1)
@@ -89,7 +101,7 @@
 #' lib
 #' @export
 emulated_library <- function(theta, y, x = NULL, t = NULL, settings = NULL, n_runs = 10000,
-                             seed = NULL) {
+                             seed = NULL, t_out = NULL) {
   theta <- as_theta_matrix(theta)
   y <- as_numeric_matrix(y, "y")
   if (nrow(y) != nrow(theta)) {
@@ -111,11 +123,21 @@ emulated_library <- function(theta, y, x = NULL, t = NULL, settings = NULL, n_ru
   }
   if (!is.null(x)) settings <- settings[names(x)]
   t <- as_coordinates(t, ncol(y), "t", "outputs per run (columns of `y`)")
+  t_out <- assert_output_coordinates(t_out, "t_out")
+  interpolation <- NULL
+  if (!is.null(t_out)) {
+    y <- interpolate_outputs(y, t, t_out, "t_out")
+    interpolation <- list(t = t, loo_rms = attr(y, "loo_rms"))
+    attr(y, "loo_rms") <- NULL
+    t <- t_out
+  }
   n_runs <- assert_count(n_runs, "n_runs", min = 2L)
   assert_emulated_size(n_runs, ncol(theta), if (is.null(settings)) 1L else nrow(settings),
                        length(t))
   seed <- assert_seed(seed)
-  with_seed(seed, build_emulated_library(theta, y, x, t, settings, n_runs))
+  library <- with_seed(seed, build_emulated_library(theta, y, x, t, settings, n_runs))
+  library$interpolation <- interpolation
+  library
 }
 
 # The memory building the library takes at its peak, checked before any of
@@ -216,6 +238,11 @@ print.emulated_library <- function(x, ...) {
   cli::cat_line("  x:     ", if (is.null(x$x)) "one setting" else
     paste0(nrow(x$x), " setting(s) of ", paste(names(x$x), collapse = ", ")))
   cli::cat_line("  outputs: ", lib_n_out(x), " per run")
+  if (!is.null(x$interpolation)) {
+    cli::cat_line("  t:     the runs' ", length(x$interpolation$t), " outputs interpolated to ",
+                  length(x$t), " coordinate(s), error (RMS, leave-one-out) ",
+                  format(x$interpolation$loo_rms, digits = 3))
+  }
   invisible(x)
 }
 
@@ -387,7 +414,8 @@ emulated_noise_var <- function(library, y_field, setup, times = 6L) {
     s2 <- state$problem$library$noise$noise_var
     list(C = state$problem$C, noise_var = s2, kappa = state$problem$library$noise$kappa,
          ratio = loo_error_near(library$emulator, mode,
-                                reference_noise_var(setup, s2, state$problem$C)),
+                                reference_noise_var(setup, s2, state$problem$C,
+                                                    roughness_noise_var(state))),
          lack_of_fit = lack_of_fit(setup, state$best))
   }
   stored <- library$noise

@@ -21,6 +21,9 @@
 #' (see [field_data()]) \eqn{|R_g|} is that of \eqn{S R_g S}.
 #'
 #' @inheritParams calibrate
+#' @param library A [sim_library()] (or any griddy library); or a
+#'   [griddy_stream()], whose posterior of the data so far is returned (the
+#'   other arguments, but `joint`, are then the stream's own).
 #' @param joint Logical: keep the runs x grid points table of joint
 #'   probabilities? It is as large as the misfit table C (8 GB at 10^6 runs x
 #'   1,000 grid points); `FALSE` leaves it out (`joint` is then `NULL`) and
@@ -50,10 +53,11 @@
 posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
                             prior = NULL,
                             x_power = 2, run_weights = NULL, noise_groups = NULL,
-                            joint = TRUE) {
+                            joint = TRUE, discrepancy = NULL) {
+  if (inherits(library, "griddy_stream")) return(stream_posterior(library, joint))
   joint <- assert_flag(joint, "joint")
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
-                                 noise_groups)
+                                 noise_groups, discrepancy = discrepancy)
   exact_from_problem(problem, joint)
 }
 
@@ -64,9 +68,16 @@ exact_from_problem <- function(problem, joint = TRUE) {
   post <- grid_posterior(problem, joint)
   grid <- problem$grid
   grid$prob <- post$grid
+  disc <- problem$setup$discrepancy
   structure(
     list(run = post$run, grid = grid, joint = post$joint, log_evidence = post$log_evidence),
-    class = "griddy_exact"
+    class = "griddy_exact", discrepancy = disc,
+    # the grid points' masses in logs, which do not underflow (the Bayes
+    # factor for a discrepancy reads them)
+    log_grid_mass = if (!is.null(disc)) grid_log_mass(problem),
+    # log p(y) up to the constant b^a of an improper prior (rate 0), which
+    # models with the same prior share (the gap screen compares them)
+    log_mass = post$log_mass
   )
 }
 

@@ -39,8 +39,20 @@
 #'   name the settings of the library and the field data).
 #' @param n_x The number of x columns (control variables) in `design` and
 #'   `expobs`; 0 when there are none.
-#' @param t Optional output coordinates (see [sim_library()]); `NULL` gives
-#'   `1:n_t`.
+#' @param t Optional output coordinates of `simobs`'s outputs (see
+#'   [sim_library()]); `NULL` gives `1:n_t`.
+#' @param t_field `NULL` (the default: `expobs`'s measurements are at `t`), or
+#'   the output coordinates of `expobs`'s measurements when the field was
+#'   measured elsewhere than the simulator wrote its outputs (e.g. heights
+#'   between the simulator's). `expobs` then holds `length(t_field)`
+#'   measurements per row, and each run's outputs are first interpolated
+#'   along `t` to `t_field` by a cubic spline ([stats::splinefun()],
+#'   `"fmm"`), so the library, simulated or emulated, is at `t_field`. A
+#'   message (class `griddy_message_interpolated`) gives the interpolation
+#'   error, estimated by leaving each interior coordinate of `t` out; it is
+#'   not in the likelihood, so the runs' outputs should be dense enough along
+#'   `t` for it to be small against the noise. `t_field` must lie within
+#'   `t`'s range (a spline does not extrapolate well).
 #' @param simobs_layout How `simobs` holds the runs: `"runs_in_rows"` (one
 #'   row per `design` row), `"runs_in_columns"` (one column per `design`
 #'   row) or `"auto"` (the default: the one that fits `design`). When
@@ -60,8 +72,19 @@
 #'   n_x = 1
 #' )
 #' inputs$library
+#'
+#' # field heights between the simulator's: its runs are interpolated to them
+#' heights <- c(2, 4, 6)
+#' design <- data.frame(r = rep(c(1, 2), each = 3), k = rep(1:3, 2))
+#' simobs <- t(sapply(seq_len(nrow(design)), function(i) {
+#'   design$k[i] * sqrt(heights) / design$r[i]
+#' }))
+#' expobs <- data.frame(r = c(1, 2), h3 = c(3.5, 1.7), h5 = c(4.4, 2.3))
+#' inputs <- read_calibration_inputs(design, simobs, expobs, n_x = 1,
+#'                                   t = heights, t_field = c(3, 5))
+#' inputs$library$t
 #' @export
-read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
+read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL, t_field = NULL,
                                     simobs_layout = c("auto", "runs_in_rows",
                                                       "runs_in_columns"),
                                     n_runs = 10000, seed = NULL) {
@@ -81,10 +104,18 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL,
   }
   sim <- orient_simobs(simobs, nrow(design), simobs_layout)
   n_t <- ncol(sim)
+  t_field <- assert_output_coordinates(t_field, "t_field")
+  if (!is.null(t_field)) {
+    t_sim <- as_coordinates(t, n_t, "t", "outputs per run in `simobs`")
+    sim <- interpolate_outputs(sim, t_sim, t_field, "t_field")
+    inform_interpolated(n_t, t_field, attr(sim, "loo_rms"))
+    t <- t_field
+    n_t <- length(t_field)
+  }
   if (ncol(expobs) != n_x + n_t) {
     griddy_abort("`expobs` must have the ", n_x, " x column(s) then the ", n_t,
-                 " measurements that `simobs` has per run; it has ", ncol(expobs),
-                 " column(s).")
+                 if (is.null(t_field)) " measurements that `simobs` has per run" else
+                   " measurements at `t_field`", "; it has ", ncol(expobs), " column(s).")
   }
   x_cols <- seq_len(n_x)
   if (n_x > 0L) assert_finite(as.matrix(expobs[, x_cols, drop = FALSE]), "expobs's x columns")

@@ -20,9 +20,12 @@ unfinished_round <- function(fit) {
 # the runs simulated until then (also written to `store`, see
 # refine_store()). Returns the refined problem, the runs added, the number
 # of rounds, why it stopped and the resolution table after each round (the
-# first is the problem's own).
+# first is the problem's own). `settled`, when given, is a function(state,
+# previous table) that ends the rounds after a round where it is TRUE
+# (reason "settled"): diagnose_gap()'s matched resolution stops where more
+# runs cannot resolve a model (settled_in_range()); refine() passes none.
 refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
-                          previous = NULL, store = NULL) {
+                          previous = NULL, store = NULL, settled = NULL) {
   state <- refine_state(problem)
   history <- list(state$table)
   source <- if (is.null(simulator)) "emulator" else "simulator"
@@ -34,6 +37,10 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
                      !is.null(simulator))) {
     if (added >= max_runs) {
       reason <- "max_runs"
+      break
+    }
+    if (!is.null(settled) && added > 0L && settled(state, history[[length(history) - 1L]])) {
+      reason <- "settled"
       break
     }
     n_new <- min(runs_per_round, max_runs - added)

@@ -19,10 +19,29 @@
 # GAP_BENCH_SRC: the package source to load (default "."), e.g. an export of
 # an older commit with this one's compiled src/; GAP_BENCH_OUT: the results
 # stem (default bench/results/diagnose-gap-speed); GAP_BENCH_CASES: "runs",
-# "points" or both (default).
+# "points" or both (default); GAP_BENCH_THREADS: empty (default threads) or a
+# count for options(griddy.threads); GAP_BENCH_COMPILE: "1" (default)
+# byte-compiles the loaded package's functions before timing, as installing
+# it does (load_all() leaves them to R's JIT compiler, which then compiles
+# each one inside the first timed call that runs it), "0" leaves them.
 src <- Sys.getenv("GAP_BENCH_SRC", ".")
 pkgload::load_all(src, quiet = TRUE)
 source("bench/helpers.R")
+compiled <- Sys.getenv("GAP_BENCH_COMPILE", "1") == "1"
+if (compiled) {
+  ns <- asNamespace("griddy")
+  for (nm in ls(ns, all.names = TRUE)) {
+    f <- get(nm, envir = ns)
+    if (!is.function(f) || is.primitive(f)) next
+    f <- tryCatch(compiler::cmpfun(f), error = function(e) NULL)
+    if (is.null(f)) next
+    unlockBinding(nm, ns)
+    assign(nm, f, envir = ns)
+    lockBinding(nm, ns)
+  }
+}
+threads <- Sys.getenv("GAP_BENCH_THREADS", "")
+if (nzchar(threads)) options(griddy.threads = as.integer(threads))
 out_stem <- Sys.getenv("GAP_BENCH_OUT", "bench/results/diagnose-gap-speed")
 limit <- as.numeric(Sys.getenv("GAP_BENCH_LIMIT", "300"))
 cases <- strsplit(Sys.getenv("GAP_BENCH_CASES", "runs,points"), ",")[[1]]
@@ -109,6 +128,8 @@ if ("points" %in% cases) res$points <- run_case("2,000 field points", 5000, 2, 1
 res <- do.call(rbind, unname(res))
 res$code <- Sys.getenv("GAP_BENCH_CODE", system2("git", c("rev-parse", "--short", "HEAD"),
                                                   stdout = TRUE))
+res$threads <- if (nzchar(threads)) threads else paste0("default (", griddy_threads(), ")")
+res$compiled <- compiled
 print(res)
 write.csv(res, paste0(out_stem, ".csv"), row.names = FALSE)
 tab <- data.frame(case = res$case, call = res$call,
@@ -121,5 +142,7 @@ tab <- data.frame(case = res$case, call = res$call,
                   check.names = FALSE)
 writeLines(c(md_header("diagnose_gap() against its calibrate()", "bench/diagnose-gap-speed.R",
                        machine, res$load_before, res$other_cores), "",
-             paste0("Code: ", res$code[1], ". Each case in one process, calls in sequence."), "",
+             paste0("Code: ", res$code[1], ". Each case in one process, calls in sequence. ",
+                    "Threads: ", res$threads[1], ". Functions byte-compiled before timing: ",
+                    compiled, "."), "",
              md_table(tab)), paste0(out_stem, ".md"))

@@ -7,15 +7,19 @@
 # warning of class griddy_warning_emulation.
 #
 # Run from the package root: Rscript bench/emulation-check.R [path]
-# (path: the package source to load, default ".").
+# (path: the package source to load, default "."). EMUL_RUNS (default 50)
+# sets the design's size and EMUL_SD (default 0.05) the field noise sd: a
+# design of 15 runs gives an emulator far worse than the noise.
 args <- commandArgs(TRUE)
+n_design <- as.integer(Sys.getenv("EMUL_RUNS", "50"))
+noise_sd <- as.numeric(Sys.getenv("EMUL_SD", "0.05"))
 pkgload::load_all(if (length(args)) args[1] else ".", quiet = TRUE)
 source("tests/testthat/helper-emulated.R")
 rows <- lapply(1:30, function(trial) {
-  lib <- suppressMessages(emulated_toy_library(n = 50, n_runs = 2000, seed = trial))
+  lib <- suppressMessages(emulated_toy_library(n = n_design, n_runs = 2000, seed = trial))
   set.seed(100 + trial)
   truth <- c(k = stats::runif(1, 1.2, 2.8), c = stats::runif(1, 0.14, 0.46))
-  field <- emulated_toy_field(k = truth[["k"]], c = truth[["c"]], sd = 0.05, seed = 200 + trial)
+  field <- emulated_toy_field(k = truth[["k"]], c = truth[["c"]], sd = noise_sd, seed = 200 + trial)
   warned <- FALSE
   muffle <- function(w) {
     if (inherits(w, "griddy_warning_emulation")) warned <<- TRUE

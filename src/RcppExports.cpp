@@ -172,6 +172,39 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// stream_add_cpp
+void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, int column, double y, int prev, double y_prev, const Rcpp::NumericVector& phi, const Rcpp::NumericVector& scale, int offset);
+RcppExport SEXP _griddy_stream_add_cpp(SEXP CSEXP, SEXP outputsSEXP, SEXP columnSEXP, SEXP ySEXP, SEXP prevSEXP, SEXP y_prevSEXP, SEXP phiSEXP, SEXP scaleSEXP, SEXP offsetSEXP) {
+BEGIN_RCPP
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericMatrix >::type C(CSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type outputs(outputsSEXP);
+    Rcpp::traits::input_parameter< int >::type column(columnSEXP);
+    Rcpp::traits::input_parameter< double >::type y(ySEXP);
+    Rcpp::traits::input_parameter< int >::type prev(prevSEXP);
+    Rcpp::traits::input_parameter< double >::type y_prev(y_prevSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type scale(scaleSEXP);
+    Rcpp::traits::input_parameter< int >::type offset(offsetSEXP);
+    stream_add_cpp(C, outputs, column, y, prev, y_prev, phi, scale, offset);
+    return R_NilValue;
+END_RCPP
+}
+// stream_log_sum_cpp
+double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post, double rate, const Rcpp::NumericVector& grid_term, const Rcpp::NumericVector& log_prior_run);
+RcppExport SEXP _griddy_stream_log_sum_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP grid_termSEXP, SEXP log_prior_runSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type C(CSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type shape_post(shape_postSEXP);
+    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type grid_term(grid_termSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
+    rcpp_result_gen = Rcpp::wrap(stream_log_sum_cpp(C, shape_post, rate, grid_term, log_prior_run));
+    return rcpp_result_gen;
+END_RCPP
+}
 // omp_limits_cpp
 Rcpp::IntegerVector omp_limits_cpp();
 RcppExport SEXP _griddy_omp_limits_cpp() {
@@ -243,6 +276,8 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
     {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
+    {"_griddy_stream_add_cpp", (DL_FUNC) &_griddy_stream_add_cpp, 9},
+    {"_griddy_stream_log_sum_cpp", (DL_FUNC) &_griddy_stream_log_sum_cpp, 5},
     {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},

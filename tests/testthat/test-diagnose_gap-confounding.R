@@ -30,3 +30,21 @@ test_that("the nearest row is the exact distances' choice, ties within rounding 
   v <- rnorm(6)
   expect_identical(nearest_row(W, v, rowSums(W^2)), which.min(colSums((t(W) - v)^2)))
 })
+
+test_that("the screen's whitened base runs, read a few at a time, are the whitened library", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3), missing = gap_missing, rel_sd = gap_rel_sd)
+  for (fit in list(toy_gap(0.2, rho_t = c(0, 0.3))$fit, toy$fit)) {
+    ctx <- gap_context(fit)
+    terms <- list(Y = lib_outputs(fit$library), Q = fit$C,
+                  lj = collapsed_log_joint(fit$C, ctx$n, ctx$logdet, ctx$prior,
+                                           fit$log_prior_run, ctx$log_prior_grid))
+    white <- screen_white(ctx, terms)
+    W <- whiten_rows(terms$Y, white$point, ctx$n_x, ctx$n_t)
+    expect_equal(white$rows(c(3, 7)), W[c(3, 7), ], tolerance = 1e-12)
+    expect_equal(white$norm2, rowSums(W^2), tolerance = 1e-10)
+    w <- W[5, ] + 0.01
+    expect_equal(white$dot(w), drop(W %*% w), tolerance = 1e-12)
+    expect_identical(nearest_row(NULL, w, white$norm2, rows = white$rows, dot = white$dot),
+                     nearest_row(W, w, rowSums(W^2)))
+  }
+})

@@ -58,3 +58,32 @@ test_that("products with the precision, one vector or many, are the dense ones",
   P <- kronecker(point$Rx_inv, point$Pt)
   expect_equal(precision_times(ctx, point, M), P %*% M, tolerance = 1e-12)
 })
+
+test_that("leave-setting-out pieces in closed form are the whitened ones", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3, 0.6))
+  ctx <- gap_context(toy$fit)
+  expect_true(settings_apart(ctx))
+  E <- rep(ctx$y, each = nrow(toy$lib$y)) - toy$lib$y
+  D <- setting_quad_forms(ctx, toy$lib$y)
+  for (g in seq_along(ctx$points)) {
+    expect_equal(D[, g, ], setting_pieces(ctx, E, ctx$points[[g]]), tolerance = 1e-11)
+  }
+  # correlation across settings: the settings are not apart, the whitened path
+  ctx$points[[2]]$Rx_inv <- solve(matrix(c(1, 0.5, 0.2, 0.5, 1, 0.5, 0.2, 0.5, 1), 3))
+  expect_false(settings_apart(ctx))
+  expect_false(settings_apart(gap_context(
+    toy_gap(0.2, missing = gap_missing, rel_sd = gap_rel_sd)$fit)))
+})
+
+test_that("a model's rows shared with another take its leave-out pieces", {
+  toy <- toy_gap(0.2, rho_t = c(0, 0.3))
+  ctx <- gap_context(toy$fit)
+  base <- gap_terms(ctx, toy$lib$y, toy$fit$log_prior_run)
+  Y <- rbind(toy$lib$y, lib_outputs(toy$quad))
+  prior <- rep(-log(nrow(Y)), nrow(Y))
+  whole <- gap_terms(ctx, Y, prior)
+  shared <- gap_terms(ctx, Y, prior, shared = base, keep_E = FALSE)
+  expect_identical(shared$D[seq_len(nrow(toy$lib$y)), , ], base$D)
+  expect_equal(shared$D, whole$D, tolerance = 1e-12)
+  expect_null(shared$E)
+})

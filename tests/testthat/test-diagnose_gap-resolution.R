@@ -47,3 +47,29 @@ test_that("the confounding screen works on the fit's own library, not the refine
   expect_identical(seen$runs, lib_n_runs(toy$fit$library))
 })
 
+
+test_that("a model that more runs cannot resolve stops refining after one round", {
+  # "scale" is imitated by a shift of a: its strength stays flat over the
+  # non-zero levels, so on a dense library its marginal never gets enough
+  # effective values from predicted runs
+  toy <- toy_gap(0.2, a_grid = seq(0.5, 1.5, length.out = 1001))
+  strength <- lib_theta(toy$scale)$s
+  rows <- which(strength > 0)
+  part <- sim_library(lib_theta(toy$scale)[rows, ], lib_outputs(toy$scale, rows),
+                      x = toy$x, t = toy$t)
+  problem <- problem_from_parts(part, toy$fit$y_field, toy$fit$prior, lib_log_prior(part),
+                                toy$fit$setup)
+  go <- function(settled) {
+    withr::with_seed(1, refine_rounds(problem, NULL, 1000, 200, settled = settled))
+  }
+  plain <- go(NULL)
+  early <- go(settled_in_range)
+  expect_identical(plain$reason, "max_runs")
+  expect_identical(early$reason, "settled")
+  expect_equal(early$runs_added, 200)
+  # the rounds it ran are the same rounds
+  expect_identical(early$history, plain$history[seq_along(early$history)])
+  # what settled: an interval spanning the whole range, not moving
+  last <- early$history[[length(early$history)]]
+  expect_true(any(last$limited))
+})

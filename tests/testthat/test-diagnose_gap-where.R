@@ -93,3 +93,17 @@ test_that("a block with no observed cell is reported unchecked, not dropped", {
   expect_equal(sum(wh$n), 80)
   expect_output(print(gap), "1 block with no observed point")
 })
+
+test_that("the top pairs are those of ordering every weight", {
+  full <- function(w, mass, cap) {
+    o <- order(w, decreasing = TRUE)
+    o[seq_len(min(cap, which(cumsum(w[o]) >= mass * sum(w))[1]))]
+  }
+  set.seed(3)
+  for (i in 1:30) {
+    n <- sample(c(4, 60, 5000), 1)
+    w <- matrix(rexp(n)^sample(c(1, 8), 1), ncol = 2)
+    if (i %% 2 == 0) w[sample(length(w), length(w) %/% 2)] <- 0
+    for (cap in c(3L, 200L)) expect_identical(top_pairs(w, 0.999, cap), full(w, 0.999, cap))
+  }
+})

@@ -124,7 +124,7 @@ test_that("diagnose_gap() refuses fits with noise groups, saying missing data an
                class = "griddy_error_unsupported")
 })
 
-test_that("diagnose_gap() refuses replicated field measurements (its pieces would drop the pure error)", {
+test_that("diagnose_gap() refuses replicated field measurements with candidates, not without", {
   toy <- toy_gap(0.2)
   f <- toy$field
   replicated <- field_data(rbind(f$y, f$y[1, ] + 0.01), x = rbind(f$x, f$x[1, , drop = FALSE]),
@@ -134,6 +134,11 @@ test_that("diagnose_gap() refuses replicated field measurements (its pieces woul
   expect_error(diagnose_gap(fit, list(quadratic = toy$quad)),
                "does not yet support replicated field measurements",
                class = "griddy_error_unsupported")
+  # without candidates, replicates are used (test-diagnose_gap-discrepancy.R)
+  expect_s3_class(diagnose_gap(fit, max_runs = 0,
+                               discrepancy = gp_discrepancy(ratio = c(0, 10), length_x = 1,
+                                                            length_t = 0.3)),
+                  "gap_diagnosis")
 })
 
 test_that("the dense path agrees with the Kronecker path on complete data (sd all 1)", {

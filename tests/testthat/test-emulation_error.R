@@ -193,3 +193,27 @@ test_that("with missing cells and sd, a predicted run's pieces are those of its 
   expect_equal(bs$D, drop(t(h[B]) %*% solve(Si[B, B], h[B])), tolerance = 1e-10)
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[B, B])$modulus), tolerance = 1e-10)
 })
+
+test_that("the field's roughness gives the noise scale a smooth misfit cannot inflate", {
+  # the best run misses the data by a smooth curve five times the noise
+  t <- seq(0, 1, length.out = 40)
+  x <- data.frame(load = c(1, 2))
+  set.seed(9)
+  truth <- rep(sin(2 * pi * t), 2)
+  y <- truth + 0.5 * rep(cos(pi * t), 2) + stats::rnorm(80, sd = 0.1)
+  lib <- sim_library(data.frame(k = c(1, 2)), rbind(truth, truth + 3), x = x, t = t)
+  setup <- correlation_setup(lib, 0, 0)
+  state <- list(problem = list(library = lib, y_field = y, setup = setup), p = c(1, 0),
+                joint = NULL)
+  rough <- roughness_noise_var(state)
+  expect_gt(sqrt(rough), 0.07)
+  expect_lt(sqrt(rough), 0.14)
+  # the misfit per point, which the smooth miss inflates, is bounded by it
+  C <- matrix(sum((y - truth)^2), 1)
+  expect_gt(sqrt(C[1] / 80), 0.3)
+  expect_equal(reference_noise_var(setup, 1, C, rough), rough)
+  # too few differences: no estimate
+  short <- sim_library(data.frame(k = c(1, 2)), matrix(rnorm(6), 2), t = 1:3)
+  state$problem <- list(library = short, y_field = rnorm(3), setup = correlation_setup(short, 0, 0))
+  expect_null(roughness_noise_var(state))
+})

@@ -151,3 +151,38 @@ test_that("the pairs plot shows every pair of theta columns, the truth marked", 
                                      burn_in = 50, seed = 1))
   expect_error(plot(fit1, "pairs"), "at least two theta columns", class = "griddy_error_input")
 })
+
+test_that("the discrepancy plot shows delta's posterior and the residuals per setting", {
+  sys <- bump_sys()
+  fit <- bump_fit(sys)
+  p <- plot(fit, "discrepancy", ndraws = 200, seed = 1)
+  expect_s3_class(p, "ggplot")
+  expect_equal(p$data$mean, discrepancy_posterior(fit, ndraws = 200, seed = 1)$mean)
+  expect_equal(p$data$residual, fit$y_field - posterior_mean_outputs(fit))
+  expect_identical(levels(p$data$setting), c("amp = 1", "amp = 2", "amp = 3"))
+  expect_identical(p$data$position, p$data$t)
+  expect_match(p$labels$subtitle, "\n", fixed = TRUE)
+  expect_match(p$labels$title, "misses the data", fixed = TRUE)
+  expect_match(p$labels$subtitle, "discrepancy's posterior mean", fixed = TRUE)
+  expect_no_warning(ggplot2::ggplotGrob(p))
+  expect_match(plot(fit, "ppc", ndraws = 50, seed = 1)$labels$subtitle, "+ discrepancy",
+               fixed = TRUE)
+  expect_no_match(plot(fit, "ppc", ndraws = 50, seed = 1, discrepancy = FALSE)$labels$subtitle,
+                  "discrepancy", fixed = TRUE)
+  plain <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 100, burn_in = 10,
+                                      seed = 1))
+  expect_error(plot(plain, "discrepancy"), class = "griddy_error_input",
+               regexp = "has no discrepancy")
+})
+
+test_that("the discrepancy plot handles one output per setting", {
+  lib <- sim_library(data.frame(k = seq(0.5, 1.5, by = 0.05)),
+                     outer(seq(0.5, 1.5, by = 0.05), 1:6), x = data.frame(pos = 1:6))
+  fit <- suppressWarnings(calibrate(lib, field_data(c(1, 2, 3.8, 4, 5, 6) + c(0, 0, 0.9, 0, 0, 0)),
+                                    n_iter = 300, burn_in = 50, seed = 1,
+                                    discrepancy = gp_discrepancy()))
+  p <- plot(fit, "discrepancy", ndraws = 50, seed = 1)
+  expect_identical(p$data$position, as.numeric(1:6))
+  expect_identical(p$labels$x, "pos")
+  expect_no_warning(ggplot2::ggplotGrob(p))
+})

@@ -86,3 +86,48 @@ test_that("predict() with missing data predicts every cell, and each noise group
   sds2 <- apply(noisy_outputs(fit2, rep(1, 4000)), 2, stats::sd)
   expect_equal(sds2, rep(1:3, each = 5), tolerance = 0.05)
 })
+
+test_that("predict(discrepancy = TRUE) adds delta's posterior: the bias-corrected prediction", {
+  sys <- bump_sys()
+  fit <- bump_fit(sys)
+  with_delta <- predict(fit, ndraws = 300, seed = 1)
+  expect_identical(predict(fit, ndraws = 300, seed = 1, discrepancy = TRUE), with_delta)
+  alone <- predict(fit, ndraws = 300, seed = 1, discrepancy = FALSE)
+  expect_identical(names(with_delta), names(alone))
+  expect_equal(alone$mean, posterior_mean_outputs(fit))
+  expect_equal(with_delta$mean - alone$mean, discrepancy_moments(fit)$mean)
+  # the simulator alone misses the bump; with delta the mean follows the
+  # field's mean and the intervals hold it
+  bump <- sys$gap > 0.2
+  expect_true(all(alone$upper[bump] < sys$truth[bump]))
+  expect_lt(sqrt(mean((with_delta$mean - sys$truth)^2)),
+            sqrt(mean((alone$mean - sys$truth)^2)) / 2)
+  expect_gt(mean(with_delta$lower <= sys$truth & sys$truth <= with_delta$upper), 0.9)
+  expect_true(all(with_delta$pred_lower <= with_delta$lower &
+                    with_delta$pred_upper >= with_delta$upper))
+  # one setting: the same draws, so the same rows
+  amp3 <- predict(fit, newdata = data.frame(amp = 3), ndraws = 300, seed = 1)
+  expect_equal(amp3, with_delta[with_delta$amp == 3, ], ignore_attr = TRUE)
+  expect_error(predict(fit, discrepancy = NA), "`discrepancy`")
+  plain <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 100, burn_in = 10,
+                                      seed = 1))
+  expect_identical(names(predict(plain, ndraws = 10, seed = 1)), names(alone))
+  expect_error(predict(plain, discrepancy = TRUE), class = "griddy_error_input",
+               regexp = "has no discrepancy")
+})
+
+test_that("predict(discrepancy = TRUE) reaches a setting the field does not measure", {
+  sys <- bump_sys()
+  y <- matrix(sys$field$y, 3)
+  y[2, ] <- NA  # amp = 2 unmeasured
+  fit <- suppressWarnings(calibrate(sys$library, field_data(y, x = data.frame(amp = 1:3),
+                                                            t = lib_t(sys$library)),
+                                    n_iter = 600, burn_in = 100, seed = 1,
+                                    discrepancy = gp_discrepancy(orthogonal = FALSE)),
+                          classes = c("griddy_warning_resolution", "griddy_warning_gap"))
+  p <- predict(fit, ndraws = 300, seed = 1)
+  expect_false(anyNA(p[c("mean", "lower", "upper", "pred_lower", "pred_upper")]))
+  width <- tapply(p$upper - p$lower, p$amp, mean)
+  expect_gt(width[["2"]], width[["1"]])
+  expect_true(all(is.na(p$observed[p$amp == 2])))
+})

@@ -148,3 +148,22 @@ test_that("print.emulated_library() shows the design, the emulator and the error
   skip_if_not_installed("RobustGaSP")
   expect_snapshot(print(emulated_toy_library(n_runs = 300)))
 })
+
+test_that("emulated_library(t_out =) builds the library at other output coordinates", {
+  skip_if_not_installed("RobustGaSP")
+  set.seed(2)
+  design <- data.frame(x = runif(20), k = runif(20, 1, 2))
+  t <- seq(0, 1, by = 0.1)
+  y <- t(apply(design, 1, function(r) r[["k"]] * t^2 + r[["x"]]))
+  t_out <- c(0.25, 0.55, 0.95)
+  lib <- emulated_library(design["k"], y, x = design["x"], t = t,
+                          settings = data.frame(x = 0.5), n_runs = 50, seed = 1, t_out = t_out)
+  expect_identical(lib$t, t_out)
+  expect_identical(lib$interpolation$t, t)
+  expect_lt(lib$interpolation$loo_rms, 1e-10)  # a quadratic in t: the spline is exact
+  truth <- outer(lib$theta$k, t_out^2) + 0.5
+  expect_lt(max(abs(lib$y - truth)), 0.05)
+  expect_output(print(lib), "interpolated to 3 coordinate")
+  expect_error(emulated_library(design["k"], y, x = design["x"], t = t, n_runs = 50,
+                                t_out = c(0.5, 1.5)), "lie outside")
+})

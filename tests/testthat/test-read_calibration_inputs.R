@@ -237,3 +237,53 @@ test_that("comment lines in input files are skipped, never read as a header or a
                                   n_x = 1)
   expect_identical(out2$field$y, ref$field$y)
 })
+
+test_that("field measurements between the simulator's outputs are read with t_field", {
+  # a library-forming design: the sim_library is built at t_field
+  heights <- c(1, 2, 3, 4, 5)
+  design <- data.frame(r = rep(c(1, 2), each = 3), k = rep(1:3, 2))
+  run <- function(r, k, h) k * h^2 / r
+  simobs <- t(mapply(function(r, k) run(r, k, heights), design$r, design$k))
+  t_field <- c(1.5, 4.2)
+  expobs <- data.frame(r = c(2, 1), m1 = c(1, 2), m2 = c(9, 18))
+  expect_message(
+    out <- read_calibration_inputs(design, simobs, expobs, n_x = 1, t = heights,
+                                   t_field = t_field),
+    class = "griddy_message_interpolated")
+  expect_s3_class(out$library, "sim_library")
+  expect_identical(out$library$t, t_field)
+  expect_equal(out$library$y[3, ], c(run(2, 3, t_field), run(1, 3, t_field)),
+               tolerance = 1e-10)
+  expect_identical(out$field$t, t_field)
+  # calibrate() takes the pair with no reshaping by hand
+  fit <- suppressWarnings(calibrate(out$library, out$field, n_iter = 200, burn_in = 50,
+                                    seed = 1))
+  expect_s3_class(fit, "griddy_fit")
+  # expobs must hold the measurements at t_field, and t_field lie within t
+  expect_error(suppressMessages(
+    read_calibration_inputs(design, simobs, expobs, n_x = 1, t = heights,
+                            t_field = c(1.5, 2, 4.2))),
+    "3 measurements at `t_field`")
+  expect_error(suppressMessages(
+    read_calibration_inputs(design, simobs, expobs, n_x = 1, t = heights, t_field = c(0, 4))),
+    "lie outside", class = "griddy_error_input")
+})
+
+test_that("t_field reaches an emulated library too (a joint design, SEPIA's layout)", {
+  skip_if_not_installed("RobustGaSP")
+  set.seed(3)
+  heights <- seq(1, 6, by = 1)
+  design <- data.frame(r = runif(20, 1, 2), k = runif(20, 1, 3))
+  # one column per run, as the Los Alamos simobs code writes it
+  simobs <- vapply(seq_len(20), function(i) design$k[i] * sqrt(heights) / design$r[i],
+                   numeric(length(heights)))
+  t_field <- c(2.5, 4.5)
+  expobs <- data.frame(r = c(1.2, 1.8), m1 = c(2.6, 1.8), m2 = c(3.5, 2.4))
+  out <- suppressMessages(read_calibration_inputs(design, simobs, expobs, n_x = 1,
+                                                  t = heights, t_field = t_field,
+                                                  n_runs = 50, seed = 1))
+  expect_s3_class(out$library, "emulated_library")
+  expect_identical(out$library$t, t_field)
+  truth <- outer(out$library$theta$k, c(sqrt(t_field) / 1.2, sqrt(t_field) / 1.8))
+  expect_lt(max(abs(out$library$y - truth)), 0.05)
+})

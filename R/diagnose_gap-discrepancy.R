@@ -1,0 +1,308 @@
+# diagnose_gap() without candidates: is there a gap at all, and where? The
+# answer weighs the base model ("none") against the base model plus a
+# generic Gaussian-process discrepancy ("other", a gp_discrepancy()) by the
+# exact evidence of the fit recomputed with the discrepancy, at matched
+# resolution: the base library is first refined as diagnose_gap() refines it
+# for candidates (runs predicted from the library, their prediction error in
+# the likelihood), so that a truth between coarse runs is not called a gap.
+# "Where" is where the discrepancy's posterior is away from zero. See
+# ?diagnose_gap, "Without candidates".
+
+# The diagnosis without candidates, in diagnose_gap()'s return shape.
+gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models, max_runs,
+                                   seed, step) {
+  base <- fit$library
+  log_prior_model <- model_prior(prior_models, c("none", "other"))
+  step("refining the base library")
+  matched <- with_seed(seed, matched_base(no_discrepancy_problem(fit), max_runs))
+  step("the evidence for a discrepancy")
+  # then the model with the discrepancy, whose posterior over theta may lie
+  # elsewhere (the discrepancy absorbing what theta imitated), refined in turn
+  problem <- discrepancy_problem(matched, discrepancy)
+  if (max_runs > 0L) {
+    problem <- with_seed(seed, refine_rounds(
+      problem, NULL, max_runs, default_runs_per_round(lib_theta(problem$library)))$problem)
+  }
+  exact <- exact_from_problem(problem, joint = TRUE)
+  evidence <- discrepancy_evidence(exact)
+  # each model's evidence: its grid points' mass over its prior mass
+  log_mass <- attr(exact, "log_grid_mass")
+  none <- problem$setup$discrepancy$ratio[problem$setup$gd] == 0
+  prior_none <- evidence$prior_none
+  log_ev <- c(none = log_sum_exp(log_mass[none]) - log(prior_none),
+              other = log_sum_exp(log_mass[!none]) - log1p(-prior_none))
+  prob <- normalise_log(log_ev + log_prior_model)
+  which_tab <- data.frame(effect = c("none", "other"), prob = unname(prob),
+                          log_evidence = unname(log_ev), confounded = FALSE,
+                          separable = NA_real_, detectable = NA_real_,
+                          absorbed_by = NA_character_, stringsAsFactors = FALSE)
+  which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
+  rownames(which_tab) <- NULL
+  # a gap only on evidence that is at least positive: the posterior log odds
+  # of "other" beyond Kass and Raftery's inconclusive band
+  found <- log(prob[["other"]]) - log(prob[["none"]]) > gap_detect_log_odds
+  step("where the discrepancy lies")
+  # the base model's own leave-block-out checks (diagnose_gap-where.R, one
+  # noise precision): a gap too local or rough for a smooth discrepancy
+  # (one noise precision, no replicates: with them the checks of predicted
+  # runs flag blocks in data without a gap, so the evidence alone answers)
+  check <- if (length(matched$setup$group_sizes) == 1L && !has_replicates(fit)) {
+    base_check(matched, windows, fdr)
+  }
+  win <- if (!is.null(check)) check$breaks else windows
+  where <- discrepancy_where(problem, exact, win, fdr, found)
+  if (!found && !is.null(check) && any(check$blocks$flagged)) {
+    where <- c(check, list(kind = "check"))
+  }
+  verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
+  if (!found && identical(where$kind, "check")) {
+    verdict[c("answer", "prob", "reason")] <- list("other", prob[["other"]], "blocks")
+  } else if (!found && verdict$answer == "other") {
+    verdict[c("answer", "prob", "reason")] <- list("none", prob[["none"]], "inconclusive")
+  }
+  structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
+                 folds = NULL, map = where$map, separation = NULL, verdict = verdict,
+                 evidence = evidence,
+                 settings = list(fdr = fdr, windows = where$breaks, discrepancy = discrepancy,
+                                 runs = lib_n_runs(problem$library), where = where$kind),
+                 x = lib_x(base), t = lib_t(base)),
+            class = "gap_diagnosis")
+}
+
+# The posterior log odds of "other" against "none" above which the answer is
+# "other": the top of the band that evidence_words() calls inconclusive.
+gap_detect_log_odds <- 1
+
+# gap_where() of a refined base problem: its leave-block-out checks.
+base_check <- function(matched, windows, fdr) {
+  ctx <- gap_context(matched)
+  terms <- matched_terms(ctx, lib_outputs(matched$library), matched$log_prior_run, matched$C,
+                         matched$library)
+  gap_where(ctx, terms, windows, fdr)
+}
+
+empty_shrinkage <- function() {
+  data.frame(effect = character(0), before = numeric(0), after = numeric(0),
+             shrink = numeric(0), lpd_before = numeric(0), lpd_after = numeric(0),
+             cover90_before = numeric(0), cover90_after = numeric(0))
+}
+
+# ---- the problems -----------------------------------------------------------------
+
+# The fit's problem without a discrepancy (the fit itself when it has none).
+no_discrepancy_problem <- function(fit) {
+  if (is.null(fit$setup$discrepancy)) return(fit)
+  discrepancy_problem(fit, NULL)
+}
+
+# A problem (or fit) recomputed with `discrepancy` (NULL: none): the same
+# library and runs' prior weights, field data, rho grids, Gamma prior, noise
+# groups, relative sd and replicates' pure error; its setup rebuilt with the
+# discrepancy's grid points and C recomputed (a predicted run's C keeps its
+# prediction error, now beside the discrepancy).
+discrepancy_problem <- function(problem, discrepancy) {
+  setup <- problem$setup
+  library <- problem$library
+  pattern <- setup_noise_pattern(setup, lib_n_x(library) * lib_n_t(library), problem$prior)
+  rho_x <- unname(setup$rho_x)
+  if (!is.null(discrepancy)) {
+    discrepancy <- discrepancy_for_data(discrepancy, library, problem$y_field, pattern)
+  }
+  new <- correlation_setup(library, rho_x, setup$rho_t, setup$x_power, pattern, discrepancy)
+  # the replicates' constant of the log-determinant (the same at every grid
+  # point, field_layout()) is not kept in a setup: take it from the old one,
+  # whose first grid point has the same R_g and no discrepancy
+  new$logdet <- new$logdet + (setup$logdet[1] - new$logdet[1])
+  new$noise_prior <- setup$noise_prior
+  C <- misfit_table(library, problem$y_field, new, problem$prior)
+  problem_from_parts(library, problem$y_field, problem$prior, problem$log_prior_run, new, C)
+}
+
+# noise_pattern() of a setup, rebuilt from what the setup keeps (every point
+# observed, one group and no sd for a Kronecker setup).
+setup_noise_pattern <- function(setup, n, prior) {
+  kept <- setup$pattern
+  if (is.null(kept)) {
+    return(list(observed = rep(TRUE, n), sd = NULL, sd_mean = NULL, group = rep(1L, n),
+                labels = "", prior = prior, pure_ss = 0, pure_df = 0L, log_sd_excess = 0))
+  }
+  sd_mean <- NULL
+  if (!is.null(setup$dense$scale)) {
+    sd_mean <- rep(NA_real_, n)
+    sd_mean[setup$dense$obs] <- 1 / setup$dense$scale
+  }
+  c(kept[c("observed", "sd")], list(sd_mean = sd_mean), kept[c("group", "labels")],
+    list(prior = setup$fold_prior, pure_ss = setup$pure_ss,
+         pure_df = as.integer(setup$group_sizes - lengths(setup$dense$groups)),
+         log_sd_excess = 0))
+}
+
+# ---- where ---------------------------------------------------------------------
+
+# Where the discrepancy's posterior is away from zero, block by block (one x
+# setting times one window of t, as for the candidates' leave-block-out
+# checks). At a grid point with ratio lambda > 0, in the coordinates
+# whitened by the rotation W (A A' = (R + lambda K)^-1, A = W diag(w^1/2),
+# see dense_factors()), the discrepancy given run i has mean F (c * W'r) and
+# scale matrix v F diag(c) F', with F = W^-T, c = lambda s / (1 + lambda s)
+# and v = (b + C/2) / (a + n/2): a multivariate t with 2a + n degrees of
+# freedom once tau is integrated out (per noise group, with the group's C
+# and size). A block's statistic is T = m_B' S_B^+ m_B / d (d the rank of
+# S_B), F(d, 2a + n) distributed about the mean, and p = P(F > T) is the
+# posterior probability of discrepancies further from the mean than zero.
+# `score` and `p_value` average T and p over the exact posterior given a
+# discrepancy (the pairs of run and grid point holding 99.9% of the mass
+# with lambda > 0); blocks are flagged (Benjamini-Hochberg at `fdr`) only
+# when the evidence finds a gap (`found`): $where says where the gap lies
+# once the evidence says there is one.
+discrepancy_where <- function(problem, exact, windows, fdr, found) {
+  setup <- problem$setup
+  library <- problem$library
+  n_x <- lib_n_x(library)
+  n_t <- lib_n_t(library)
+  t <- lib_t(library)
+  dense <- setup$dense
+  none <- setup$discrepancy$ratio[setup$gd] == 0
+  joint <- exact$joint
+  win <- if (is.list(windows)) windows else gap_windows(list(n_t = n_t, t = t,
+                          points = lapply(seq_len(n_grid_points(setup)), function(g) {
+                            list(phi = setup$phi[, setup$gt[g]])
+                          })),
+                     list(lj = log(joint * rep(none, each = nrow(joint)))), windows)
+  blocks <- expand.grid(w = seq_along(win), x = seq_len(n_x))
+  pos <- lapply(seq_len(nrow(blocks)), function(b) {
+    block_positions(dense$obs, blocks$x[b], win[[blocks$w[b]]], n_t)
+  })
+  size <- lengths(pos)
+  w_other <- joint * rep(!none, each = nrow(joint))
+  pairs <- if (sum(w_other) > 0) top_pairs(w_other, 0.999, 200L) else integer(0)
+  stat <- matrix(0, length(pairs), nrow(blocks))
+  pval <- matrix(1, length(pairs), nrow(blocks))
+  delta <- matrix(0, length(pairs), length(dense$obs))
+  delta_var <- delta
+  wp <- if (length(pairs) > 0L) w_other[pairs] / sum(w_other[pairs]) else numeric(0)
+  pairs <- arrayInd(pairs, dim(joint))
+  a <- problem$prior$shape
+  b <- problem$prior$rate
+  Y <- if (nrow(pairs) > 0L) lib_outputs(library, unique(pairs[, 1]))
+  row_of <- match(pairs[, 1], unique(pairs[, 1]))
+  for (g in unique(pairs[, 2])) {
+    post <- discrepancy_posterior_factors(setup, g)
+    at <- which(pairs[, 2] == g)
+    Ck <- group_quad_forms(Y[row_of[at], , drop = FALSE], problem$y_field, setup, g)
+    resid <- matrix(problem$y_field, length(at), ncol(Y), byrow = TRUE) -
+      Y[row_of[at], , drop = FALSE]
+    U <- resid[, dense$obs, drop = FALSE]
+    if (!is.null(dense$scale)) U <- sweep(U, 2, dense$scale, "*")
+    M <- matrix(0, length(at), length(dense$obs))        # the discrepancy's mean (scaled)
+    V <- M                                                # its pointwise scale
+    scale2 <- matrix(0, length(at), length(dense$groups))
+    for (k in seq_along(dense$groups)) {
+      idx <- dense$groups[[k]]
+      pk <- post[[k]]
+      M[, idx] <- (U[, idx, drop = FALSE] %*% pk$W) %*% (t(pk$F) * pk$c)
+      n_k <- setup$group_sizes[k]
+      scale2[, k] <- (b + Ck[, k] / 2) / (a + n_k / 2)
+      V[, idx] <- outer(scale2[, k], rowSums(pk$F^2 * rep(pk$c, each = nrow(pk$F))))
+    }
+    unscale <- if (is.null(dense$scale)) 1 else 1 / dense$scale
+    delta[at, ] <- sweep(M, 2, unscale, "*")
+    delta_var[at, ] <- sweep(V, 2, unscale^2, "*")
+    for (bl in which(size > 0L)) {
+      parts <- block_group_parts(pos[[bl]], dense$groups, post)
+      for (j in seq_along(at)) {
+        tt <- 0
+        d <- 0
+        for (part in parts) {
+          m <- M[j, part$pos]
+          z <- crossprod(part$vectors, m)
+          tt <- tt + sum(z^2 / part$values) / scale2[j, part$group]
+          d <- d + length(part$values)
+        }
+        if (d == 0L) next
+        nu <- 2 * a + sum(setup$group_sizes[unique(vapply(parts, `[[`, 1L, "group"))])
+        stat[at[j], bl] <- tt / d
+        # several noise groups in a block: their scales differ, so the sum is
+        # taken as chi-square (large degrees of freedom) rather than F
+        pval[at[j], bl] <- if (length(parts) == 1L) {
+          stats::pf(tt / d, d, nu, lower.tail = FALSE)
+        } else {
+          stats::pchisq(tt, d, lower.tail = FALSE)
+        }
+      }
+    }
+  }
+  score <- colSums(wp * stat)
+  p_value <- colSums(wp * pval)
+  score[size == 0L] <- NA_real_
+  p_value[size == 0L] <- NA_real_
+  # where the gap lies, once the evidence says there is one
+  flagged <- stats::p.adjust(p_value, "BH") <= fdr & found
+  t_of <- function(f) vapply(blocks$w, function(k) f(t[win[[k]]]), numeric(1))
+  out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
+                    score = score, p_value = p_value, flagged = flagged & !is.na(flagged))
+  list(blocks = out, breaks = win, kind = "discrepancy",
+       map = discrepancy_map(delta, delta_var, wp, dense$obs, n_x, n_t, t))
+}
+
+# Per noise group at discrepancy grid point g: the rotation W, F = W^-T and
+# c = lambda s / (1 + lambda s) (see discrepancy_where()).
+discrepancy_posterior_factors <- function(setup, g) {
+  dense <- setup$dense
+  W <- dense$W[[dense$rot[g]]]
+  w <- dense$w[[g]]
+  Map(function(Wk, wk) {
+    list(W = Wk, F = t(solve(Wk)), c = if (is.null(wk)) rep(0, ncol(Wk)) else 1 - wk)
+  }, W, if (is.null(w)) rep(list(NULL), length(W)) else w)
+}
+
+# A block's parts, one per noise group it touches: the block's positions in
+# that group's data vector (`pos`, over all observed points), and the
+# eigen-pieces of its scale block F_B diag(c) F_B' above its numerical rank.
+block_group_parts <- function(pos, groups, post) {
+  parts <- list()
+  for (k in seq_along(groups)) {
+    here <- pos[pos %in% groups[[k]]]
+    if (length(here) == 0L) next
+    Fb <- post[[k]]$F[match(here, groups[[k]]), , drop = FALSE]
+    S <- tcrossprod(sweep(Fb, 2, sqrt(post[[k]]$c), "*"))
+    e <- eigen(S, symmetric = TRUE)
+    keep <- e$values > max(e$values, 0) * 1e-8 & e$values > 0
+    parts[[length(parts) + 1L]] <- list(group = k, pos = here, values = e$values[keep],
+                                        vectors = e$vectors[, keep, drop = FALSE])
+  }
+  parts
+}
+
+# The discrepancy's posterior mean over (x, t), given a discrepancy (lambda >
+# 0), and its size in posterior sds (`z`); NA at missing cells. `residual`
+# is that mean (what the model misses beyond the noise) so that plot() maps it.
+discrepancy_map <- function(delta, delta_var, wp, obs, n_x, n_t, t) {
+  mean_obs <- colSums(delta * wp)
+  var_obs <- colSums((delta_var + delta^2) * wp) - mean_obs^2
+  res <- rep(NA_real_, n_x * n_t)
+  z <- res
+  res[obs] <- mean_obs
+  z[obs] <- mean_obs / sqrt(pmax(var_obs, 1e-300))
+  if (length(wp) == 0L) z[obs] <- 0
+  data.frame(x = rep(seq_len(n_x), each = n_t), t = rep(t, n_x), residual = res, z = z)
+}
+
+# ---- arguments -------------------------------------------------------------------
+
+# No candidates: `candidates` missing, NULL or an empty list.
+no_candidates <- function(candidates) {
+  is.null(candidates) || (is.list(candidates) && !inherits(candidates, "sim_library") &&
+                            length(candidates) == 0L)
+}
+
+# The discrepancy "other" stands for: a gp_discrepancy() whose ratio grid holds
+# 0 (the base model) and positive values.
+check_gap_discrepancy <- function(discrepancy) {
+  discrepancy <- assert_discrepancy(discrepancy)
+  if (is.null(discrepancy) || !any(discrepancy$ratio == 0) || !any(discrepancy$ratio > 0)) {
+    griddy_abort("`discrepancy` must be a gp_discrepancy() whose `ratio` holds 0 (no gap) and ",
+                 "positive values.", class = "input")
+  }
+  discrepancy
+}

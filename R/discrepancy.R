@@ -1,0 +1,260 @@
+# A model discrepancy delta(x, t) in the likelihood: its specification, its
+# prior over a grid of hyperparameters and its kernel. How it enters the
+# quadratic forms is in grid_posterior.R (dense_factors()).
+#
+# Model: y = g_i + delta + e, delta ~ N(0, tau^-1 lambda K_l), e ~ N(0,
+# tau^-1 S R_g S), so Cov(y | i, g, lambda, l, tau) = tau^-1 (S R_g S +
+# lambda K_l): lambda is the discrepancy's variance relative to the noise's
+# and l its length scales. tau integrates out as before, so (lambda, l) are
+# extra axes of the correlation grid and the posterior over runs x grid
+# points stays exact (see ../shared/notes/discrepancy.md, section 3). The
+# point lambda = 0 is the model without a discrepancy, so the Bayes factor
+# for "a gap" is read off the grid posterior (discrepancy_evidence()).
+
+#' A Gaussian-process model discrepancy
+#'
+#' Specifies a discrepancy \eqn{\delta(x, t)} between the simulator and
+#' reality for [calibrate()] and [posterior_exact()]: the field data are
+#' modelled as \eqn{y = g(x, t, \theta) + \delta(x, t) + \epsilon} with
+#' \eqn{\delta} a zero-mean Gaussian process independent of the noise. Its
+#' covariance is \eqn{\tau^{-1} \lambda K_\ell} with
+#' \deqn{K_\ell[(x, t), (x', t')] = \exp(-\|x - x'\|^2 / \ell_x^2)
+#'   \exp(-(t - t')^2 / \ell_t^2)}
+#' over the control settings and the output coordinate, each scaled to
+#' \[0, 1] per column as for the correlation grid (see [rho_grid()]), so
+#' that the data's covariance is \eqn{\tau^{-1}(S R_g S + \lambda K_\ell)}.
+#' The ratio \eqn{\lambda} is the discrepancy's variance over the noise's:
+#' it has no units, so one default grid serves data of any scale.
+#'
+#' \eqn{\lambda}, \eqn{\ell_x} and \eqn{\ell_t} take the values of grids and
+#' are integrated out exactly, as the correlation \eqn{\rho} is: every
+#' combination is one more point of the correlation grid, and \eqn{\tau} is
+#' integrated out as before. \eqn{\lambda = 0} is the model without a
+#' discrepancy; it has prior probability `prior_none`, and the other points
+#' share the rest equally. So the posterior probability of \eqn{\lambda = 0}
+#' gives the Bayes factor for a discrepancy, which `print()` and `summary()`
+#' of the fit report.
+#'
+#' **Orthogonal to theta** (the default). A discrepancy that can imitate a
+#' change of \eqn{\theta} competes with \eqn{\theta} for the same misfit:
+#' \eqn{\theta} is then not identified (Brynjarsdóttir and O'Hagan 2014), and
+#' the misfit of the nearest run of a coarse library, which a change of
+#' \eqn{\theta} would remove, passes for a gap. With `orthogonal = TRUE` the
+#' discrepancy is \eqn{P\delta}, \eqn{P} the projector off the outputs'
+#' local sensitivities to \eqn{\theta} (the slopes of a linear fit of the
+#' outputs on \eqn{\theta} over the runs nearest the one that fits the data
+#' best), as Plumlee (2017) proposes: what \eqn{\theta} can explain is left
+#' to \eqn{\theta}, and the Bayes factor weighs only what it cannot. On our
+#' systems this removed the false gaps of libraries too coarse for the data
+#' (log Bayes factors of 2 to 17 became -2 to -4) and kept real ones
+#' decisive, at about half their log Bayes factor.
+#'
+#' **Noise groups.** With `noise_groups`, the discrepancy acts within each
+#' group (outputs of different groups, often different quantities in
+#' different units, get independent discrepancies with the same
+#' \eqn{\lambda} and \eqn{\ell}).
+#'
+#' **Replicates.** Replicated measurements share \eqn{\delta} at their
+#' setting and have independent noise, so their scatter pins the noise and
+#' separates it from the discrepancy (the cell means carry \eqn{R_g / r +
+#' \lambda K}, the pure error carries noise only).
+#'
+#' **What a discrepancy can promise.** It makes the intervals honest about a
+#' simulator that misses the data, and the Bayes factor answers *is there a
+#' gap*. It cannot recover a physical \eqn{\theta} that the missing effect
+#' imitates: then \eqn{\theta} is the value that best fits the data together
+#' with a discrepancy, not necessarily the physical one (Brynjarsdóttir and
+#' O'Hagan 2014). See the *Gap diagnosis* vignette.
+#'
+#' **Cost.** Every combination of correlation grid point and length scales
+#' needs one eigen-decomposition of the observed points' covariance
+#' (\eqn{O(n^3)}) and one rotation of every run's residuals (\eqn{O(N n^2)});
+#' the ratios then cost \eqn{O(N n)} each.
+#'
+#' @param ratio The grid of \eqn{\lambda}, the discrepancy's variance
+#'   relative to the noise variance: non-negative values; 0 is the model
+#'   without a discrepancy. The default spans a discrepancy with a standard
+#'   deviation from 0.3 to 100 times the noise's, in half-decade steps.
+#' @param length_x,length_t Grids of the length scales over the control
+#'   settings (isotropic over the x columns) and over the output coordinate,
+#'   both scaled to \[0, 1]: positive values. Ignored when the library has a
+#'   single x setting, or a single output per setting.
+#' @param prior_none The prior probability of \eqn{\lambda = 0} (no
+#'   discrepancy), in (0, 1), when `ratio` holds 0.
+#' @param orthogonal Make the discrepancy orthogonal to the outputs' local
+#'   sensitivities to \eqn{\theta}? See Details.
+#' @return An object of class `griddy_discrepancy`, for the `discrepancy`
+#'   argument of [calibrate()] and [posterior_exact()].
+#' @references Kennedy, M. C. and O'Hagan, A. (2001). Bayesian calibration of
+#'   computer models. *JRSS B* 63(3), 425-464.
+#'
+#'   Brynjarsdóttir, J. and O'Hagan, A. (2014). Learning about physical
+#'   parameters: the importance of model discrepancy. *Inverse Problems*
+#'   30(11), 114007.
+#'
+#'   Plumlee, M. (2017). Bayesian calibration of inexact computer models.
+#'   *JASA* 112(519), 1274-1285.
+#' @seealso [discrepancy_evidence()]
+#' @examples
+#' gp_discrepancy()
+#' ex <- griddy_example()
+#' fit <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1,
+#'                  discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
+#' discrepancy_evidence(fit)
+#' @export
+gp_discrepancy <- function(ratio = c(0, 10^seq(-1, 4, by = 0.5)),
+                           length_x = c(0.1, 0.3, 1), length_t = c(0.1, 0.3, 1),
+                           prior_none = 0.5, orthogonal = TRUE) {
+  orthogonal <- assert_flag(orthogonal, "orthogonal")
+  ratio <- sort(unique(assert_numeric_vector(ratio, "ratio")))
+  if (any(!is.finite(ratio)) || any(ratio < 0)) {
+    griddy_abort("`ratio` must hold finite values >= 0; received ", show_some(format(ratio)),
+                 ".", class = "input")
+  }
+  lengths <- list(length_x = length_x, length_t = length_t)
+  for (nm in names(lengths)) {
+    v <- sort(unique(assert_numeric_vector(lengths[[nm]], nm)))
+    if (any(!is.finite(v)) || any(v <= 0)) {
+      griddy_abort("`", nm, "` must hold finite values > 0; received ", show_some(format(v)),
+                   ".", class = "input")
+    }
+    lengths[[nm]] <- v
+  }
+  if (!is.numeric(prior_none) || length(prior_none) != 1L || !is.finite(prior_none) ||
+      prior_none <= 0 || prior_none >= 1) {
+    griddy_abort("`prior_none` must be a single number in (0, 1); received ",
+                 paste(format(prior_none), collapse = ", "), ".", class = "input")
+  }
+  structure(c(list(ratio = ratio), lengths, list(prior_none = prior_none,
+                                                 orthogonal = orthogonal)),
+            class = "griddy_discrepancy")
+}
+
+#' @export
+print.griddy_discrepancy <- function(x, ...) {
+  cli::cat_line("<griddy_discrepancy> Gaussian-process discrepancy, ",
+                length(x$ratio), " ratio(s) x ", length(x$length_x), " length_x x ",
+                length(x$length_t), " length_t")
+  cli::cat_line("  ratio (variance / noise variance): ", paste(format(x$ratio, digits = 3),
+                                                               collapse = ", "))
+  cli::cat_line("  length_x: ", paste(format(x$length_x), collapse = ", "),
+                "; length_t: ", paste(format(x$length_t), collapse = ", "))
+  if (isTRUE(x$orthogonal)) cli::cat_line("  orthogonal to the outputs' sensitivities to theta")
+  if (any(x$ratio == 0)) cli::cat_line("  prior probability of no discrepancy: ", x$prior_none)
+  invisible(x)
+}
+
+# NULL, or a validated discrepancy.
+assert_discrepancy <- function(discrepancy) {
+  if (is.null(discrepancy)) return(NULL)
+  if (!inherits(discrepancy, "griddy_discrepancy")) {
+    griddy_abort("`discrepancy` must be NULL or made by gp_discrepancy(); received ",
+                 class(discrepancy)[1], ".", class = "input")
+  }
+  discrepancy
+}
+
+# The discrepancy's grid points for a library: one row per point with its
+# `ratio`, `length_x`, `length_t` (NA where the library has no such axis, and
+# for ratio 0, whose covariance does not depend on them), `kernel` (the row
+# of discrepancy_kernels(), 0 for ratio 0) and its log prior.
+discrepancy_points <- function(discrepancy, library) {
+  lx <- if (lib_n_x(library) > 1L) discrepancy$length_x else NA_real_
+  lt <- if (lib_n_t(library) > 1L) discrepancy$length_t else NA_real_
+  kernels <- expand.grid(length_x = lx, length_t = lt, KEEP.OUT.ATTRS = FALSE)
+  positive <- discrepancy$ratio[discrepancy$ratio > 0]
+  points <- data.frame(ratio = rep(positive, each = nrow(kernels)),
+                       length_x = rep(kernels$length_x, length(positive)),
+                       length_t = rep(kernels$length_t, length(positive)),
+                       kernel = rep(seq_len(nrow(kernels)), length(positive)))
+  has_none <- any(discrepancy$ratio == 0)
+  prior_none <- if (length(positive) > 0L) discrepancy$prior_none else 1
+  mass <- if (has_none) 1 - prior_none else 1
+  points$log_prior <- rep(log(mass / max(nrow(points), 1L)), nrow(points))
+  if (has_none) {
+    none <- data.frame(ratio = 0, length_x = NA_real_, length_t = NA_real_, kernel = 0L,
+                       log_prior = log(prior_none))
+    points <- rbind(none, points)
+  }
+  # the directions a change of theta moves the outputs in, which an
+  # orthogonal discrepancy leaves to theta (discrepancy_sensitivity())
+  attr(kernels, "sensitivity") <- discrepancy$sensitivity
+  attr(points, "kernels") <- kernels
+  points
+}
+
+# The discrepancy kernels K_l over every library output (library order:
+# blocks of n_t per x setting), one per row of `kernels`.
+discrepancy_kernels <- function(library, kernels) {
+  x <- lib_x(library)
+  d2_x <- if (lib_n_x(library) > 1L) {
+    Reduce(`+`, lapply(x, function(v) outer(scale_unit(v), scale_unit(v), "-")^2))
+  } else {
+    matrix(0, 1, 1)
+  }
+  s <- scale_unit(lib_t(library))
+  d2_t <- outer(s, s, "-")^2
+  project <- sensitivity_projector(attr(kernels, "sensitivity"))
+  lapply(seq_len(nrow(kernels)), function(k) {
+    K_x <- if (is.na(kernels$length_x[k])) matrix(1, 1, 1) else exp(-d2_x / kernels$length_x[k]^2)
+    K_t <- if (is.na(kernels$length_t[k])) matrix(1, 1, 1) else exp(-d2_t / kernels$length_t[k]^2)
+    project(kronecker(K_x, K_t))
+  })
+}
+
+# ---- an orthogonal discrepancy ------------------------------------------------------
+
+# A discrepancy that can imitate a change of theta competes with theta for
+# the same misfit: theta is then not identified, and the misfit between a
+# coarse library's runs (a change of theta too) passes for a gap. Plumlee's
+# (2017) remedy: a discrepancy orthogonal to the outputs' sensitivities to
+# theta. Here the sensitivities are the columns of G (library cells x
+# parameters), the local linear slopes of the outputs near the best run;
+# the discrepancy is P delta with P the projector off their span, so its
+# covariance is P K P.
+sensitivity_projector <- function(G) {
+  if (is.null(G) || ncol(G) == 0L) return(identity)
+  Q <- qr.Q(qr(G))
+  function(K) {
+    KQ <- K %*% Q
+    K - KQ %*% t(Q) - Q %*% t(KQ) + Q %*% (crossprod(Q, KQ) %*% t(Q))
+  }
+}
+
+# The discrepancy for these data: an orthogonal one learns the outputs'
+# sensitivities to theta here (every problem with a discrepancy is built
+# through this).
+discrepancy_for_data <- function(discrepancy, library, y, pattern) {
+  if (!isTRUE(discrepancy$orthogonal)) return(discrepancy)
+  discrepancy$sensitivity <- discrepancy_sensitivity(library, y, pattern)
+  discrepancy
+}
+
+# G of the library for field data y (library order, NA where missing): the
+# slopes of a linear fit of the outputs on theta (each column scaled to
+# [0, 1]) over the 4p + 2 runs (at least 12) nearest the run that fits the
+# data best (best_fitting_run()). Parameters the library holds constant, or
+# that the nearest runs do not vary, are left out. NULL when none is left.
+discrepancy_sensitivity <- function(library, y, pattern) {
+  theta <- as.matrix(lib_theta(library))
+  span <- apply(theta, 2, function(v) diff(range(v)))
+  theta <- sweep(sweep(theta, 2, apply(theta, 2, min)), 2, pmax(span, 1e-300), "/")
+  theta <- theta[, span > 0, drop = FALSE]
+  if (ncol(theta) == 0L) return(NULL)
+  best <- best_fitting_run(library, y, pattern)
+  k <- min(nrow(theta), max(4L * ncol(theta) + 2L, 12L))
+  near <- nearest_runs(theta[best, , drop = FALSE], theta, k)$idx[1, ]
+  X <- sweep(theta[near, , drop = FALSE], 2, theta[best, ])
+  X <- X[, apply(X, 2, function(v) diff(range(v)) > 0), drop = FALSE]
+  if (ncol(X) == 0L) return(NULL)
+  fit <- stats::lm.fit(cbind(1, X), lib_outputs(library, near))
+  G <- t(matrix(fit$coefficients[-1, , drop = FALSE], ncol(X)))
+  G <- G[, colSums(!is.finite(G)) == 0L, drop = FALSE]
+  if (ncol(G) == 0L) NULL else G
+}
+
+# The run that fits the field data best with independent noise (the noise
+# pattern's sd and groups kept): one pass over the library.
+best_fitting_run <- function(library, y, pattern) {
+  which.min(lib_quad_forms(library, y, correlation_setup(library, 0, 0, 2, pattern)))
+}

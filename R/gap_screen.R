@@ -1,0 +1,94 @@
+# The gap screen: does a fit without a discrepancy hide one? After sampling,
+# calibrate() weighs a gp_discrepancy() on the runs and the correlation grid
+# point that carry the posterior, and warns when the data favour it.
+#
+# It is a lower bound, and cheap: the evidence of the model with a
+# discrepancy summed over a subset of runs (and grid points), under their
+# prior mass in the full model, is at most its evidence over all of them; the
+# evidence without one is the fit's own, exact. So a large factor is a real
+# one, and a small one may hide a discrepancy that other runs would show
+# (then diagnose_gap() looks further).
+
+# At most this many runs (those with the most posterior mass, covering all
+# but 1e-6 of it when fewer do) and this many measured cells: beyond them the
+# screen's eigen-decompositions cost more than the fit.
+gap_screen_runs <- 500L
+gap_screen_cells <- 400L
+
+# The screen's result for calibrate()'s arguments and its fit without a
+# discrepancy: list(log_bf = the lower bound on the log Bayes factor,
+# runs = how many runs it weighed), or NULL when it does not apply (a fit
+# with a discrepancy, too many cells, an improper evidence).
+gap_screen <- function(fit, field, rho_x, rho_t, prior, x_power, run_weights, noise_groups) {
+  n_cells <- sum(!is.na(fit$y_field))
+  if (!is.null(fit$setup$discrepancy) || n_cells > gap_screen_cells) return(NULL)
+  log_mass_full <- attr(fit$exact, "log_mass")
+  if (is.null(log_mass_full) || !is.finite(log_mass_full)) return(NULL)
+  runs <- screen_runs(fit$exact$run)
+  g <- which.max(fit$exact$grid$prob)
+  rho <- grid_rho(fit, g)
+  lib <- fit$library
+  weights <- exp(fit$log_prior_run[runs] - max(fit$log_prior_run[runs]))
+  # the fit has said what there is to say about its library and prior: the
+  # screen's own problem stays quiet
+  problem <- tryCatch(suppressWarnings({
+    sub <- sim_library(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs),
+                       x = lib_x(lib), t = lib_t(lib))
+    calibration_problem(sub, field, rho$x, rho$t, prior, x_power, weights, noise_groups,
+                        discrepancy = gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
+  }, classes = "griddy_warning"), griddy_error = function(e) NULL)
+  if (is.null(problem)) return(NULL)
+  # the subset's and the grid point's prior mass in the full model
+  log_prior_mass <- log_sum_exp(fit$log_prior_run[runs]) + fit$log_prior_grid[g]
+  log_mass_disc <- grid_posterior(problem, joint = FALSE)$log_mass + log_prior_mass
+  list(log_bf = log_mass_disc - log_mass_full, runs = length(runs))
+}
+
+# The runs that carry all but 1e-6 of the posterior, at most
+# gap_screen_runs of them (at least 2, the least a library holds).
+screen_runs <- function(post) {
+  # runs below 1e-6 / N hold less than 1e-6 together: one pass leaves them
+  # out before anything is sorted (10^6 runs take no sort)
+  candidates <- which(post >= 1e-6 / length(post))
+  if (length(candidates) < 2L) candidates <- seq_along(post)
+  k <- min(gap_screen_runs, length(candidates))
+  top <- candidates[order(post[candidates], decreasing = TRUE)[seq_len(k)]]
+  enough <- which(cumsum(post[top]) >= 1 - 1e-6)[1]
+  top[seq_len(max(2L, if (is.na(enough)) k else enough))]
+}
+
+# The correlation parameters of grid point g of a fit, as rho_x (one value
+# per x column) and rho_t arguments.
+grid_rho <- function(fit, g) {
+  setup <- fit$setup
+  combo <- expand.grid(setup$rho_x, KEEP.OUT.ATTRS = FALSE)[setup$gx[g], , drop = FALSE]
+  names(combo) <- sub("^rho_x_", "", names(combo))
+  list(x = as.list(combo), t = setup$rho_t[setup$gt[g]])
+}
+
+# Whether the screen found a gap it can vouch for: a factor above the
+# threshold on a fit whose library resolves the posterior. (Between coarse
+# runs the misfit of the nearest run looks like a gap as well, so a fit
+# limited by the library's resolution, which is warned of already, gets no
+# gap warning: refine() it first.)
+screen_shows_gap <- function(fit) {
+  screen <- fit$gap_screen
+  if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(FALSE)
+  tab <- resolution_limited(fit)
+  !any(tab$limited & !tab$constant)
+}
+
+# calibrate()'s warning when the screen finds a gap.
+warn_gap_screen <- function(fit) {
+  if (!screen_shows_gap(fit)) return(invisible(NULL))
+  griddy_warn(gap_screen_message(fit$gap_screen$log_bf), class = "gap")
+}
+
+gap_screen_message <- function(log_bf) {
+  paste0("The field data show structure the model has no term for: a Gaussian-process ",
+         "discrepancy is favoured by a log Bayes factor of at least ", format(log_bf, digits = 3),
+         " (", evidence_words(log_bf), "), so the intervals may be narrow and off. It is a gap ",
+         "between the simulator and reality, or noise correlated over x or t (try the ",
+         "`rho_x` and `rho_t` grids). Fit it with `discrepancy = gp_discrepancy()`, or look for ",
+         "its cause with diagnose_gap().")
+}

@@ -1,0 +1,177 @@
+#' Add measurements to a streaming calibration
+#'
+#' Adds one measurement, a batch of them, or a [field_data()] to a
+#' [griddy_stream()], each in one pass over the library's runs (see
+#' [griddy_stream()] for the update and for what is not incremental).
+#'
+#' @param object A [griddy_stream()].
+#' @param y The measurement(s): a numeric vector (no `NA`), or a
+#'   [field_data()] (then `x` and `t` must be `NULL`; its measurements are
+#'   taken setting by setting, in increasing t).
+#' @param x The x setting of each measurement: a data.frame with the
+#'   library's x columns and one row per value of `y` (or one row for all of
+#'   them); `NULL` when the library has a single setting.
+#' @param t The output coordinate of each measurement (among the library's
+#'   `t`), one per value of `y`.
+#' @param ... Ignored.
+#' @return The stream, updated in place (a stream is a reference object:
+#'   see [griddy_stream()]).
+#' @seealso [griddy_stream()]
+#' @examples
+#' ex <- griddy_example()
+#' s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
+#' x1 <- ex$field$x[1, , drop = FALSE]
+#' s <- update(s, y = ex$field$y[1, 1], x = x1, t = ex$library$t[1])        # one
+#' s <- update(s, y = ex$field$y[1, 2:4], x = x1, t = ex$library$t[2:4])    # a batch
+#' nobs(s)
+#' @export
+update.griddy_stream <- function(object, y, x = NULL, t = NULL, ...) {
+  state <- object$state
+  cells <- if (inherits(y, "griddy_field")) {
+    if (!is.null(x) || !is.null(t)) {
+      griddy_abort("With a field_data `y`, `x` and `t` must be NULL (the field has them).")
+    }
+    field_cells(state$library, y)
+  } else {
+    measurement_cells(state$library, y, x, t)
+  }
+  for (m in seq_along(cells$column)) stream_add(state, cells$column[m], cells$y[m])
+  object
+}
+
+# The library output column (blocks of n_t by x setting) and value of each
+# measurement given as vectors y, x, t.
+measurement_cells <- function(library, y, x, t) {
+  y <- assert_numeric_vector(y, "y")
+  if (is.null(t) || length(t) != length(y)) {
+    griddy_abort("`t` must give the output coordinate of each measurement (", length(y),
+                 "); received ", length(t), ".", class = "shape")
+  }
+  j <- match_coordinates(assert_numeric_vector(t, "t"), lib_t(library))
+  k <- if (is.null(x)) {
+    if (lib_n_x(library) > 1L) {
+      griddy_abort("`x` must give the x setting of the measurements: the library has ",
+                   lib_n_x(library), " settings.", class = "shape")
+    }
+    rep(1L, length(y))
+  } else {
+    if (!is.data.frame(x) || !nrow(x) %in% c(1L, length(y))) {
+      griddy_abort("`x` must be a data.frame with one row per measurement (", length(y),
+                   ") or one row; received ", class(x)[1],
+                   if (is.data.frame(x)) paste0(" with ", nrow(x), " rows"), ".",
+                   class = "shape")
+    }
+    rep_len(match_settings(as_numeric_columns(x, "x"), lib_x(library)), length(y))
+  }
+  list(column = (k - 1L) * lib_n_t(library) + j, y = y)
+}
+
+# The measurements of a field_data as columns and values, setting by setting
+# in increasing t (replicates one after the other).
+field_cells <- function(library, field) {
+  if (!is.null(field$sd)) {
+    griddy_abort("A stream takes no relative `sd` of measurements.", class = "unsupported")
+  }
+  n_t <- lib_n_t(library)
+  cols <- if (is.null(field$t)) seq_len(ncol(field$y)) else
+    match_coordinates(field$t, lib_t(library))
+  rows <- if (isTRUE(field$one_setting) || lib_n_x(library) == 1L) {
+    rep(1L, nrow(field$y))
+  } else if (is.null(field$x)) {
+    seq_len(nrow(field$y))
+  } else {
+    match_settings(field$x, lib_x(library))
+  }
+  if (is.null(field$x) && is.null(field$t) && nrow(field$y) == 1L &&
+      ncol(field$y) == lib_n_out(library)) {
+    rows <- 1L
+    cols <- seq_len(lib_n_out(library))  # a vector in the library's order
+  }
+  cell <- as.vector(outer((rows - 1L) * n_t, cols, "+"))
+  value <- as.vector(field$y)
+  keep <- !is.na(value)
+  o <- order(cell[keep])
+  list(column = cell[keep][o], y = value[keep][o])
+}
+
+# Add one measurement (library output `column`, value `y`) to the stream's
+# state, in place.
+stream_add <- function(state, column, y) {
+  n_t <- lib_n_t(state$library)
+  setting <- (column - 1L) %/% n_t + 1L
+  k <- state$group[column]
+  prev <- state$last_column[setting, k]
+  if (state$markov && !is.na(prev) && column <= prev) {
+    if (state$measured[column]) {
+      griddy_abort("Output ", column, " (x setting ", setting, ", t = ",
+                   format(lib_t(state$library)[(column - 1L) %% n_t + 1L]), ") was measured ",
+                   "already: under an AR(1) correlation over t a replicate has no ",
+                   "incremental update. Average the replicates, or use calibrate().",
+                   class = "unsupported")
+    }
+    stream_record(state, column, y)
+    rlang::inform(paste0("A measurement arrived at an earlier t than the last one at its ",
+                         "x setting: the AR(1) innovations need t order, so the stream ",
+                         "recomputes its forms from all ", length(state$data$y),
+                         " measurements."),
+                  class = c("griddy_message_stream_replay", "griddy_message"))
+    return(stream_replay(state))
+  }
+  stream_accumulate(state, column, y)
+  stream_record(state, column, y)
+}
+
+# The forms, count and log-determinant updated with one measurement.
+stream_accumulate <- function(state, column, y) {
+  setting <- (column - 1L) %/% lib_n_t(state$library) + 1L
+  k <- state$group[column]
+  G <- length(state$rho_t)
+  prev <- state$last_column[setting, k]
+  if (state$markov && !is.na(prev)) {
+    phi <- state$rho_t^(state$s_unit[column - (setting - 1L) * lib_n_t(state$library)] -
+                          state$s_unit[prev - (setting - 1L) * lib_n_t(state$library)])
+    if (any(phi >= 1)) {
+      griddy_abort("`rho_t` value(s) give neighbouring measurements a correlation that ",
+                   "rounds to 1; use values further from 1.", class = "numeric")
+    }
+    one_minus <- 1 - phi^2
+    add_column(state, column, y, prev, state$last_y[setting, k], phi, 1 / one_minus, k, G)
+    state$logdet <- state$logdet + log(one_minus)
+  } else {
+    add_column(state, column, y, 0L, 0, numeric(G), rep(1, G), k, G)
+  }
+  state$n[k] <- state$n[k] + 1L
+  state$last_column[setting, k] <- column
+  state$last_y[setting, k] <- y
+  state$cache <- NULL
+  invisible(state)
+}
+
+add_column <- function(state, column, y, prev, y_prev, phi, scale, k, G) {
+  withCallingHandlers(
+    stream_add_cpp(state$C, state$outputs, column - 1L, y, prev - 1L, y_prev, phi, scale,
+                   (k - 1L) * G),
+    error = function(e) {
+      if (grepl("not finite", conditionMessage(e), fixed = TRUE)) abort_overflow(y)
+    })
+}
+
+# The data so far, in arrival order (what stream_data() reports).
+stream_record <- function(state, column, y) {
+  state$data$column <- c(state$data$column, column)
+  state$data$y <- c(state$data$y, y)
+  state$measured[column] <- TRUE
+  invisible(state)
+}
+
+# Recompute the statistics from all the data, in library order (setting by
+# setting, increasing t), which the AR(1) innovations need.
+stream_replay <- function(state) {
+  data <- state$data
+  stream_reset(state)
+  o <- order(data$column)
+  for (m in o) stream_accumulate(state, data$column[m], data$y[m])
+  state$data <- data
+  state$measured[data$column] <- TRUE
+  invisible(state)
+}

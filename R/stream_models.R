@@ -1,0 +1,187 @@
+#' Choose between models as measurements arrive
+#'
+#' Several [griddy_stream()]s over different libraries (candidate
+#' simulators, or a simulator with and without an effect) take the same
+#' measurements; after each one, the posterior probability of each model
+#' is updated from its one-step predictive density, the ratio of its
+#' running evidences ([logLik()][logLik.griddy_stream], one more pass over
+#' the runs): \eqn{p(y_k \mid y_{1:k-1}, M) = Z_k(M) / Z_{k-1}(M)}.
+#'
+#' **Following a change of regime: dynamic model averaging.** With
+#' `forgetting` \eqn{\alpha = 1} the probabilities are the exact Bayesian
+#' ones, \eqn{p(M \mid y_{1:k}) \propto p(M) Z_k(M)}: after much evidence for
+#' one model they take as much evidence again to turn. With
+#' \eqn{\alpha < 1} they follow Raftery, Karny and Ettler (2010): before
+#' each measurement the probabilities are flattened,
+#' \eqn{p_{k|k-1}(M) \propto p_{k-1}(M)^\alpha}, then multiplied by the
+#' predictive density, \eqn{p_k(M) \propto p_{k|k-1}(M) p(y_k \mid
+#' y_{1:k-1}, M)}. This is the exact posterior of a model index that may
+#' switch between measurements (a hidden Markov chain on the models) in the
+#' approximation the authors make, and amounts to an exponentially
+#' discounted evidence: \eqn{\log p_k(M) = \sum_j \alpha^{k-j} \log p(y_j
+#' \mid y_{1:j-1}, M)} + const; the effective memory is about \eqn{1 / (1 -
+#' \alpha)} measurements (\eqn{\alpha = 0.99}: the last hundred or so).
+#' Each model's own posterior over its runs is not discounted: the
+#' parameters are taken as fixed, the model's adequacy as what changes
+#' (for a drum test, the tyre stays the same tyre while the cleat height
+#' changes). The probabilities are kept as logarithms, so no model's
+#' probability reaches machine zero.
+#'
+#' The streams are updated in place (see [griddy_stream()]): give each
+#' `stream_models()` streams of its own, or a stream shared by two of them
+#' takes every measurement twice.
+#'
+#' @param ... For `stream_models()`: named [griddy_stream()]s (at least two), one per model, each
+#'   holding the same measurements so far (usually none).
+#' @param prior Prior model probabilities (one per model; `NULL`: equal).
+#' @param forgetting The flattening exponent \eqn{\alpha} in (0, 1]; 1 (the
+#'   default) gives the exact posterior model probabilities.
+#' @return A `griddy_stream_models` (a reference object, as a stream is):
+#'   update it with [update()][update.griddy_stream_models]; `as.data.frame()`
+#'   gives the history, `logLik()` each model's log evidence, and
+#'   `$streams` the streams themselves.
+#' @references Raftery, A. E., Karny, M. and Ettler, P. (2010). Online
+#'   prediction under model uncertainty via dynamic model averaging:
+#'   application to a cold rolling mill. *Technometrics* 52(1), 52-66.
+#'   \doi{10.1198/TECH.2009.08104}
+#' @seealso [griddy_stream()]
+#' @examples
+#' ex <- griddy_example()
+#' lib <- ex$library
+#' # a rival model: the same runs with their responses damped by 10%
+#' rival <- sim_library(lib$theta, 0.9 * lib$y, x = lib$x, t = lib$t)
+#' m <- stream_models(spring = griddy_stream(lib), damped = griddy_stream(rival))
+#' m <- update(m, y = ex$field)
+#' tail(as.data.frame(m), 3)
+#' @export
+stream_models <- function(..., prior = NULL, forgetting = 1) {
+  streams <- list(...)
+  if (length(streams) < 2L || is.null(names(streams)) || any(names(streams) == "") ||
+      anyDuplicated(names(streams))) {
+    griddy_abort("`...` must be two or more streams with distinct names, one per model.")
+  }
+  for (m in names(streams)) assert_stream(streams[[m]], m)
+  n <- vapply(streams, nobs, integer(1))
+  if (any(n != n[1])) {
+    griddy_abort("The streams must hold the same measurements so far; they hold ",
+                 show_some(n), ".")
+  }
+  prior <- if (is.null(prior)) rep(1, length(streams)) else
+    assert_number(prior, "prior", len = length(streams), lower = 0)
+  if (sum(prior) <= 0) griddy_abort("`prior` must have a positive sum.")
+  forgetting <- assert_number(forgetting, "forgetting", lower = 0, lower_open = TRUE,
+                              upper = 1)
+  state <- new.env(parent = emptyenv())
+  state$streams <- streams
+  state$forgetting <- forgetting
+  state$log_evidence <- vapply(streams, function(s) as.numeric(logLik(s)), numeric(1))
+  if (anyNA(state$log_evidence)) {
+    griddy_abort("Every stream needs a proper prior on tau (a positive rate) for its ",
+                 "evidence.", class = "improper_prior")
+  }
+  state$log_prob <- normalise_log_prob(log(prior / sum(prior)) +
+                                         if (n[1] > 0L) state$log_evidence else 0)
+  state$history <- list()
+  structure(list(state = state), class = "griddy_stream_models")
+}
+
+#' @rdname stream_models
+#' @param object A `griddy_stream_models`.
+#' @param y,x,t The measurements, as for [update.griddy_stream()] (a
+#'   [field_data()] is taken setting by setting, in increasing t); every
+#'   stream takes them one at a time, and the model probabilities are
+#'   updated after each. `...` is ignored.
+#' @export
+update.griddy_stream_models <- function(object, y, x = NULL, t = NULL, ...) {
+  state <- object$state
+  first <- state$streams[[1]]$state$library
+  cells <- if (inherits(y, "griddy_field")) field_cells(first, y) else
+    measurement_cells(first, y, x, t)
+  n_t <- lib_n_t(first)
+  for (m in seq_along(cells$column)) {
+    column <- cells$column[m]
+    x_m <- if (lib_n_x(first) > 1L) lib_x(first)[(column - 1L) %/% n_t + 1L, , drop = FALSE]
+    t_m <- lib_t(first)[(column - 1L) %% n_t + 1L]
+    models_add(state, cells$y[m], x_m, t_m)
+  }
+  object
+}
+
+# One measurement: every stream updated, the one-step predictive densities
+# from the evidences, the flattened probabilities times them.
+models_add <- function(state, y, x, t) {
+  before <- state$log_evidence
+  for (s in state$streams) update(s, y = y, x = x, t = t)
+  state$log_evidence <- vapply(state$streams, function(s) as.numeric(logLik(s)), numeric(1))
+  log_pred <- state$log_evidence - before
+  state$log_prob <- normalise_log_prob(normalise_log_prob(state$forgetting * state$log_prob) +
+                                         log_pred)
+  state$history[[length(state$history) + 1L]] <-
+    list(x = x, t = t, y = y, prob = exp(state$log_prob), log_pred = log_pred)
+  invisible(state)
+}
+
+normalise_log_prob <- function(lp) lp - log_sum_exp(lp)
+
+#' History and evidence of a model choice
+#'
+#' @param x,object A [stream_models()].
+#' @param row.names,optional,... Ignored.
+#' @return `as.data.frame()`: one row per measurement taken (`step`, the x
+#'   columns when the libraries have several settings, `t`, `y`), with the
+#'   probability of each model after it (`prob_<model>`) and the log
+#'   one-step predictive density of each (`log_pred_<model>`); `logLik()`:
+#'   each model's log evidence so far (a named vector); `print()`: `x`,
+#'   invisibly.
+#' @name stream_models-methods
+#' @examples
+#' ex <- griddy_example()
+#' rival <- sim_library(ex$library$theta, 0.9 * ex$library$y, x = ex$library$x,
+#'                      t = ex$library$t)
+#' m <- stream_models(spring = griddy_stream(ex$library), damped = griddy_stream(rival))
+#' update(m, y = ex$field)
+#' logLik(m)
+#' head(as.data.frame(m))
+NULL
+
+#' @rdname stream_models-methods
+#' @export
+as.data.frame.griddy_stream_models <- function(x, row.names = NULL, optional = FALSE, ...) {
+  h <- x$state$history
+  models <- names(x$state$streams)
+  if (length(h) == 0L) return(data.frame())
+  prob <- do.call(rbind, lapply(h, `[[`, "prob"))
+  pred <- do.call(rbind, lapply(h, `[[`, "log_pred"))
+  colnames(prob) <- paste0("prob_", models)
+  colnames(pred) <- paste0("log_pred_", models)
+  settings <- do.call(rbind, lapply(h, `[[`, "x"))
+  out <- data.frame(step = seq_along(h), t = vapply(h, `[[`, 0, "t"),
+                    y = vapply(h, `[[`, 0, "y"))
+  if (!is.null(settings)) out <- cbind(out["step"], settings, out[c("t", "y")])
+  rownames(out) <- NULL
+  cbind(out, prob, pred)
+}
+
+#' @rdname stream_models-methods
+#' @export
+logLik.griddy_stream_models <- function(object, ...) object$state$log_evidence
+
+#' @rdname stream_models-methods
+#' @export
+print.griddy_stream_models <- function(x, ...) {
+  state <- x$state
+  cli::cat_line("<griddy_stream_models> ", length(state$streams), " models, ",
+                nobs(state$streams[[1]]), " measurement(s); forgetting ",
+                format(state$forgetting))
+  tab <- data.frame(model = names(state$streams), probability = exp(state$log_prob),
+                    log_evidence = state$log_evidence)
+  print(format(tab, digits = 4), row.names = FALSE)
+  invisible(x)
+}
+
+# `$streams` reads the streams.
+#' @export
+`$.griddy_stream_models` <- function(x, name) {
+  if (identical(name, "streams")) return(.subset2(x, "state")$streams)
+  .subset2(x, name)
+}

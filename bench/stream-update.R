@@ -1,0 +1,116 @@
+# Issue 25: the time per measurement of a streaming calibration
+# (griddy_stream() + update()) against a fresh calibrate() and a fresh
+# posterior_exact() per measurement, at 10^4, 10^5 and 10^6 runs; and the
+# checks the issue names: after the last measurement the stream's posterior
+# and log evidence against posterior_exact() on all the data, and two
+# candidate libraries ranked as the batch evidence ranks them.
+#
+# Library: STREAM_RUNS random runs of a two-parameter smooth response at
+# 120 output coordinates (one x setting), 8 bytes x 120 per run (960 MB at
+# 10^6). Field: 120 values of one run's response plus noise. Models:
+# independent noise (rho_t = 0, one grid point) and an AR(1) grid over t
+# (rho_t = 0, 0.5, 0.9: three grid points). 120 measurements arrive one at
+# a time through update(stream, y =, t =); each update is timed as the
+# whole R call (Sys.time() around it), and so is update() followed by
+# logLik() (the evidence, one more pass, what stream_models() needs after
+# every measurement).
+#
+# One memory pass: griddy's memory_pass_cpp() (a plain C++ read loop) over
+# what an update must touch: the N x G forms C (read and written) and one
+# output column (read), timed as a read of N x (G + 1) doubles.
+#
+# calibrate() (default 35,000 iterations, one chain) and posterior_exact()
+# are timed once per size on all 120 measurements (what a fresh call per
+# measurement costs at the end of the stream); at 10^6 runs calibrate()
+# takes about 10 s.
+#
+# Usage, from the package root, with griddy installed (R CMD INSTALL .):
+#   Rscript bench/stream-update.R
+# Options (environment): STREAM_RUNS (default "1e4,1e5,1e6"), GRIDDY_NEW_LIB
+# (a library holding the griddy to test). Writes
+# bench/results/stream-update.csv and .md. About 2-3 minutes and 3 GB here.
+source("bench/helpers.R")
+if (nzchar(new_griddy_lib())) .libPaths(c(new_griddy_lib(), .libPaths()))
+suppressPackageStartupMessages(library(griddy))
+read_loop <- read_loop_fn()
+sizes <- as.numeric(strsplit(Sys.getenv("STREAM_RUNS", "1e4,1e5,1e6"), ",")[[1]])
+n_t <- 120
+tt <- seq(0, 1, length.out = n_t)
+response <- function(a, b) outer(a, 1 + tt) + outer(b, sin(6 * tt))
+rho_models <- list(independent = 0, ar1 = c(0, 0.5, 0.9))
+load_before <- load_1min()
+
+elapsed_ms <- function(expr) {
+  t0 <- Sys.time()
+  force(expr)
+  1000 * as.numeric(difftime(Sys.time(), t0, units = "secs"))
+}
+
+rows <- list()
+for (N in sizes) {
+  set.seed(1)
+  theta <- data.frame(a = runif(N), b = runif(N))
+  lib <- sim_library(theta, response(theta$a, theta$b), t = tt)
+  # a rival library: the same runs without the sine term's curvature
+  rival <- sim_library(theta, outer(theta$a, 1 + tt) + outer(theta$b, 6 * tt * (1 - tt)), t = tt)
+  y <- as.vector(response(0.37, 0.61)) + rnorm(n_t, sd = 0.05)
+  field <- field_data(y, t = tt)
+  for (model in names(rho_models)) {
+    rho_t <- rho_models[[model]]
+    G <- length(rho_t)
+    s <- griddy_stream(lib, rho_t = rho_t)
+    update_ms <- vapply(seq_len(n_t), function(j) elapsed_ms(update(s, y = y[j], t = tt[j])),
+                        numeric(1))
+    s2 <- griddy_stream(lib, rho_t = rho_t)
+    with_evidence_ms <- vapply(seq_len(n_t), function(j) {
+      elapsed_ms({
+        update(s2, y = y[j], t = tt[j])
+        logLik(s2)
+      })
+    }, numeric(1))
+    block <- matrix(1, N, G + 1L)
+    pass_ms <- median(replicate(9, elapsed_ms(read_loop(block))))
+    rm(block)
+    exact_ms <- elapsed_ms(batch <- suppressWarnings(posterior_exact(lib, field, rho_t = rho_t)))
+    calibrate_ms <- elapsed_ms(suppressWarnings(calibrate(lib, field, rho_t = rho_t, seed = 1)))
+    streamed <- posterior_exact(s)
+    # two candidates: the stream's evidences against the batch ones
+    r <- update(griddy_stream(rival, rho_t = rho_t), y = field)
+    batch_rival <- suppressWarnings(posterior_exact(rival, field, rho_t = rho_t, joint = FALSE))
+    rows[[length(rows) + 1L]] <- data.frame(
+      runs = N, model = model, grid_points = G, measurements = n_t,
+      update_median_ms = median(update_ms), update_p90_ms = unname(quantile(update_ms, 0.9)),
+      update_logLik_median_ms = median(with_evidence_ms),
+      one_pass_ms = pass_ms, update_over_pass = median(update_ms) / pass_ms,
+      posterior_exact_ms = exact_ms, calibrate_ms = calibrate_ms,
+      max_run_prob_diff = max(abs(streamed$run - batch$run)),
+      log_evidence_diff = as.numeric(logLik(s)) - batch$log_evidence,
+      rival_log_evidence_diff = as.numeric(logLik(r)) - batch_rival$log_evidence,
+      ranking_agrees = (as.numeric(logLik(s)) > as.numeric(logLik(r))) ==
+        (batch$log_evidence > batch_rival$log_evidence),
+      machine = machine_note())
+    print(rows[[length(rows)]][, 1:15])
+    rm(s, s2, r, streamed, batch)
+    gc()
+  }
+  rm(lib, rival)
+  gc()
+}
+out <- do.call(rbind, rows)
+dir.create("bench/results", showWarnings = FALSE)
+write.csv(out, "bench/results/stream-update.csv", row.names = FALSE)
+fmt <- function(v, d = 3) format(signif(v, d), scientific = FALSE, trim = TRUE)
+md <- c("# Streaming calibration: time per measurement (issue 25)", "",
+        paste0("`Rscript bench/stream-update.R`; ", machine_note(), " (1-min load before: ",
+               format(load_before), ")."), "",
+        "| runs | model | G | update (median ms) | p90 | update + logLik | one pass (ms) | update / pass | posterior_exact (ms) | calibrate (ms) | max run prob. diff | log evidence diff | ranking as batch |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        sprintf("| %s | %s | %d | %s | %s | %s | %s | %s | %s | %s | %.1e | %.1e | %s |",
+                format(out$runs, big.mark = ",", scientific = FALSE), out$model, out$grid_points,
+                fmt(out$update_median_ms), fmt(out$update_p90_ms),
+                fmt(out$update_logLik_median_ms), fmt(out$one_pass_ms),
+                fmt(out$update_over_pass, 2), fmt(out$posterior_exact_ms),
+                fmt(out$calibrate_ms), out$max_run_prob_diff, abs(out$log_evidence_diff),
+                out$ranking_agrees))
+writeLines(md, "bench/results/stream-update.md")
+writeLines(md)

@@ -1,0 +1,192 @@
+# A system with a known additive gap: a 2-parameter library over 3 x settings
+# x 10 outputs, field data from a run plus a smooth bump plus noise.
+gap_toy <- function(bump = 0, sd = 0.05, seed = 3, reps = 1) {
+  grid <- expand.grid(a = seq(1, 2, length.out = 9), b = seq(0, 1, length.out = 9))
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = 10)
+  sim <- function(a, b) unlist(lapply(x$load, function(l) a * l * exp(-b * t)))
+  y <- t(mapply(sim, grid$a, grid$b))
+  set.seed(seed)
+  mu <- sim(1.5, 0.5) + bump * rep(x$load, each = length(t)) * sin(pi * t)
+  field <- do.call(rbind, lapply(seq_len(reps), function(r) {
+    matrix(mu + stats::rnorm(length(mu), sd = sd), nrow(x), length(t), byrow = TRUE)
+  }))
+  list(library = sim_library(grid, y, x = x, t = t),
+       field = field_data(field, x = x[rep(seq_len(nrow(x)), reps), , drop = FALSE], t = t))
+}
+
+test_that("gp_discrepancy() validates its grids", {
+  expect_s3_class(gp_discrepancy(), "griddy_discrepancy")
+  expect_error(gp_discrepancy(ratio = -1), class = "griddy_error_input")
+  expect_error(gp_discrepancy(length_x = 0), class = "griddy_error_input")
+  expect_error(gp_discrepancy(prior_none = 1), class = "griddy_error_input")
+  expect_error(calibrate(gap_toy()$library, gap_toy()$field, discrepancy = list()),
+               class = "griddy_error_input")
+  expect_snapshot(print(gp_discrepancy(ratio = c(0, 1, 10), length_x = 1, length_t = 0.5)))
+})
+
+test_that("the discrepancy's points and prior: ratio 0 once, the rest equal", {
+  lib <- gap_toy()$library
+  pts <- discrepancy_points(gp_discrepancy(ratio = c(0, 1, 10), length_x = c(0.5, 1),
+                                           length_t = 0.3, prior_none = 0.4), lib)
+  expect_equal(nrow(pts), 1 + 2 * 2)
+  expect_equal(sum(exp(pts$log_prior)), 1)
+  expect_equal(exp(pts$log_prior[pts$ratio == 0]), 0.4)
+  expect_true(all(is.na(pts$length_x[pts$ratio == 0])))
+  only_none <- discrepancy_points(gp_discrepancy(ratio = 0), lib)
+  expect_equal(exp(only_none$log_prior), 1)
+})
+
+# C and log|Sigma| by dense algebra, Sigma = S R S + lambda K over the
+# observed points, for one run and one grid point.
+brute_force_point <- function(problem, run, g) {
+  setup <- problem$setup
+  lib <- problem$library
+  obs <- setup$dense$obs
+  disc <- setup$discrepancy[setup$gd[g], ]
+  t <- lib_t(lib)
+  R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
+  R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs]
+  s <- if (is.null(setup$dense$scale)) rep(1, length(obs)) else 1 / setup$dense$scale
+  Sigma <- R * outer(s, s)
+  if (disc$ratio > 0) {
+    K <- discrepancy_kernels(lib, attr(setup$discrepancy, "kernels"))[[disc$kernel]]
+    Sigma <- Sigma + disc$ratio * K[obs, obs]
+  }
+  r <- (problem$y_field - lib_outputs(lib, run)[1, ])[obs]
+  list(C = sum(r * solve(Sigma, r)) + sum(setup$pure_ss),
+       logdet = as.numeric(determinant(Sigma)$modulus))
+}
+
+test_that("the misfit table with a discrepancy is the dense algebra's", {
+  toy <- gap_toy(bump = 0.1)
+  problem <- calibration_problem(toy$library, toy$field, rho_x = 0, rho_t = c(0, 0.5), NULL,
+                                 2, NULL, discrepancy = gp_discrepancy(ratio = c(0, 0.5, 20),
+                                                                       length_x = c(0.3, 1),
+                                                                       length_t = 0.2))
+  expect_equal(ncol(problem$C), 2 * (1 + 2 * 2))
+  expect_named(problem$grid, c("rho_x_load", "rho_t", "delta_ratio", "delta_length_x",
+                               "delta_length_t"))
+  for (g in c(1, 2, 4, 7, 10)) {
+    bf <- brute_force_point(problem, 17, g)
+    expect_equal(problem$C[17, g], bf$C, tolerance = 1e-10)
+    # logdet holds log|Sigma| up to the constant of the replicates (none here)
+    expect_equal(problem$setup$logdet[g], bf$logdet, tolerance = 1e-10)
+  }
+})
+
+test_that("with replicates and missing cells, the dense algebra still holds", {
+  toy <- gap_toy(bump = 0.1, reps = 2)
+  y <- toy$field$y
+  y[2, 3] <- NA
+  field <- field_data(y, x = toy$field$x, t = toy$field$t)
+  problem <- calibration_problem(toy$library, field, 0, 0, NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(ratio = c(0, 3), length_x = 0.5,
+                                                              length_t = 0.5))
+  for (g in 1:2) {
+    bf <- brute_force_point(problem, 5, g)
+    expect_equal(problem$C[5, g], bf$C, tolerance = 1e-10)
+  }
+  # the pure error is the same at every grid point: only the cell means' part moves
+  expect_gt(problem$setup$pure_ss, 0)
+})
+
+test_that("ratio 0 alone reproduces the fit without a discrepancy", {
+  toy <- gap_toy()
+  p0 <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.4))
+  p1 <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.4),
+                        discrepancy = gp_discrepancy(ratio = 0))
+  expect_equal(p1$run, p0$run, tolerance = 1e-10)
+  expect_equal(p1$log_evidence, p0$log_evidence, tolerance = 1e-10)
+})
+
+test_that("the grid table and the draws carry the discrepancy's columns", {
+  toy <- gap_toy(bump = 0.2)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 400, burn_in = 100,
+                                    seed = 1, discrepancy = gp_discrepancy(ratio = c(0, 1, 100))))
+  expect_true(all(c("delta_ratio", "delta_length_x", "delta_length_t") %in% names(fit$grid)))
+  d <- as.data.frame(fit)
+  expect_true("delta_ratio" %in% names(d))
+  s <- summary(fit)
+  expect_true("delta_ratio" %in% s$parameter)
+  expect_false(any(c("delta_length_x", "delta_length_t") %in% s$parameter))
+})
+
+test_that("noise groups: the discrepancy acts within each group", {
+  toy <- gap_toy(bump = 0.1)
+  groups <- rep(c("early", "late"), each = 5)
+  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+                                 noise_groups = groups,
+                                 discrepancy = gp_discrepancy(ratio = c(0, 2), length_x = 1,
+                                                              length_t = 1))
+  g <- 2
+  point <- grid_point(problem$setup, g)
+  K <- discrepancy_kernels(toy$library, attr(problem$setup$discrepancy, "kernels"))[[1]]
+  idx <- which(rep(groups, 3) == "late")
+  Sigma <- diag(length(idx)) + 2 * K[idx, idx]
+  expect_equal(tcrossprod(point$dense$A[["late"]]), solve(Sigma), tolerance = 1e-10)
+})
+
+test_that("every backend gives the same evidence with a discrepancy: HDF5 as in memory", {
+  skip_if_not_installed("hdf5r")
+  toy <- gap_toy(bump = 0.1)
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = c(0.3, 1))
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(toy$library, file)
+  h5 <- hdf5_library(file)
+  in_memory <- posterior_exact(toy$library, toy$field, discrepancy = disc)
+  on_disk <- posterior_exact(h5, toy$field, discrepancy = disc)
+  expect_equal(on_disk$run, in_memory$run, tolerance = 1e-12)
+  expect_equal(on_disk$log_evidence, in_memory$log_evidence, tolerance = 1e-12)
+})
+
+test_that("an emulated library's error and a discrepancy enter together", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 400)
+  field <- emulated_toy_field()
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
+  exact <- suppressWarnings(posterior_exact(lib, field, discrepancy = disc))
+  expect_equal(sum(exact$run), 1)
+  expect_true(is.finite(discrepancy_evidence(exact)$log_bayes_factor))
+  # the ratio-0 points are the model without a discrepancy, emulation error included
+  plain <- suppressWarnings(posterior_exact(lib, field))
+  none <- suppressWarnings(posterior_exact(lib, field, discrepancy = gp_discrepancy(ratio = 0)))
+  expect_equal(none$run, plain$run, tolerance = 1e-8)
+})
+
+test_that("refine() keeps the discrepancy in every round", {
+  skip_if_not_installed("RobustGaSP")
+  toy <- gap_toy(bump = 0.1)
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1,
+                                    discrepancy = disc))
+  sim <- function(theta) {
+    t <- lib_t(toy$library)
+    t(mapply(function(a, b) unlist(lapply(c(1, 2, 3), function(l) a * l * exp(-b * t))),
+             theta$a, theta$b))
+  }
+  ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
+  expect_identical(names(ref$grid), names(fit$grid))
+  expect_equal(nrow(ref$grid), nrow(fit$grid))
+  expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+})
+
+test_that("an orthogonal discrepancy cannot imitate a change of theta", {
+  toy <- gap_toy(bump = 0.1)
+  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
+                                                              length_t = 0.5))
+  kernels <- attr(problem$setup$discrepancy, "kernels")
+  G <- attr(kernels, "sensitivity")
+  expect_equal(dim(G), c(30L, 2L))
+  K <- discrepancy_kernels(toy$library, kernels)[[1]]
+  expect_lt(max(abs(K %*% G)), 1e-8 * max(abs(K)) * max(abs(G)))
+  expect_equal(K, t(K))
+  # the slopes are those of the outputs near the best run: a a*l*exp(-b t) library
+  best <- best_fitting_run(toy$library, problem$y_field, NULL)
+  expect_equal(best, which.min(rowSums(sweep(lib_outputs(toy$library), 2, problem$y_field)^2)))
+  plain <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+                               discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
+                                                            length_t = 0.5, orthogonal = FALSE))
+  expect_null(attr(attr(plain$setup$discrepancy, "kernels"), "sensitivity"))
+})

@@ -1,0 +1,59 @@
+# One parameter on a fine grid (the posterior resolved), 3 loads x 12
+# outputs; a gap growing with load and t when `bump` > 0.
+screen_system <- function(bump, seed, n_runs = 801) {
+  theta <- data.frame(a = seq(1, 2, length.out = n_runs))
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = 12)
+  sim <- function(a) unlist(lapply(x$load, function(l) a * l * exp(-0.4 * t)))
+  y <- t(vapply(theta$a, sim, numeric(36)))
+  set.seed(seed)
+  mu <- sim(1.5) + bump * rep(x$load, each = length(t))^2 * t^2
+  field <- matrix(mu + stats::rnorm(length(mu), sd = 0.05), nrow(x), length(t), byrow = TRUE)
+  list(library = sim_library(theta, y, x = x, t = t), field = field_data(field, x = x, t = t))
+}
+
+quiet_fit <- function(sys, ...) {
+  warnings <- list()
+  fit <- withCallingHandlers(
+    calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1, ...),
+    warning = function(w) {
+      warnings[[length(warnings) + 1L]] <<- w
+      invokeRestart("muffleWarning")
+    })
+  list(fit = fit, gap_warned = any(vapply(warnings, inherits, TRUE, "griddy_warning_gap")))
+}
+
+test_that("a fit without a discrepancy warns when the data show a gap, and not otherwise", {
+  gap <- quiet_fit(screen_system(0.1, seed = 1))
+  none <- quiet_fit(screen_system(0, seed = 1))
+  expect_true(gap$gap_warned)
+  expect_false(none$gap_warned)
+  expect_gt(gap$fit$gap_screen$log_bf, log(20))
+  expect_lt(none$fit$gap_screen$log_bf, 0)
+  out <- paste(capture.output(print(summary(gap$fit))), collapse = " ")
+  expect_match(out, "Gap: The field data show structure", fixed = TRUE)
+})
+
+test_that("the screen is a lower bound on the exact Bayes factor", {
+  sys <- screen_system(0.05, seed = 3)
+  fit <- quiet_fit(sys)$fit
+  exact <- posterior_exact(sys$library, sys$field,
+                           discrepancy = gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
+  exact_bf <- exact$log_evidence - fit$exact$log_evidence
+  expect_lte(fit$gap_screen$log_bf, exact_bf + 1e-8)
+  expect_gt(fit$gap_screen$log_bf, exact_bf - 1)  # the runs that carry the posterior
+})
+
+test_that("a fit limited by the library's resolution gets no gap warning", {
+  res <- quiet_fit(screen_system(0.1, seed = 1, n_runs = 21))
+  expect_true(any(res$fit$resolution$limited))
+  expect_false(res$gap_warned)
+})
+
+test_that("the screen stays out of fits with a discrepancy or many cells", {
+  sys <- screen_system(0, seed = 1)
+  fit <- quiet_fit(sys, discrepancy = gp_discrepancy(ratio = c(0, 1)))$fit
+  expect_null(fit$gap_screen)
+  expect_equal(screen_runs(c(0.5, 0.5 - 1e-7, 1e-7)), c(1L, 2L))
+  expect_equal(screen_runs(c(1, 0, 0)), c(1L, 2L))
+})

@@ -1,0 +1,103 @@
+# The stream's posterior and evidence against the batch ones on the same data.
+
+test_that("one measurement at a time gives the batch posterior and evidence", {
+  ex <- griddy_example()
+  s <- griddy_stream(ex$library)
+  y <- ex$field$y
+  n_t <- ncol(y)
+  for (k in seq_len(nrow(y))) {
+    for (j in seq_len(n_t)) {
+      s <- update(s, y = y[k, j], x = ex$field$x[k, , drop = FALSE], t = ex$library$t[j])
+    }
+  }
+  expect_equal(nobs(s), length(y))
+  batch <- posterior_exact(ex$library, ex$field)
+  expect_equal(posterior_exact(s), batch, tolerance = 1e-10)
+  expect_equal(as.numeric(logLik(s)), batch$log_evidence, tolerance = 1e-10)
+})
+
+test_that("an AR(1) grid over t is exact when each setting's t arrive in order", {
+  ex <- griddy_example()
+  rho_t <- c(0, 0.3, 0.8)
+  s <- griddy_stream(ex$library, rho_t = rho_t)
+  y <- ex$field$y
+  # settings interleaved, each in increasing t, some outputs never measured
+  set.seed(2)
+  order_cells <- expand.grid(k = seq_len(nrow(y)), j = seq_len(ncol(y)))
+  order_cells <- order_cells[order(order_cells$j), ]
+  order_cells <- order_cells[-sample(nrow(order_cells), 10), ]
+  for (m in seq_len(nrow(order_cells))) {
+    k <- order_cells$k[m]
+    j <- order_cells$j[m]
+    update(s, y = y[k, j], x = ex$field$x[k, , drop = FALSE], t = ex$library$t[j])
+  }
+  both <- stream_vs_batch(s, ex$library, rho_t = rho_t)
+  expect_equal(both$stream$run, both$batch$run, tolerance = 1e-10)
+  expect_equal(both$stream$grid, both$batch$grid, tolerance = 1e-10)
+  expect_equal(both$stream$log_evidence, both$batch$log_evidence, tolerance = 1e-10)
+  # complete data in order: the Kronecker path of the batch
+  s2 <- update(griddy_stream(ex$library, rho_t = rho_t), y = ex$field)
+  expect_equal(posterior_exact(s2), posterior_exact(ex$library, ex$field, rho_t = rho_t),
+               tolerance = 1e-10)
+})
+
+test_that("a measurement out of t order under AR(1) recomputes, with a message", {
+  ex <- griddy_example()
+  s <- griddy_stream(ex$library, rho_t = c(0, 0.6))
+  x1 <- ex$field$x[1, , drop = FALSE]
+  update(s, y = ex$field$y[1, 1:5], x = x1, t = ex$library$t[1:5])
+  expect_message(update(s, y = ex$field$y[1, 8], x = x1, t = ex$library$t[8]), NA)
+  expect_message(update(s, y = ex$field$y[1, 6], x = x1, t = ex$library$t[6]),
+                 class = "griddy_message_stream_replay")
+  both <- stream_vs_batch(s, ex$library, rho_t = c(0, 0.6))
+  expect_equal(both$stream$run, both$batch$run, tolerance = 1e-10)
+  expect_equal(both$stream$log_evidence, both$batch$log_evidence, tolerance = 1e-10)
+  # and after the replay, updates stay incremental
+  update(s, y = ex$field$y[1, 9], x = x1, t = ex$library$t[9])
+  both <- stream_vs_batch(s, ex$library, rho_t = c(0, 0.6))
+  expect_equal(both$stream$log_evidence, both$batch$log_evidence, tolerance = 1e-10)
+  expect_error(update(s, y = 1, x = x1, t = ex$library$t[6]),
+               class = "griddy_error_unsupported")
+})
+
+test_that("independent noise takes any order and replicates", {
+  ex <- griddy_example()
+  s <- griddy_stream(ex$library)
+  set.seed(3)
+  cells <- sample(length(ex$field$y))
+  y <- as.vector(ex$field$y)
+  k <- (cells - 1L) %% nrow(ex$field$y) + 1L
+  j <- (cells - 1L) %/% nrow(ex$field$y) + 1L
+  update(s, y = y[cells], x = ex$field$x[k, , drop = FALSE], t = ex$library$t[j])
+  update(s, y = y[cells[1:4]] + 0.1, x = ex$field$x[k[1:4], , drop = FALSE],
+         t = ex$library$t[j[1:4]])
+  both <- stream_vs_batch(s, ex$library)
+  expect_equal(both$stream$run, both$batch$run, tolerance = 1e-10)
+  expect_equal(both$stream$log_evidence, both$batch$log_evidence, tolerance = 1e-10)
+})
+
+test_that("noise groups keep one form per group", {
+  ex <- griddy_example()
+  groups <- rep(c("early", "late"), each = 15)
+  s <- update(griddy_stream(ex$library, rho_t = c(0, 0.5), noise_groups = groups),
+              y = ex$field)
+  batch <- posterior_exact(ex$library, ex$field, rho_t = c(0, 0.5), noise_groups = groups)
+  expect_equal(posterior_exact(s), batch, tolerance = 1e-10)
+  expect_equal(as.numeric(logLik(s)), batch$log_evidence, tolerance = 1e-10)
+  s <- update(griddy_stream(ex$library, noise_groups = "x"), y = ex$field)
+  batch <- posterior_exact(ex$library, ex$field, noise_groups = "x")
+  expect_equal(posterior_exact(s)$run, batch$run, tolerance = 1e-10)
+})
+
+test_that("a field_data with missing cells is taken setting by setting", {
+  ex <- griddy_example()
+  y <- ex$field$y
+  y[2, c(1, 5, 6)] <- NA
+  field <- field_data(y, x = ex$field$x[c(2, 1, 3), , drop = FALSE][c(2, 1, 3), , drop = FALSE],
+                      t = ex$library$t)
+  s <- update(griddy_stream(ex$library, rho_t = c(0, 0.7)), y = field)
+  expect_equal(nobs(s), sum(!is.na(y)))
+  expect_equal(posterior_exact(s), posterior_exact(ex$library, field, rho_t = c(0, 0.7)),
+               tolerance = 1e-10)
+  expect_error(update(s, y = field, t = 1), class = "griddy_error_input")
+})
