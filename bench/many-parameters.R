@@ -133,7 +133,7 @@ run_system <- function(sys, n_trials, n_lib = 2000L) {
   }))
 }
 
-if (!interactive() && n_trials > 0L) {
+if (sys.nframe() == 0L && n_trials > 0L) {
   sys <- if (system_name == "bimodal") bimodal_system() else
     smooth_system(as.integer(sub("smooth-", "", system_name)))
   res <- run_system(sys, n_trials)
