@@ -192,7 +192,7 @@ default_runs_per_round <- function(theta) {
   100L * 2L^(max(p, 1L) - 1L)
 }
 
-proposal_round_per_parameter <- 250
+proposal_round_per_parameter <- 125
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or

@@ -109,37 +109,78 @@ tempered_weights <- function(log_lik, log_prior, target) {
   list(w = at(beta), beta = beta)
 }
 
-# Components of a weighted sample (rows of u, weights w summing to 1):
-# k-means on a weighted resample, whitened by the weighted covariance, so
-# separated modes fall in different clusters; each cluster's weighted mean
-# and covariance, shrunk toward the whole sample's covariance by p effective
-# runs (a cluster of few runs borrows the sample's spread instead of
-# collapsing).
+# Components of a weighted sample (rows of u, weights w summing to 1): a
+# Gaussian mixture fitted by weighted EM, started from k-means on a
+# weighted resample (whitened by the sample's covariance). EM moves one
+# component onto each separated mode; k-means alone, in the metric of a
+# covariance that spans two modes, cut the sample along the other axes, and
+# every component then spanned both modes (issue 24: a folded parameter
+# kept a proposal a quarter of the range wide over 20,000 runs). Each
+# component's covariance is shrunk toward the components' pooled one by q
+# effective runs, so a component of few runs borrows their spread instead
+# of collapsing.
 weighted_components <- function(u, w) {
   q <- ncol(u)
   ess <- 1 / sum(w^2)
-  whole <- weighted_moments(u, w)
-  cov_all <- regularised_cov(whole$cov)
-  k <- max(1L, min(proposal_max_components, floor(ess / (2 * q)),
-                   sum(!duplicated(u))))
-  cluster <- rep(1L, nrow(u))
+  k <- max(1L, min(proposal_max_components, floor(ess / (2 * q)), sum(!duplicated(u))))
+  resp <- matrix(1, nrow(u), 1L)
   if (k > 1L) {
-    white <- t(backsolve(chol(cov_all), t(u) - whole$mean, transpose = TRUE))
-    pick <- sample.int(nrow(u), 2000L, replace = TRUE, prob = w)
-    km <- stats::kmeans(white[pick, , drop = FALSE], centers = k, nstart = 3L, iter.max = 30L)
-    d2 <- vapply(seq_len(k), function(j) colSums((t(white) - km$centers[j, ])^2),
-                 numeric(nrow(u)))
-    cluster <- max.col(-matrix(d2, nrow(u)), ties.method = "first")
+    cluster <- kmeans_clusters(u, w, k)
+    resp <- outer(cluster, seq_len(max(cluster)), "==") + 0
   }
-  comps <- lapply(sort(unique(cluster)), function(j) {
-    in_j <- cluster == j
-    wj <- w[in_j]
-    m <- weighted_moments(u[in_j, , drop = FALSE], wj / sum(wj))
-    ess_j <- sum(wj)^2 / sum(wj^2)
-    cov_j <- (ess_j * m$cov + q * cov_all) / (ess_j + q)
-    list(weight = sum(wj), centre = m$mean, chol = chol(cov_j))
+  for (step in seq_len(if (ncol(resp) > 1L) proposal_em_steps else 0L)) {
+    resp <- mixture_responsibilities(u, mixture_components(u, w, resp))
+  }
+  mixture_components(u, w, resp)
+}
+
+proposal_em_steps <- 20L
+
+kmeans_clusters <- function(u, w, k) {
+  whole <- weighted_moments(u, w)
+  white <- t(backsolve(chol(regularised_cov(whole$cov)), t(u) - whole$mean,
+                       transpose = TRUE))
+  pick <- sample.int(nrow(u), 2000L, replace = TRUE, prob = w)
+  km <- tryCatch(stats::kmeans(white[pick, , drop = FALSE], centers = k, nstart = 3L,
+                               iter.max = 30L),
+                 error = function(e) NULL)
+  if (is.null(km)) return(rep(1L, nrow(u)))
+  d2 <- vapply(seq_len(k), function(j) colSums((t(white) - km$centers[j, ])^2),
+               numeric(nrow(u)))
+  cluster <- max.col(-matrix(d2, nrow(u)), ties.method = "first")
+  match(cluster, sort(unique(cluster)))
+}
+
+# The M step: each component's weight, centre and covariance (Cholesky
+# factor) from the responsibilities `resp` (runs x components); components
+# with under a thousandth of the mass are dropped.
+mixture_components <- function(u, w, resp) {
+  q <- ncol(u)
+  mass <- colSums(resp * w)
+  resp <- resp[, mass > 1e-3 * sum(mass), drop = FALSE]
+  parts <- lapply(seq_len(ncol(resp)), function(j) {
+    rj <- resp[, j] * w
+    m <- weighted_moments(u, rj / sum(rj))
+    list(weight = sum(rj), centre = m$mean, cov = m$cov, ess = sum(rj)^2 / sum(rj^2))
   })
-  comps
+  pooled <- regularised_cov(Reduce(`+`, lapply(parts, function(x) x$weight * x$cov)) /
+                              sum(vapply(parts, `[[`, numeric(1), "weight")))
+  lapply(parts, function(x) {
+    cov <- (x$ess * x$cov + q * pooled) / (x$ess + q)
+    list(weight = x$weight / sum(mass), centre = x$centre, chol = chol(cov))
+  })
+}
+
+# The E step: each run's probability of each Gaussian component.
+mixture_responsibilities <- function(u, comps) {
+  q <- ncol(u)
+  logs <- vapply(comps, function(cmp) {
+    z <- backsolve(cmp$chol, t(u) - cmp$centre, transpose = TRUE)
+    log(cmp$weight) - sum(log(diag(cmp$chol))) - colSums(z^2) / 2
+  }, numeric(nrow(u)))
+  logs <- matrix(logs, nrow(u))
+  r <- exp(logs - apply(logs, 1, max))
+  r / rowSums(r)
 }
 
 weighted_moments <- function(u, w) {

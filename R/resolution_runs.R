@@ -24,8 +24,8 @@
 # * (in refine(), against the previous round) intervals that moved by at
 #   most a fifth of their width: is_resolved().
 
-run_resolution_per_parameter <- 10
-run_resolution_floor <- 10
+run_resolution_per_parameter <- 20
+run_resolution_floor <- 100
 
 effective_runs_needed <- function(p) max(run_resolution_floor, run_resolution_per_parameter * p)
 

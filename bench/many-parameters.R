@@ -1,16 +1,17 @@
-# Many parameters (issue 24): refine() with the simulator at p = 2, 4, 6, 8 on
-# a cheap smooth simulator of our own, and one bimodal system.
+# Many parameters (issue 24): refine() with the simulator at p = 4, 6, 8 on
+# a cheap smooth simulator of our own, and a bimodal variant.
 #   smooth-p: 80 data points, y_i = sin(pi g_i . theta) + 0.5 exp(h_i . theta / 2)
 #             with fixed random g_i, h_i; theta in [0, 1]^p; the last two of
 #             p >= 6 parameters weakly identified (their g, h scaled by 0.15);
 #             noise sd 0.05; a 2,000-run Latin hypercube library, the truth
 #             inside (a Latin hypercube point of [0.15, 0.85]^p).
-#   bimodal:  y = a sin(w t) at 120 times t in {0, 0.5pi, ..., } + b t: the
-#             frequencies w and w + 4 fit the data equally (aliased), p = 4.
+#   bimodal-p: smooth-p with th1 entering as 4 (th1 - 0.5)^2, so th1 and
+#             1 - th1 fit equally: two modes of equal mass (truth th1 in
+#             0.5 + [0.15, 0.35]); `mirror_mass` is the fit's mass on th1 < 0.5.
 # Reference posterior: importance sampling with the exact simulator, from a t
 # proposal (df 5) at the least-squares fit with twice its Laplace covariance,
 # 40,000 draws, uniform prior on the range, likelihood (SS)^(-n/2) as
-# griddy's with a vague noise prior.
+# griddy's with a vague noise prior; for bimodal-p, mirrored in th1.
 # Run: Rscript bench/many-parameters.R [system] [trials] [max_runs]
 #   e.g. Rscript bench/many-parameters.R smooth-8 4 20000
 # writes bench/results/many-parameters-<system>.csv
@@ -36,18 +37,18 @@ smooth_system <- function(p, n = 80, weak = if (p >= 6) 2L else 0L) {
        names = paste0("th", seq_len(p)), inner = c(0.15, 0.85))
 }
 
-bimodal_system <- function() {
-  tt <- seq(0, 30, length.out = 121)[-1] * pi / 2 / 15 * 15 / pi * pi / 2  # multiples of pi/2
-  tt <- (1:120) * pi / 2
-  sim <- function(theta) {
+# smooth-p with the first parameter folded: it enters as 4 (th1 - 0.5)^2, so
+# th1 and 1 - th1 fit equally (two modes, each holding half the posterior)
+bimodal_system <- function(p) {
+  sys <- smooth_system(p)
+  smooth <- sys$sim
+  sys$sim <- function(theta) {
     th <- as.matrix(theta)
-    t(vapply(seq_len(nrow(th)), function(i) {
-      th[i, 1] * sin(th[i, 2] * tt) + th[i, 3] * cos(th[i, 2] * tt) + th[i, 4] * tt / 100
-    }, numeric(length(tt))))
+    th[, 1] <- 4 * (th[, 1] - 0.5)^2
+    smooth(th)
   }
-  list(sim = sim, lower = c(0.5, 1, -0.5, -1), upper = c(2, 7, 0.5, 1), sd = 0.1,
-       names = c("a", "w", "b", "slope"), inner = c(0.15, 0.85),
-       truth = c(1.3, 2.2, 0.2, 0.3))
+  sys$mirror <- TRUE
+  sys
 }
 
 lhs <- function(n, lower, upper, names) {
@@ -82,15 +83,27 @@ reference_posterior <- function(sys, y, truth) {
     o <- order(v); cw <- cumsum(w[o])
     c(v[o][which(cw >= 0.025)[1]], v[o][which(cw >= 0.975)[1]])
   })
+  if (isTRUE(sys$mirror)) {
+    # the exact posterior is symmetric in th1 about 0.5: both modes
+    mirrored <- draws
+    mirrored[, 1] <- 1 - mirrored[, 1]
+    draws <- rbind(draws, mirrored)
+    w <- c(w, w) / 2
+    q <- apply(draws, 2, function(v) {
+      o <- order(v); cw <- cumsum(w[o])
+      c(v[o][which(cw >= 0.025)[1]], v[o][which(cw >= 0.975)[1]])
+    })
+  }
   list(lower = q[1, ], upper = q[2, ], ess = 1 / sum(w^2))
 }
 
 one_trial <- function(sys, i, lib) {
   set.seed(1000 + i)
   p <- length(sys$lower)
-  truth <- if (!is.null(sys$truth)) sys$truth else
-    unlist(lhs(1, sys$lower + sys$inner[1] * (sys$upper - sys$lower),
-               sys$lower + sys$inner[2] * (sys$upper - sys$lower), sys$names))
+  truth <- unlist(lhs(1, sys$lower + sys$inner[1] * (sys$upper - sys$lower),
+                      sys$lower + sys$inner[2] * (sys$upper - sys$lower), sys$names))
+  # the folded parameter away from the fold, where both modes are distinct
+  if (isTRUE(sys$mirror)) truth[1] <- 0.5 + runif(1, 0.15, 0.35)
   y <- sys$sim(matrix(truth, 1))[1, ] + rnorm(ncol(lib$y), sd = sys$sd)
   field <- field_data(matrix(y, 1), t = lib$t)
   ref <- reference_posterior(sys, y, truth)
@@ -107,6 +120,8 @@ one_trial <- function(sys, i, lib) {
     })
   secs <- proc.time()[["elapsed"]] - t0
   tab <- resolution_limited(r)
+  # the posterior mass on the mirror mode (th1 < 0.5) of a bimodal system
+  mirror_mass <- if (isTRUE(sys$mirror)) mean(lib_theta(r$library)[[1]][r$draws$run] < 0.5) else NA
   data.frame(system = system_name, trial = i, parameter = tab$parameter, truth = truth,
              lower = tab$lower, upper = tab$upper,
              covered = tab$lower <= truth & truth <= tab$upper,
@@ -114,10 +129,15 @@ one_trial <- function(sys, i, lib) {
              ref_covered = ref$lower <= truth & truth <= ref$upper, ref_ess = ref$ess,
              width_ratio = (tab$upper - tab$lower) / (ref$upper - ref$lower),
              effective_runs = tab$effective_runs, pareto_k = tab$pareto_k,
-             warned_plain = warned_fit, warned = warned,
+             mirror_mass = mirror_mass, warned_plain = warned_fit, warned = warned,
              runs_added = if (is.null(r$refinement)) 0L else r$refinement$runs_added,
              reason = if (is.null(r$refinement)) "resolved" else r$refinement$reason,
              seconds = secs)
+}
+
+system_by_name <- function(name) {
+  p <- as.integer(sub(".*-", "", name))
+  if (startsWith(name, "bimodal")) bimodal_system(p) else smooth_system(p)
 }
 
 run_system <- function(sys, n_trials, n_lib = 2000L) {
@@ -134,8 +154,7 @@ run_system <- function(sys, n_trials, n_lib = 2000L) {
 }
 
 if (sys.nframe() == 0L && n_trials > 0L) {
-  sys <- if (system_name == "bimodal") bimodal_system() else
-    smooth_system(as.integer(sub("smooth-", "", system_name)))
+  sys <- system_by_name(system_name)
   res <- run_system(sys, n_trials)
   dir.create("bench/results", showWarnings = FALSE)
   data.table::fwrite(res, file.path("bench/results",
@@ -143,7 +162,10 @@ if (sys.nframe() == 0L && n_trials > 0L) {
   dt <- data.table::as.data.table(res)
   print(dt[, .(pairs = .N, coverage = mean(covered), ref_coverage = mean(ref_covered),
                median_width_ratio = median(width_ratio),
-               missed_unwarned = sum(!covered & !warned))])
+               median_width_ratio_ref_covered = median(width_ratio[ref_covered]),
+               missed_unwarned = sum(!covered & !warned),
+               median_seconds = median(unique(data.table::data.table(trial, seconds))$seconds))])
+  if (isTRUE(sys$mirror)) print(unique(dt[, .(trial, mirror_mass, warned)]))
   print(unique(dt[, .(trial, runs_added, reason, seconds, effective_runs, pareto_k)]))
   cat("load:", system("uptime", intern = TRUE), "\n")
 }
