@@ -105,7 +105,7 @@ simulated_round <- function(state, simulator, n, progress, store) {
   } else {
     design <- round_design(state, n)
     theta_new <- design$theta
-    store_round(store, "add", design$round$box)
+    store_round(store, "add", design$round$box, design$round$proposal)
     sim <- simulate_runs(simulator, theta_new, n_out, progress, keep = store_keeper(store))
     if (length(sim$rows) > 0L) {
       round <- list(box = design$round$box, proposal = design$round$proposal,

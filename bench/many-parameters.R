@@ -164,6 +164,7 @@ if (sys.nframe() == 0L && n_trials > 0L) {
                median_width_ratio = median(width_ratio),
                median_width_ratio_ref_covered = median(width_ratio[ref_covered]),
                missed_unwarned = sum(!covered & !warned),
+               missed_unwarned_ref_covered = sum(!covered & !warned & ref_covered),
                median_seconds = median(unique(data.table::data.table(trial, seconds))$seconds))])
   if (isTRUE(sys$mirror)) print(unique(dt[, .(trial, mirror_mass, warned)]))
   print(unique(dt[, .(trial, runs_added, reason, seconds, effective_runs, pareto_k)]))

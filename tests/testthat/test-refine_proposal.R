@@ -83,24 +83,10 @@ test_that("posterior mass far from every component of the last proposal is measu
   expect_identical(far_mass(c(0.5, 0.3, 0.2), theta, NULL), 0)
 })
 
-# y = X theta at 30 points, 4 parameters, theta in [0, 1]^4
-linear4_sim <- function(theta) {
-  x <- seq(0, 1, length.out = 30)
-  X <- cbind(1, cos(pi * x), cos(2 * pi * x), cos(3 * pi * x))
-  as.matrix(theta) %*% t(X)
-}
-
 test_that("refine() in 4 parameters follows the posterior and resolves it", {
-  set.seed(4)
-  n <- 500
-  theta <- as.data.frame(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n,
-                                numeric(n)))
-  names(theta) <- paste0("th", 1:4)
-  lib <- sim_library(theta, linear4_sim(theta))
-  truth <- c(0.4, 0.55, 0.6, 0.45)
-  y <- linear4_sim(matrix(truth, 1)) + stats::rnorm(30, sd = 0.02)
-  field <- field_data(y, t = lib$t)
-  fit <- suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
+  toy <- linear4_toy()
+  fit <- toy$fit
+  y <- toy$y
   expect_true(any(fit$resolution$limited))
   r <- suppressMessages(refine(fit, linear4_sim, max_runs = 8000, seed = 1))
   expect_identical(r$refinement$reason, "resolved")
