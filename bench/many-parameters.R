@@ -5,6 +5,8 @@
 #             p >= 6 parameters weakly identified (their g, h scaled by 0.15);
 #             noise sd 0.05; a 2,000-run Latin hypercube library, the truth
 #             inside (a Latin hypercube point of [0.15, 0.85]^p).
+#   sharp-p:  smooth-p with 200 data points and noise sd 0.01 (a posterior
+#             about 11 times narrower).
 #   bimodal-p: smooth-p with th1 entering as 4 (th1 - 0.5)^2, so th1 and
 #             1 - th1 fit equally: two modes of equal mass (truth th1 in
 #             0.5 + [0.15, 0.35]); `mirror_mass` is the fit's mass on th1 < 0.5.
@@ -137,7 +139,9 @@ one_trial <- function(sys, i, lib) {
 
 system_by_name <- function(name) {
   p <- as.integer(sub(".*-", "", name))
-  if (startsWith(name, "bimodal")) bimodal_system(p) else smooth_system(p)
+  if (startsWith(name, "bimodal")) return(bimodal_system(p))
+  if (startsWith(name, "sharp")) return(utils::modifyList(smooth_system(p, n = 200), list(sd = 0.01)))
+  smooth_system(p)
 }
 
 run_system <- function(sys, n_trials, n_lib = 2000L) {

@@ -42,3 +42,9 @@ test_that("a scattered library whose runs each have their own values is limited 
   expect_equal(tab$effective_runs, rep(11, 11))
   expect_match(run_resolution_reason(attr(tab, "runs")), "^11 effective runs")
 })
+
+test_that("the reason names the parameters, also where the floor of effective runs applies", {
+  runs <- run_resolution(c(0.5, 0.5, rep(0, 98)), 4L)
+  expect_identical(runs$needed, 100)
+  expect_match(run_resolution_reason(runs), "100 needed for 4 parameters", fixed = TRUE)
+})
