@@ -73,11 +73,20 @@ add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {
   if (is.null(round)) return(library)
   if (is.null(rel_var)) rel_var <- numeric(nrow(theta_new))
   r <- length(library$rounds) + 1L
-  new_refined_library(
+  out <- new_refined_library(
     library$base, rbind(library$theta, theta_new), rbind(library$added$y, y_new),
     rounds = c(library$rounds, list(round)),
     round_of = c(library$added$round, rep(r, nrow(theta_new))),
     rel_var = c(library$added$rel_var, rel_var), replaced = library$replaced)
+  # the design density at every run, kept up to date round by round: the
+  # old runs gain the new round's density, the new runs get all rounds'
+  # (recomputing every round's density at every run each round cost
+  # refine() most of its time in many parameters)
+  before <- if (is.null(library$density)) design_density(library, library$theta) else
+    library$density
+  out$density <- c(before + round_density(round, library$theta, library_box(library$base)),
+                   design_density(out, theta_new))
+  out
 }
 
 # Replace predicted runs `rows` (of the whole library) by the simulator's
@@ -276,7 +285,9 @@ lib_log_prior.default <- function(library) {
 
 #' @exportS3Method
 lib_log_prior.refined_library <- function(library) {
-  w <- -log(design_density(library, library$theta))
+  density <- if (is.null(library$density)) design_density(library, library$theta) else
+    library$density
+  w <- -log(density)
   w - log_sum_exp(w)
 }
 
@@ -288,14 +299,17 @@ design_density <- function(library, theta) {
   theta <- as.matrix(theta)
   box0 <- library_box(library$base)
   density <- lib_n_runs(library$base) / box_volume(box0) * in_box(theta, box0)
-  for (round in library$rounds) {
-    density <- density + if (is.null(round$proposal)) {
-      round$n / box_volume(round$box, box0) * in_box(theta, round$box)
-    } else {
-      round$n * proposal_density(round$proposal, theta)
-    }
-  }
+  for (round in library$rounds) density <- density + round_density(round, theta, box0)
   density
+}
+
+# One round's share of the design density at the rows of `theta`.
+round_density <- function(round, theta, box0) {
+  if (is.null(round$proposal)) {
+    round$n / box_volume(round$box, box0) * in_box(as.matrix(theta), round$box)
+  } else {
+    round$n * proposal_density(round$proposal, theta)
+  }
 }
 
 # The box spanned by a library's runs: a 2-row matrix (lower, upper) with one

@@ -132,7 +132,7 @@
 #' @param ... Further arguments to `simulator`.
 #' @param runs_per_round Runs added per round; `NULL` is
 #'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters up to three,
-#'   \eqn{125 p} from four, at most `max_runs`.
+#'   \eqn{50 p} from four, at most `max_runs`.
 #' @param file `NULL`, or the path of an HDF5 file that keeps every simulated
 #'   run as it finishes (with a simulator only), and from which a later
 #'   `refine()` resumes: see Details.
@@ -233,7 +233,7 @@ default_runs_per_round <- function(theta) {
   100L * 2L^(max(p, 1L) - 1L)
 }
 
-proposal_round_per_parameter <- 125
+proposal_round_per_parameter <- 50
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or

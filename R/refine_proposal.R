@@ -56,7 +56,7 @@ fit_proposal <- function(state) {
   varies <- range0[2, ] > range0[1, ]
   u <- unit_coordinates(lib_theta(library), range0, varies)
   q <- ncol(u)
-  tempered <- tempered_weights(proposal_log_lik(problem), lib_log_prior(library),
+  tempered <- tempered_weights(proposal_log_lik(problem), problem$log_prior_run,
                                proposal_ess(q))
   w <- tempered$w
   # the runs that hold all but 0.1% of the tempered mass
@@ -84,7 +84,7 @@ proposal_log_lik <- function(problem) {
   ll <- collapsed_log_lik(problem$C, problem$n_obs, problem$setup$logdet, problem$prior)
   ll <- if (is.matrix(ll)) {
     ll <- sweep(ll, 2, problem$log_prior_grid, "+")
-    top <- apply(ll, 1, max)
+    top <- do.call(pmax, as.data.frame(ll))
     top + log(rowSums(exp(ll - top)))
   } else ll
   a <- problem$prior$shape + sum(problem$n_obs) / 2
@@ -179,7 +179,7 @@ mixture_responsibilities <- function(u, comps) {
     log(cmp$weight) - sum(log(diag(cmp$chol))) - colSums(z^2) / 2
   }, numeric(nrow(u)))
   logs <- matrix(logs, nrow(u))
-  r <- exp(logs - apply(logs, 1, max))
+  r <- exp(logs - do.call(pmax, as.data.frame(logs)))
   r / rowSums(r)
 }
 
@@ -280,7 +280,7 @@ log_mixture_density <- function(u, proposal) {
       (nu + q) / 2 * log1p(colSums(z^2) / nu)
   }, numeric(nrow(u)))
   logs <- matrix(logs, nrow(u))
-  top <- apply(logs, 1, max)
+  top <- do.call(pmax, as.data.frame(logs))
   top + log(rowSums(exp(logs - top)))
 }
 
