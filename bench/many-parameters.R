@@ -16,6 +16,8 @@
 # griddy's with a vague noise prior; for bimodal-p, mirrored in th1.
 # Run: Rscript bench/many-parameters.R [system] [trials] [max_runs]
 #   e.g. Rscript bench/many-parameters.R smooth-8 4 20000
+# `seconds` is calibrate() plus refine(); `simulator_seconds` the simulator's
+# share; `plain_*` the plain fit on the 2,000-run library.
 # writes bench/results/many-parameters-<system>.csv
 args <- commandArgs(trailingOnly = TRUE)
 system_name <- if (length(args) >= 1) args[1] else "smooth-4"
@@ -111,10 +113,18 @@ one_trial <- function(sys, i, lib) {
   ref <- reference_posterior(sys, y, truth)
   t0 <- proc.time()[["elapsed"]]
   fit <- suppressWarnings(calibrate(lib, field, n_iter = 1000, burn_in = 200, seed = i))
-  warned_fit <- any(resolution_limited(fit)$limited)
+  plain <- resolution_limited(fit)
+  warned_fit <- any(plain$limited)
   warned <- FALSE
+  # the simulator's own time, to state refine()'s time outside it per run
+  sim_seconds <- 0
+  timed_sim <- function(theta) {
+    t1 <- proc.time()[["elapsed"]]
+    on.exit(sim_seconds <<- sim_seconds + proc.time()[["elapsed"]] - t1)
+    sys$sim(theta)
+  }
   r <- withCallingHandlers(
-    suppressMessages(refine(fit, sys$sim, max_runs = max_runs, seed = i)),
+    suppressMessages(refine(fit, timed_sim, max_runs = max_runs, seed = i)),
     griddy_warning_resolution = function(w) {
       warned <<- TRUE
       message("trial ", i, ": ", conditionMessage(w))
@@ -131,10 +141,18 @@ one_trial <- function(sys, i, lib) {
              ref_covered = ref$lower <= truth & truth <= ref$upper, ref_ess = ref$ess,
              width_ratio = (tab$upper - tab$lower) / (ref$upper - ref$lower),
              effective_runs = tab$effective_runs, pareto_k = tab$pareto_k,
-             mirror_mass = mirror_mass, warned_plain = warned_fit, warned = warned,
+             mirror_mass = mirror_mass,
+             plain_covered = plain$lower <= truth & truth <= plain$upper,
+             plain_width_ratio = (plain$upper - plain$lower) / (ref$upper - ref$lower),
+             warned_plain = warned_fit, warned = warned,
              runs_added = if (is.null(r$refinement)) 0L else r$refinement$runs_added,
              reason = if (is.null(r$refinement)) "resolved" else r$refinement$reason,
-             seconds = secs)
+             seconds = secs, simulator_seconds = sim_seconds,
+             machine = paste("load", paste(round(load_average(), 2), collapse = " ")))
+}
+
+load_average <- function() {
+  if (file.exists("/proc/loadavg")) as.numeric(strsplit(readLines("/proc/loadavg"), " ")[[1]][1:3]) else NA
 }
 
 system_by_name <- function(name) {
@@ -164,13 +182,16 @@ if (sys.nframe() == 0L && n_trials > 0L) {
   data.table::fwrite(res, file.path("bench/results",
                                     paste0("many-parameters-", system_name, ".csv")))
   dt <- data.table::as.data.table(res)
-  print(dt[, .(pairs = .N, coverage = mean(covered), ref_coverage = mean(ref_covered),
+  print(dt[, .(pairs = .N, plain_coverage = mean(plain_covered), coverage = mean(covered),
+               ref_coverage = mean(ref_covered),
                median_width_ratio = median(width_ratio),
                median_width_ratio_ref_covered = median(width_ratio[ref_covered]),
                missed_unwarned = sum(!covered & !warned),
                missed_unwarned_ref_covered = sum(!covered & !warned & ref_covered),
                median_seconds = median(unique(data.table::data.table(trial, seconds))$seconds))])
   if (isTRUE(sys$mirror)) print(unique(dt[, .(trial, mirror_mass, warned)]))
-  print(unique(dt[, .(trial, runs_added, reason, seconds, effective_runs, pareto_k)]))
+  print(unique(dt[, .(trial, runs_added, reason, seconds, simulator_seconds,
+                      ms_per_run_outside = 1000 * (seconds - simulator_seconds) / runs_added,
+                      effective_runs, pareto_k)]))
   cat("load:", system("uptime", intern = TRUE), "\n")
 }
