@@ -7,12 +7,15 @@
 # adaptive multiple importance sampling do (Cappe et al. 2004, JCGS 13:907;
 # Cornuet et al. 2012, Scand. J. Stat. 39:798):
 #
-# * one multivariate t component (df `proposal_df`) per cluster of the
-#   weighted runs, so that separated modes each get one;
-# * fitted to the posterior over runs tempered (its likelihood raised to a
-#   power beta <= 1) until it rests on `proposal_ess()` effective runs: when
-#   the library is too coarse for the posterior (the first rounds) the
-#   proposal is the wider tempered posterior, never a covariance of one run;
+# * one multivariate t component (df `proposal_df`) per component of a
+#   Gaussian mixture fitted by weighted EM to the weighted runs, so that
+#   separated modes each get one (weighted_components());
+# * fitted to the posterior over runs tempered (its likelihood, at the best
+#   run's noise level so that its tails stay Gaussian, raised to a power
+#   beta <= 1: proposal_log_lik()) until it rests on `proposal_ess()`
+#   effective runs: when the library is too coarse for the posterior (the
+#   first rounds) the proposal is the wider tempered posterior, never a
+#   covariance of one run, and it narrows round by round;
 # * plus a defensive share (`proposal_defensive`) drawn uniformly over the
 #   base library's range (Hesterberg 1995, Technometrics 37:185), so a mode
 #   the components miss keeps receiving runs, and every run's prior weight
