@@ -10,7 +10,7 @@
 #' @useDynLib griddy, .registration = TRUE
 #' @importFrom Rcpp sourceCpp
 #' @importFrom RcppArmadillo armadillo_version
-#' @importFrom stats predict
+#' @importFrom stats predict update
 "_PACKAGE"
 
 # ggplot2's computed variable in after_stat(density) (plot.griddy_fit)

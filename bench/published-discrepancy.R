@@ -109,20 +109,7 @@ if (is.null(save_ref)) {
 }
 
 # ---- ball drop 1 against SEPIA --------------------------------------------------
-sepia_dir <- Sys.getenv("SEPIA_DIR", "/work/.mirror/lanl+SEPIA/repo")
-sepia_file <- function(path) {
-  if (file.exists(file.path(sepia_dir, path))) return(readLines(file.path(sepia_dir, path)))
-  system2("git", c("--git-dir", shQuote(sepia_dir), "show", paste0("HEAD:", path)),
-          stdout = TRUE)
-}
-numbers <- function(name) {
-  as.matrix(read.table(text = sepia_file(file.path("examples/Ball_Drop/data", name))))
-}
-design <- stats::setNames(as.data.frame(numbers("sim.design")), c("radius", "C"))
-h_sim <- as.vector(numbers("sim.height"))
-h_field <- as.vector(numbers("field.height"))
-radii <- as.vector(numbers("field.radii"))
-expobs <- data.frame(radius = radii, numbers("field.dat"))
+source("data-raw/sepia-ball-drop.R")  # design, h_sim, h_field, radii, expobs, numbers()
 # sim.dat is SEPIA's layout, one column per run: read_calibration_inputs()
 # takes it as it is, and t_field the field's heights between the simulator's
 # (in ms: in seconds the misfits are so small that the default Gamma prior's

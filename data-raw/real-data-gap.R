@@ -26,21 +26,8 @@ set.seed(20261125)
 out_dir <- "inst/extdata"
 
 # ---- SEPIA's files, as published -------------------------------------------------
-sepia_dir <- Sys.getenv("SEPIA_DIR", "/work/.mirror/lanl+SEPIA/repo")
-sepia_file <- function(path) {
-  if (file.exists(file.path(sepia_dir, path))) return(readLines(file.path(sepia_dir, path)))
-  system2("git", c("--git-dir", shQuote(sepia_dir), "show", paste0("HEAD:", path)),
-          stdout = TRUE)
-}
-numbers <- function(name) {
-  as.matrix(read.table(text = sepia_file(file.path("examples/Ball_Drop/data", name))))
-}
-design <- stats::setNames(as.data.frame(numbers("sim.design")), c("radius", "C"))
+source("data-raw/sepia-ball-drop.R")  # design, h_sim, h_field, radii, expobs, numbers()
 simobs <- t(numbers("sim.dat"))  # one row per run
-h_sim <- as.vector(numbers("sim.height"))
-h_field <- as.vector(numbers("field.height"))
-radii <- as.vector(numbers("field.radii"))
-expobs <- data.frame(radius = radii, numbers("field.dat"))
 colnames(simobs) <- paste0("h", h_sim)
 names(expobs)[-1] <- paste0("h", h_field)
 write_csv <- function(d, file) {

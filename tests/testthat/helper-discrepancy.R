@@ -33,3 +33,25 @@ bump_fit <- function(sys, ...) {
               discrepancy = gp_discrepancy(orthogonal = FALSE), ...),
     classes = c("griddy_warning_resolution", "griddy_warning_gap"))
 }
+
+# A 2-parameter library eta = a l exp(-b t) on an n_grid x n_grid grid over
+# loads l = 1, 2, 3 and n_t outputs; field data at `truth` plus
+# `bump * gap(l, t)` plus noise of sd `sd`, with `reps` replicated
+# experiments. Used by test-discrepancy.R (a sin-shaped gap, truth on a run)
+# and test-discrepancy_evidence.R (a gap growing with load and t, truth
+# between the runs).
+load_decay_system <- function(gap, bump, n_grid, n_t, truth, sd = 0.05, seed = 3, reps = 1) {
+  grid <- expand.grid(a = seq(1, 2, length.out = n_grid), b = seq(0, 1, length.out = n_grid))
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = n_t)
+  sim <- function(a, b) unlist(lapply(x$load, function(l) a * l * exp(-b * t)))
+  y <- t(mapply(sim, grid$a, grid$b))
+  set.seed(seed)
+  mu <- sim(truth[1], truth[2]) + bump * gap(rep(x$load, each = n_t), rep(t, nrow(x)))
+  field <- do.call(rbind, lapply(seq_len(reps), function(r) {
+    matrix(mu + stats::rnorm(length(mu), sd = sd), nrow(x), n_t, byrow = TRUE)
+  }))
+  list(library = sim_library(grid, y, x = x, t = t),
+       field = field_data(field, x = x[rep(seq_len(nrow(x)), reps), , drop = FALSE], t = t),
+       simulator = function(theta) t(mapply(sim, theta$a, theta$b)))
+}

@@ -1,18 +1,8 @@
-# A system with a known additive gap: a 2-parameter library over 3 x settings
-# x 10 outputs, field data from a run plus a smooth bump plus noise.
+# A system with a known additive gap: a 2-parameter library on a 9 x 9 grid
+# over 3 loads x 10 outputs, field data from a run plus a smooth bump.
 gap_toy <- function(bump = 0, sd = 0.05, seed = 3, reps = 1) {
-  grid <- expand.grid(a = seq(1, 2, length.out = 9), b = seq(0, 1, length.out = 9))
-  x <- data.frame(load = c(1, 2, 3))
-  t <- seq(0, 1, length.out = 10)
-  sim <- function(a, b) unlist(lapply(x$load, function(l) a * l * exp(-b * t)))
-  y <- t(mapply(sim, grid$a, grid$b))
-  set.seed(seed)
-  mu <- sim(1.5, 0.5) + bump * rep(x$load, each = length(t)) * sin(pi * t)
-  field <- do.call(rbind, lapply(seq_len(reps), function(r) {
-    matrix(mu + stats::rnorm(length(mu), sd = sd), nrow(x), length(t), byrow = TRUE)
-  }))
-  list(library = sim_library(grid, y, x = x, t = t),
-       field = field_data(field, x = x[rep(seq_len(nrow(x)), reps), , drop = FALSE], t = t))
+  load_decay_system(function(l, t) l * sin(pi * t), bump, n_grid = 9, n_t = 10,
+                    truth = c(1.5, 0.5), sd = sd, seed = seed, reps = reps)
 }
 
 test_that("gp_discrepancy() validates its grids", {

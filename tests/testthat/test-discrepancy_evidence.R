@@ -1,19 +1,8 @@
 # A 2-parameter library on a 21 x 21 grid, 3 loads x 12 outputs; the truth
 # between the runs, and a gap growing with load and t when `bump` > 0.
 gap_system <- function(bump, seed, reps = 1) {
-  grid <- expand.grid(a = seq(1, 2, length.out = 21), b = seq(0, 1, length.out = 21))
-  x <- data.frame(load = c(1, 2, 3))
-  t <- seq(0, 1, length.out = 12)
-  sim <- function(a, b) unlist(lapply(x$load, function(l) a * l * exp(-b * t)))
-  y <- t(mapply(sim, grid$a, grid$b))
-  set.seed(seed)
-  mu <- sim(1.525, 0.4125) + bump * rep(x$load, each = length(t))^2 * t^2
-  field <- do.call(rbind, lapply(seq_len(reps), function(r) {
-    matrix(mu + stats::rnorm(length(mu), sd = 0.05), nrow(x), length(t), byrow = TRUE)
-  }))
-  list(library = sim_library(grid, y, x = x, t = t),
-       field = field_data(field, x = x[rep(1:3, reps), , drop = FALSE], t = t),
-       simulator = function(theta) t(mapply(sim, theta$a, theta$b)))
+  load_decay_system(function(l, t) l^2 * t^2, bump, n_grid = 21, n_t = 12,
+                    truth = c(1.525, 0.4125), seed = seed, reps = reps)
 }
 
 test_that("the Bayes factor favours a discrepancy with a gap and not without", {
