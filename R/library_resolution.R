@@ -48,16 +48,18 @@ value_tolerance <- 1e-9
 # that move a value by less than the tolerance: a group's value is the
 # smallest value that carries mass, and values are merged along chains of
 # near-equal values that carry mass (not through runs that carry none).
-resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values) {
+resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values,
+                             scattered = FALSE) {
   support <- which(p > 0)
   rows <- lapply(names(theta), function(j) {
     marginal_resolution(p[support], theta[[j]], support, level, min_values)
   })
   out <- cbind(data.frame(parameter = names(theta)), do.call(rbind, rows))
   rownames(out) <- NULL
-  # from four parameters, the posterior over runs as an importance sample
+  # from four parameters, or in a library grown by refine()'s proposals
+  # (`scattered`), the posterior over runs as an importance sample
   # (resolution_runs.R): a parameter is limited while it is not resolved
-  runs <- run_resolution(p, sum(!out$constant))
+  runs <- run_resolution(p, sum(!out$constant), scattered)
   out$effective_runs <- runs$effective_runs
   out$pareto_k <- runs$pareto_k
   out$limited <- out$limited | (!runs$resolved & !out$constant)
@@ -112,7 +114,8 @@ value_groups <- function(v, tol, o = order(v)) {
 # warning and a default summary() read.
 resolution_limited <- function(fit, level = 0.95) {
   if (level == 0.95 && !is.null(fit$resolution)) return(fit$resolution)
-  resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level)
+  resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level,
+                   scattered = has_proposal_rounds(fit$library))
 }
 
 # What summary() reports: the resolution table (exact posterior), the

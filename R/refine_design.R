@@ -5,12 +5,19 @@
 
 # The new runs of a round of n: list(theta, round = the round's design as
 # the refined library keeps it, box or proposal). The box's Latin hypercube
-# up to three parameters, the proposal from four (see uses_proposal()).
+# up to three parameters, the proposal from four (see uses_proposal()), and
+# in fewer when the posterior has separated modes: a box spanning two modes
+# spreads its runs over the empty space between them, and the rounds after
+# zoom in on whichever mode one run happened to land nearest (issue 24: in
+# an aliased two-parameter oscillator, three of six refinements lost the
+# mode and one kept only the wrong one, all "resolved").
 round_design <- function(state, n) {
   library <- state$problem$library
   names <- names(lib_theta(library))
-  if (uses_proposal(library)) {
-    proposal <- fit_proposal(state)
+  proposal <- if (uses_proposal(library) || !is.null(last_proposal(library)) ||
+                  lib_n_runs(library) >= proposal_min_runs) fit_proposal(state)
+  if (!is.null(proposal) && (uses_proposal(library) || !is.null(last_proposal(library)) ||
+                             separated_modes(proposal))) {
     return(list(theta = draw_proposal(n, proposal, names),
                 round = list(box = NULL, proposal = proposal)))
   }

@@ -43,6 +43,31 @@ proposal_mass_draws <- 50000L
 # per component (about 2p each) over a few components.
 proposal_ess <- function(q) max(50, 10 * q)
 
+# Below four parameters the proposal replaces the box only when its fit
+# finds separated modes (separated_modes()), in libraries of at least this
+# many runs (fewer cannot show two modes at the tempered level).
+proposal_min_runs <- 200L
+
+# Separated modes: two components of at least 5% of the mass each whose
+# centres lie more than `mode_separation` apart in the Mahalanobis metric of
+# their summed covariances (two Gaussians of equal spread that far apart
+# have a deep density valley between them; components that split one mode
+# lie a few units apart).
+mode_separation <- 6
+
+separated_modes <- function(proposal) {
+  comps <- Filter(function(cmp) cmp$weight >= 0.05, proposal$components)
+  if (length(comps) < 2L) return(FALSE)
+  pairs <- utils::combn(length(comps), 2L)
+  any(apply(pairs, 2, function(ij) {
+    a <- comps[[ij[1]]]
+    b <- comps[[ij[2]]]
+    d <- a$centre - b$centre
+    cov <- crossprod(a$chol) + crossprod(b$chol)
+    sum(d * solve(cov, d)) > mode_separation^2
+  }))
+}
+
 uses_proposal <- function(library) {
   range0 <- library_box(lib_base(library))
   sum(range0[2, ] > range0[1, ]) >= proposal_min_parameters

@@ -123,7 +123,7 @@ refine_state <- function(problem) {
   post <- grid_posterior(problem)
   p <- post$run
   theta <- lib_theta(problem$library)
-  list(problem = problem, joint = post$joint, p = p, table = resolution_table(p, theta),
+  list(problem = problem, joint = post$joint, p = p, table = resolution_table(p, theta, scattered = has_proposal_rounds(problem$library)),
        far_mass = far_mass(p, theta, last_proposal(problem$library)))
 }
 

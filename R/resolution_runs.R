@@ -31,8 +31,16 @@ run_resolution_floor <- 100
 
 effective_runs_needed <- function(p) max(run_resolution_floor, run_resolution_per_parameter * p)
 
-# The run-level test applies from four varying parameters.
-runs_test_applies <- function(n_varying) n_varying >= proposal_min_parameters
+# The run-level test applies from four varying parameters, and in fewer to
+# a library whose runs refine() drew from proposals (scattered draws: a
+# marginal's effective values are its effective runs there too).
+runs_test_applies <- function(n_varying, scattered = FALSE) {
+  scattered || n_varying >= proposal_min_parameters
+}
+
+has_proposal_rounds <- function(library) {
+  any(vapply(lib_rounds(library), function(r) !is.null(r$proposal), logical(1)))
+}
 
 # Pareto k-hat of the posterior weights over runs (the log weights are
 # log p_i; runs whose probability underflows to 0 enter far below the
@@ -51,9 +59,9 @@ pareto_k_threshold <- function(S) min(1 - 1 / log10(S), 0.7)
 
 # The run-level test: list(effective_runs, needed, pareto_k, k_threshold,
 # resolved); `applies` FALSE (and resolved TRUE) below four parameters.
-run_resolution <- function(p, n_varying) {
+run_resolution <- function(p, n_varying, scattered = FALSE) {
   ess <- 1 / sum(p^2)
-  applies <- runs_test_applies(n_varying)
+  applies <- runs_test_applies(n_varying, scattered)
   k <- if (applies) weights_pareto_k(p) else NA_real_
   needed <- effective_runs_needed(n_varying)
   threshold <- pareto_k_threshold(length(p))

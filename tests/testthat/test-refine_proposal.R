@@ -104,3 +104,42 @@ test_that("refine() in 4 parameters follows the posterior and resolves it", {
   expect_equal(tab$upper - tab$lower, unname(2 * half), tolerance = 0.25)
   expect_true(all(abs((tab$lower + tab$upper) / 2 - ls$coefficients) < 0.25 * half))
 })
+
+test_that("separated modes are told from one mode split in two", {
+  comp <- function(centre, sd) list(weight = 0.5, centre = centre, chol = diag(sd, 2))
+  apart <- list(components = list(comp(c(0.2, 0.5), 0.01), comp(c(0.8, 0.5), 0.01)))
+  split <- list(components = list(comp(c(0.48, 0.5), 0.01), comp(c(0.52, 0.5), 0.01)))
+  expect_true(separated_modes(apart))
+  expect_false(separated_modes(split))
+  apart$components[[2]]$weight <- 0.01
+  expect_false(separated_modes(apart))
+})
+
+# An aliased oscillator: sampled at t = k pi / 2, frequencies w and w + 4
+# give the same data, so the posterior has two modes of equal mass.
+alias_sim <- function(theta) {
+  tt <- (1:60) * pi / 2
+  t(vapply(seq_len(nrow(theta)), function(i) {
+    exp(-theta$c[i] * tt / 20) * sin(theta$w[i] * tt)
+  }, numeric(60)))
+}
+
+test_that("refine() in two parameters keeps both modes of an aliased oscillator", {
+  set.seed(5)
+  n <- 1500
+  theta <- data.frame(w = 1 + 6 * (sample.int(n) - stats::runif(n)) / n,
+                      c = 0.5 + 1.5 * (sample.int(n) - stats::runif(n)) / n)
+  lib <- sim_library(theta, alias_sim(theta))
+  y <- alias_sim(data.frame(w = 1.8, c = 1.2)) + stats::rnorm(60, sd = 0.03)
+  fit <- suppressWarnings(calibrate(lib, field_data(y, t = lib$t), n_iter = 500,
+                                    burn_in = 100, seed = 1))
+  r <- suppressWarnings(suppressMessages(refine(fit, alias_sim, max_runs = 3000, seed = 1)))
+  expect_true(has_proposal_rounds(r$library))
+  p <- r$exact$run
+  w <- lib_theta(r$library)$w
+  upper <- sum(p[w > 3.8])
+  expect_gt(upper, 0.3)
+  expect_lt(upper, 0.7)
+  # scattered runs: the run-level test applies in two parameters
+  expect_false(is.na(resolution_limited(r)$pareto_k[1]))
+})
