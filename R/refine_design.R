@@ -14,10 +14,17 @@
 round_design <- function(state, n) {
   library <- state$problem$library
   names <- names(lib_theta(library))
-  proposal <- if (uses_proposal(library) || !is.null(last_proposal(library)) ||
-                  lib_n_runs(library) >= proposal_min_runs) fit_proposal(state)
-  if (!is.null(proposal) && (uses_proposal(library) || !is.null(last_proposal(library)) ||
-                             separated_modes(proposal))) {
+  follows <- uses_proposal(library) || !is.null(last_proposal(library))
+  # below four parameters the fit only decides, so it leaves the random
+  # stream as it was: a unimodal posterior gets the same boxes as before
+  # (only on the base library, spread evenly: once boxes have crowded runs
+  # into one region, tempering shows their crowd and the runs outside as
+  # two clusters that are not two modes)
+  first <- length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs
+  proposal <- if (follows) fit_proposal(state) else if (first) {
+    withr::with_preserve_seed(fit_proposal(state))
+  }
+  if (!is.null(proposal) && (follows || separated_modes(proposal))) {
     return(list(theta = draw_proposal(n, proposal, names),
                 round = list(box = NULL, proposal = proposal)))
   }
