@@ -38,7 +38,11 @@
 #' defensive 15% drawn uniformly over the library's range (Hesterberg 1995),
 #' so no region, and no mode, stops receiving runs. The tempering uses the
 #' likelihood at the best run's noise level, whose tails are Gaussian; the
-#' posterior itself is the package's, with the noise integrated out.
+#' posterior itself is the package's, with the noise integrated out. In two
+#' or three parameters the rounds follow such a proposal too when the one
+#' fitted to the base library finds separated modes (a box spanning two
+#' modes spreads its runs over the empty space between them, and the rounds
+#' after zoom in on one); otherwise they are the boxes above.
 #'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
@@ -58,6 +62,7 @@
 #' round, and that no interval is cut off by the last box (above). In four
 #' or more parameters each run of a scattered library has its own value of
 #' every parameter, so effective values count runs: the posterior over runs
+#' (and in a library grown by proposals in fewer parameters)
 #' must also rest on at least \eqn{\max(100, 20p)} effective runs
 #' (\eqn{1 / \sum_i p_i^2}; 11 effective runs in 11 parameters are not
 #' resolved), the Pareto-smoothed importance sampling \eqn{\hat k} of its
