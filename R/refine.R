@@ -136,8 +136,8 @@
 #'   parameters 1600 to 2800).
 #' @param ... Further arguments to `simulator`.
 #' @param runs_per_round Runs added per round; `NULL` is
-#'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters up to three,
-#'   \eqn{50 p} from four, at most `max_runs`.
+#'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters (with a
+#'   simulator, \eqn{50 p} from four), at most `max_runs`.
 #' @param file `NULL`, or the path of an HDF5 file that keeps every simulated
 #'   run as it finishes (with a simulator only), and from which a later
 #'   `refine()` resumes: see Details.
@@ -200,7 +200,7 @@ refine <- function(fit, simulator = NULL, max_runs = control$max_runs, ...,
   }
   max_runs <- assert_count(max_runs, "max_runs")
   runs_per_round <- if (is.null(runs_per_round)) {
-    min(default_runs_per_round(lib_theta(fit$library)), max_runs)
+    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator)), max_runs)
   } else {
     assert_count(runs_per_round, "runs_per_round")
   }
@@ -230,11 +230,14 @@ check_refinable <- function(fit) {
   }
 }
 
-default_runs_per_round <- function(theta) {
+default_runs_per_round <- function(theta, proposals = FALSE) {
   p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
-  # a proposal that follows the posterior (four or more parameters) needs
-  # no box's doubling per parameter, and more rounds adapt it better
-  if (p >= proposal_min_parameters) return(as.integer(proposal_round_per_parameter * p))
+  # a proposal that follows the posterior (four or more parameters, with a
+  # simulator) needs no box's doubling per parameter, and more rounds adapt
+  # it better; predicted runs keep the boxes and their sizes
+  if (proposals && p >= proposal_min_parameters) {
+    return(as.integer(proposal_round_per_parameter * p))
+  }
   100L * 2L^(max(p, 1L) - 1L)
 }
 
