@@ -29,6 +29,10 @@ memory_pass_cpp <- function(y) {
     .Call(`_griddy_memory_pass_cpp`, y)
 }
 
+other_drops_cpp <- function(Y, y, Mx, Mts, Ws, x_first, x_count, threads = 1L) {
+    .Call(`_griddy_other_drops_cpp`, Y, y, Mx, Mts, Ws, x_first, x_count, threads)
+}
+
 piston_precompute_cpp <- function(n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells) {
     .Call(`_griddy_piston_precompute_cpp`, n, bw, pair_i, pair_j, pair_g, diag_fixed, rhs_fixed, s_cells)
 }

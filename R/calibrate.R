@@ -299,19 +299,21 @@ sampler_options <- function(problem, update, control, tol = draw_tolerance()) {
 # Run every chain from its own seed, so each chain's draws depend only on its
 # seed (not on the order the chains run in, nor on where they run), and the
 # whole fit on set.seed(). Under a parallel future plan (see
-# future::plan()) the chains run on its workers; otherwise one after another.
+# future::plan()) the chains run on its workers, except on a cluster
+# scheduler's plan, where a job would wait longer than the chains take;
+# otherwise one after another.
 run_chains <- function(problem, tables, update, control, seeds) {
   inputs <- list(C = problem$C, tables = tables,
                  options = sampler_options(problem, update, control),
                  tau_start = 1 / stats::var(problem$y_field, na.rm = TRUE))
-  if (griddy_workers() > 1L) {
+  if (griddy_workers(scheduled = FALSE) > 1L) {
     # an interrupt here leaves the futures running: tell them to stop (see
     # ?calibrate, Interrupts)
     stop_file <- tempfile("griddy-stop-")
     done <- FALSE
     on.exit(if (!done) file.create(stop_file), add = TRUE)
     out <- griddy_map(seeds, run_chain, inputs = inputs, control = control, bar = NULL,
-                      stop_file = stop_file)
+                      stop_file = stop_file, scheduled = FALSE)
     done <- TRUE
     return(out)
   }

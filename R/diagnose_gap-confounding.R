@@ -29,9 +29,14 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
     Dm <- t(sweep(Wb(nb), 2, wj, "-"))
     list(e = sqrt(sum(stats::lm.fit(Dm, w - wj)$residuals^2)), j = j, nb = nb)
   }
-  # the library's own resolution: how well the other runs imitate runs near the mode
-  around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
-  e_grid <- sqrt(mean(vapply(around, function(j) imitate(drop(Wb(j)), j)$e^2, numeric(1))))
+  # the library's own resolution: how well the other runs imitate runs near the
+  # mode (the same for every candidate: computed for the first, kept in `white`)
+  e_grid <- white$kept$e_grid
+  if (is.null(e_grid)) {
+    around <- order(colSums((t(tb) - tb[top[1], ])^2))[seq_len(min(5L, nrow(tb) - m - 1L))]
+    e_grid <- sqrt(mean(vapply(around, function(j) imitate(drop(Wb(j)), j)$e^2, numeric(1))))
+    white$kept$e_grid <- e_grid
+  }
   res <- lapply(setdiff(unique(level), unique(level[zero])), function(lv) {
     i1 <- near(tb[top[1], ], which(level == lv))
     i0 <- near(tc[i1, ], which(zero))
@@ -58,7 +63,9 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
 # The base runs' outputs whitened at the base posterior's top grid point, as
 # the screen reads them: `rows(i)` the whitened rows i, `dot(w)` every
 # whitened run's product with w, and `norm2` their squared norms, the same
-# for every candidate's screen, so diagnose_gap() computes them once.
+# for every candidate's screen, so diagnose_gap() computes them once; `kept`
+# holds what the first screen computes for all of them (the library's own
+# resolution).
 # Whitening is linear, Wb = Y A' with A' the whitened identity, so only the
 # few rows the screen looks at are whitened: the products with all runs are
 # Y (A' w), and the norms are the runs' quadratic forms y_j' P y_j (the
@@ -71,6 +78,7 @@ screen_white <- function(ctx, base_terms) {
   zero <- ctx$y
   zero[!is.na(zero)] <- 0
   list(top = top, point = point, norm2 = plain_quad_forms(Y, zero, ctx$setup)[, top[2]],
+       kept = new.env(parent = emptyenv()),
        rows = function(i) Y[i, , drop = FALSE] %*% At,
        dot = function(w) drop(Y %*% (At %*% w)))
 }

@@ -80,24 +80,24 @@ block_positions <- function(obs, k, W, n_t) {
 # is the model's own table of misfits (a refined library's, with the
 # prediction error of its predicted runs): it sets the posterior and evidence
 # (lj), while the leave-out algebra (Q, D, lj_plain) works on the plain
-# quadratic forms, which leave-out identities hold for. `E` holds NA at
-# missing cells. Every step is a pass over the runs x data points (no
+# quadratic forms, which leave-out identities hold for. Every step is a pass over the runs x data points (no
 # per-run loop, no n x n algebra per run).
 #
 # `shared`, when given, is the terms of a model whose runs are the first rows
-# of Y (a candidate's zero level is the refined base): their leave-out pieces
-# are taken from it, and only the other rows are computed. `keep_E = FALSE`
-# drops the residuals from the result (only the base model's are read later).
-gap_terms <- function(ctx, Y, log_prior_run,
-                      Q = plain_quad_forms(Y, ctx$y, ctx$setup), C = NULL, shared = NULL,
-                      keep_E = TRUE) {
-  J <- nrow(Y)
+# of this one (a candidate's zero level is the refined base): `Y` then holds
+# only the rows after them (the first rows' outputs are shared$Y, not copied;
+# term_outputs() reads either), their leave-out pieces and plain misfits are
+# taken from `shared`, and only the other rows are computed. The residuals
+# y - Y are not kept (a runs x data points matrix): what reads them forms
+# them from Y.
+gap_terms <- function(ctx, Y, log_prior_run, Q = NULL, C = NULL, shared = NULL) {
   head <- if (is.null(shared)) 0L else nrow(shared$D)
-  rest <- if (head > 0L) Y[-seq_len(head), , drop = FALSE] else Y
+  J <- head + nrow(Y)
+  if (is.null(Q)) Q <- rbind(shared$Q, plain_quad_forms(Y, ctx$y, ctx$setup))
   apart <- settings_apart(ctx)
   # residuals y - eta, runs in rows (not needed for the pieces of settings apart)
-  E <- if (keep_E || !apart) rep(ctx$y, each = nrow(rest)) - rest
-  D <- if (apart) setting_quad_forms(ctx, rest) else leave_setting_pieces(ctx, E)
+  D <- if (apart) setting_quad_forms(ctx, Y) else
+    leave_setting_pieces(ctx, rep(ctx$y, each = nrow(Y)) - Y)
   if (head > 0L) {
     D_rest <- D
     D <- array(0, c(J, length(ctx$points), ctx$n_x))
@@ -108,8 +108,28 @@ gap_terms <- function(ctx, Y, log_prior_run,
                                   ctx$log_prior_grid)
   lj <- if (is.null(C)) lj_plain else
     collapsed_log_joint(C, ctx$n, ctx$logdet, ctx$prior, log_prior_run, ctx$log_prior_grid)
-  list(Y = Y, E = if (keep_E) E, Q = Q, lj = lj, lj_plain = lj_plain, D = D,
+  list(Y = Y, head_Y = shared$Y, Q = Q, lj = lj, lj_plain = lj_plain, D = D,
        log_prior_run = log_prior_run)
+}
+
+# sum_i w_i Y_i over a model's runs (every output), whether or not its first
+# rows are shared (see gap_terms()): one pass over the outputs, no copy.
+term_mean <- function(tm, w) {
+  if (is.null(tm$head_Y)) return(drop(crossprod(w, tm$Y)))
+  head <- seq_len(nrow(tm$head_Y))
+  drop(crossprod(w[head], tm$head_Y) + crossprod(w[-head], tm$Y))
+}
+
+# The outputs of a model's runs `rows` (indices over all its runs) at columns
+# `cols`, whether or not its first rows are shared (see gap_terms()).
+term_outputs <- function(tm, rows, cols) {
+  if (is.null(tm$head_Y)) return(tm$Y[rows, cols, drop = FALSE])
+  head <- nrow(tm$head_Y)
+  top <- rows <= head
+  out <- matrix(0, length(rows), length(cols))
+  out[top, ] <- tm$head_Y[rows[top], cols, drop = FALSE]
+  out[!top, ] <- tm$Y[rows[!top] - head, cols, drop = FALSE]
+  out
 }
 
 # The leave-setting-out pieces D (runs x grid points x settings) of the

@@ -48,71 +48,88 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   } else {
     lapply(kernels, function(K) low_rank_factor(sd2 * K[ctx$obs, ctx$obs, drop = FALSE]))
   }
-  E <- if (length(ctx$obs) == ncol(base_terms$E)) base_terms$E else
-    base_terms$E[, ctx$obs, drop = FALSE]
-  # the x step of kronecker_products() depends on the kernel and R_x^-1 only:
-  # kept for the grid points that share R_x^-1 (all of them without rho_x)
-  x_steps <- vector("list", length(factors))
-  x_step <- function(i, point) {
-    last <- x_steps[[i]]
-    if (is.null(last) || !identical(last$Rx_inv, point$Rx_inv)) {
-      last <- kronecker_x_step(point$Rx_inv, factors[[i]]$Kx, E, ctx$n_t)
-      x_steps[[i]] <<- last
-    }
-    last
-  }
-  pieces <- unlist(lapply(seq_along(ctx$points), function(g) {
-    point <- ctx$points[[g]]
-    unlist(lapply(seq_along(factors), function(i) {
-      B <- factors[[i]]
-      # every ratio's sum_i s z_i^2 / (1 + s l_i) from one product (runs x ratios)
-      if (kron) {
-        kp <- kronecker_products(point, x_step(i, point), B$Kt, nrow(E), ctx$n_t, ratios)
-        l <- kp$l
-        drop_by <- kp$drop_by
-      } else {
-        PB <- precision_times(ctx, point, B)
-        eig <- eigen(crossprod(B, PB), symmetric = TRUE)
-        l <- pmax(eig$values, 0)
-        drop_by <- (E %*% (PB %*% eig$vectors))^2 %*% ratio_weights(l, ratios)
-      }
-      vapply(seq_along(ratios), function(k) {
-        s <- ratios[k]
-        Q <- base_terms$Q[, g] - drop_by[, k]
-        log_sum_exp(collapsed_log_joint(matrix(pmax(Q, 0)), ctx$n,
-                                        ctx$logdet[g] + sum(log1p(s * l)), ctx$prior,
-                                        base_terms$log_prior_run, point$log_prior))
-      }, numeric(1))
-    }))
-  }))
-  log_sum_exp(pieces) - log(length(kernels) * length(ratios))
+  # per grid point and kernel, every ratio's sum_i s z_i^2 / (1 + s l_i)
+  # (runs x ratios) and the eigenvalues l, for pairs in chunks of about 2^22
+  # numbers (several pairs per pass over the runs, a bounded temporary)
+  J <- nrow(base_terms$Y)
+  pairs <- expand.grid(i = seq_along(factors), g = seq_along(ctx$points))
+  per_chunk <- max(1L, floor(2^22 / (J * length(ratios))))
+  chunks <- split(seq_len(nrow(pairs)), ceiling(seq_len(nrow(pairs)) / per_chunk))
+  pieces <- unlist(lapply(chunks, function(ms) {
+    drops <- if (kron) kronecker_products(ctx, base_terms$Y, factors, pairs[ms, ], ratios) else
+      dense_products(ctx, base_terms$Y, factors, pairs[ms, ], ratios)
+    vapply(seq_along(ms), function(j) {
+      g <- pairs$g[ms[j]]
+      l <- drops[[j]]$l
+      # the log evidence summed over the ratios (as the ratios' columns of a
+      # grid posterior, src/exact_posterior.cpp), up to the constant added below
+      grid_posterior_cpp(pmax(base_terms$Q[, g] - drops[[j]]$drop_by, 0),
+                         ctx$prior$shape + sum(ctx$n) / 2, ctx$prior$rate,
+                         ctx$logdet[g] + colSums(log1p(outer(l, ratios))),
+                         base_terms$log_prior_run,
+                         rep(ctx$points[[g]]$log_prior, length(ratios)), FALSE,
+                         griddy_threads())$log_norm
+    }, numeric(1))
+  }), use.names = FALSE)
+  log_sum_exp(pieces) + log_evidence_constant(ctx$prior, ctx$n) -
+    log(length(kernels) * length(ratios))
+}
+
+# The Woodbury pieces of other_log_evidence() under a noise pattern: per
+# (kernel i, grid point g) of `pairs`, list(drop_by = runs x ratios, l).
+dense_products <- function(ctx, Y, factors, pairs, ratios) {
+  E <- (rep(ctx$y, each = nrow(Y)) - Y)[, ctx$obs, drop = FALSE]   # the observed points
+  lapply(seq_len(nrow(pairs)), function(m) {
+    B <- factors[[pairs$i[m]]]
+    PB <- precision_times(ctx, ctx$points[[pairs$g[m]]], B)
+    eig <- eigen(crossprod(B, PB), symmetric = TRUE)
+    l <- pmax(eig$values, 0)
+    list(drop_by = (E %*% (PB %*% eig$vectors))^2 %*% ratio_weights(l, ratios), l = l)
+  })
 }
 
 # The Woodbury pieces of other_log_evidence() for K = Kx (x) Kt = (Bx Bx')
 # (x) (Bt Bt') and P = R_x^-1 (x) Pt (no noise pattern): B'PB = (Bx'R_x^-1
 # Bx) (x) (Bt'Pt Bt) has eigenvalues lx (x) lt and eigenvectors Vx (x) Vt,
-# so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j as an
-# n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run n_t n_x rx
-# (the x step, kronecker_x_step(), once per kernel) + rx n_t rt products
-# instead of n_x n_t rx rt (the same quantities as the full factor, to
-# rounding). Z (column (ix - 1) rt + it) is reduced at once to drop_by, runs x
-# ratios: sum_i s z_i^2 / (1 + s l_i) for each ratio s.
-kronecker_products <- function(point, xs, Bt, J, n_t, ratios) {
-  PtBt <- ar1_precision_times(point$Pt, Bt)
-  et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
-  Mt <- PtBt %*% et$vectors
-  rx <- length(xs$Ex)
-  l <- kronecker(xs$lx, pmax(et$values, 0))
-  weights <- ratio_weights(l, ratios)
-  rt <- ncol(Mt)
-  # Z's columns of x direction ix, squared and weighted, summed block by block
-  # (no runs x (rx rt) matrix)
-  drop_by <- matrix(0, J, length(ratios))
-  for (ix in seq_len(rx)) {
-    Zx <- xs$Ex[[ix]] %*% Mt
-    drop_by <- drop_by + (Zx * Zx) %*% weights[(ix - 1L) * rt + seq_len(rt), , drop = FALSE]
+# so z = (Vx (x) Vt)' B'P e = Mt' E_j Mx for each run's residual E_j = y -
+# Y_j as an n_t x n_x matrix, Mt = Pt Bt Vt and Mx = R_x^-1 Bx Vx: per run
+# n_t n_x rx + rx n_t rt products instead of n_x n_t rx rt (the same
+# quantities as the full factor, to rounding). Z (entry (ix - 1) rt + it) is
+# reduced at once to drop_by, runs x ratios: sum_i s z_i^2 / (1 + s l_i) for
+# each ratio s. Every pair (kernel, grid point) in one pass over the runs'
+# outputs, a block of runs at a time (other_drops_cpp(),
+# src/other_products.cpp); the x step depends on the kernel and R_x^-1 only,
+# so grid points that share R_x^-1 (all of them without rho_x) share it.
+kronecker_products <- function(ctx, Y, factors, pairs, ratios) {
+  x_steps <- list()
+  step_of <- integer(nrow(pairs))
+  for (m in seq_len(nrow(pairs))) {
+    Rx_inv <- ctx$points[[pairs$g[m]]]$Rx_inv
+    i <- pairs$i[m]
+    hit <- Position(function(st) st$i == i && identical(st$Rx_inv, Rx_inv), x_steps)
+    if (is.na(hit)) {
+      x_steps[[length(x_steps) + 1L]] <- c(kronecker_x_step(Rx_inv, factors[[i]]$Kx), i = i)
+      hit <- length(x_steps)
+    }
+    step_of[m] <- hit
   }
-  list(drop_by = drop_by, l = l)
+  x_count <- vapply(x_steps, function(st) ncol(st$Mx), integer(1))
+  x_first <- c(0L, cumsum(x_count))[seq_along(x_steps)]
+  terms <- lapply(seq_len(nrow(pairs)), function(m) {
+    Pt <- ctx$points[[pairs$g[m]]]$Pt
+    Bt <- factors[[pairs$i[m]]]$Kt
+    PtBt <- ar1_precision_times(Pt, Bt)
+    et <- eigen(crossprod(Bt, PtBt), symmetric = TRUE)
+    l <- kronecker(x_steps[[step_of[m]]]$lx, pmax(et$values, 0))
+    list(Mt = PtBt %*% et$vectors, W = ratio_weights(l, ratios), l = l)
+  })
+  drops <- other_drops_cpp(Y, ctx$y, do.call(cbind, lapply(x_steps, `[[`, "Mx")),
+                           lapply(terms, `[[`, "Mt"), lapply(terms, `[[`, "W"),
+                           x_first[step_of], x_count[step_of], griddy_threads())
+  k <- length(ratios)
+  lapply(seq_len(nrow(pairs)), function(m) {
+    list(drop_by = drops[, (m - 1L) * k + seq_len(k), drop = FALSE], l = terms[[m]]$l)
+  })
 }
 
 # s / (1 + s l_i): one column per ratio s, one row per eigenvalue l_i.
@@ -120,16 +137,12 @@ ratio_weights <- function(l, ratios) {
   vapply(ratios, function(s) s / (1 + s * l), numeric(length(l)))
 }
 
-# The x step: Ex = the runs' residuals (rows of n_t, one column per x
-# setting) times Mx = R_x^-1 Bx Vx, as one runs x n_t matrix per x direction,
-# and lx the eigenvalues of Bx'R_x^-1 Bx.
-kronecker_x_step <- function(Rx_inv, Bx, E, n_t) {
+# The x step of a kernel: Mx = R_x^-1 Bx Vx and lx, the eigenvalues of
+# Bx'R_x^-1 Bx (Vx their eigenvectors).
+kronecker_x_step <- function(Rx_inv, Bx) {
   RxBx <- Rx_inv %*% Bx
   ex <- eigen(crossprod(Bx, RxBx), symmetric = TRUE)
-  J <- nrow(E)
-  Ex <- matrix(E, J * n_t, nrow(Bx)) %*% (RxBx %*% ex$vectors)
-  list(Rx_inv = Rx_inv, Ex = lapply(seq_len(ncol(Ex)), function(ix) matrix(Ex[, ix], J, n_t)),
-       lx = pmax(ex$values, 0))
+  list(Rx_inv = Rx_inv, Mx = RxBx %*% ex$vectors, lx = pmax(ex$values, 0))
 }
 
 # B with K = B B' to rounding (K positive semi-definite): the rows of the

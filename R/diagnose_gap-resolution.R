@@ -39,7 +39,9 @@ settled_in_range <- function(state, previous) {
 }
 
 # A candidate at matched resolution: its runs' theta (base columns plus
-# strength), outputs Y, quadratic forms C and log prior weights. Its prior
+# strength), outputs Y, quadratic forms C and log prior weights; when refined
+# (`base_rows` given), its first `base_rows` runs are the refined base and Y
+# holds the outputs of the rows after them only. Its prior
 # keeps the weight 1/S of each of its S strength levels: the zero level is
 # the refined base (so the candidate nests the base model exactly), and the
 # non-zero levels, together, are refined over theta and strength at once,
@@ -58,17 +60,17 @@ matched_candidate <- function(cand, base_problem, max_runs) {
                 log_prior = candidate_log_prior(cand, base_cols), is_plain = TRUE))
   }
   zero <- problem_part(base_problem)
-  zero$theta <- cbind(zero$theta, matrix(0, nrow(zero$theta), length(strength_cols),
-                                         dimnames = list(NULL, strength_cols)))
   zero$log_prior <- zero$log_prior - log(n_levels)
   on <- nonzero_part(cand, which(rowSums(abs(strength)) > 0), base_problem, max_runs)
-  on$theta <- on$theta[names(zero$theta)]
   on$log_prior <- on$log_prior + log((n_levels - 1) / n_levels)
-  # theta stacked column by column (rbind() of two long data frames costs more)
-  theta <- as.data.frame(lapply(stats::setNames(nm = names(zero$theta)),
-                                function(nm) c(zero$theta[[nm]], on$theta[[nm]])),
-                         check.names = FALSE)
-  list(theta = theta, Y = rbind(zero$Y, on$Y), C = rbind(zero$C, on$C),
+  # theta stacked column by column, the zero level's strength 0 (rbind() or
+  # cbind() of long data frames costs more)
+  n_zero <- nrow(zero$theta)
+  theta <- as.data.frame(lapply(stats::setNames(nm = c(base_cols, strength_cols)), function(nm) {
+    c(if (nm %in% strength_cols) numeric(n_zero) else zero$theta[[nm]], on$theta[[nm]])
+  }), check.names = FALSE)
+  # Y: the outputs of the rows after the zero level's (whose are the base's)
+  list(theta = theta, Y = on$Y, C = rbind(zero$C, on$C),
        log_prior = c(zero$log_prior, on$log_prior), is_plain = FALSE,
        base_rows = nrow(zero$Y))
 }
@@ -88,7 +90,9 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
     C <- plain_quad_forms(Y, base_problem$y_field, base_problem$setup)
     return(list(theta = theta, Y = Y, C = C, log_prior = rep(-log(length(rows)), length(rows))))
   }
-  part <- suppressWarnings(sim_library(theta, Y, x = lib_x(cand), t = lib_t(cand)))
+  # rows of a checked library: distinct, finite runs (sim_library() would
+  # check its 10^5 rows again)
+  part <- runs_piece(theta, Y, lib_x(cand), lib_t(cand))
   problem <- problem_from_parts(part, base_problem$y_field, base_problem$prior,
                                 lib_log_prior(part), base_problem$setup)
   problem_part(refine_rounds(problem, NULL, max_runs, default_runs_per_round(lib_theta(part)),
@@ -99,20 +103,24 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
 # quadratic forms of Y unless some runs were predicted (their C holds the
 # prediction error), which the leave-out algebra then computes apart.
 matched_terms <- function(ctx, Y, log_prior, C, library = NULL, is_plain = FALSE,
-                          shared = NULL, keep_E = TRUE) {
+                          shared = NULL) {
   # a table known to be the plain forms (no predicted run) is not recomputed
-  if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
-  # the shared rows' plain forms are the other model's Q
-  plain <- if (is.null(shared)) plain_quad_forms(Y, ctx$y, ctx$setup) else {
-    head <- nrow(shared$Q)
-    rbind(shared$Q, plain_quad_forms(Y[-seq_len(head), , drop = FALSE], ctx$y, ctx$setup))
+  if (is_plain) return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared))
+  # the shared rows' plain forms are the other model's Q (Y holds the rest)
+  plain <- rbind(shared$Q, plain_quad_forms(Y, ctx$y, ctx$setup))
+  if (same_table(plain, C)) {
+    return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared))
   }
-  if (isTRUE(all.equal(plain, C, tolerance = 1e-12, check.attributes = FALSE))) {
-    return(gap_terms(ctx, Y, log_prior, Q = C, shared = shared, keep_E = keep_E))
-  }
-  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C, shared = shared, keep_E = keep_E)
+  terms <- gap_terms(ctx, Y, log_prior, Q = plain, C = C, shared = shared)
   terms$emulation <- run_errors(library)
   terms
+}
+
+# Whether two misfit tables agree to 1e-12 in mean relative difference (as
+# all.equal(), without its passes for names, attributes and missing values:
+# the tables are finite).
+same_table <- function(a, b) {
+  sum(abs(a - b)) <= 1e-12 * sum(abs(a))
 }
 
 # The fit's own context and base terms, for the confounding screen (which

@@ -5,6 +5,7 @@ gap_folds <- function(ctx, base_terms, cand_terms) {
   models <- c(list(none = base_terms), cand_terms)
   rows <- lapply(names(models), function(nm) {
     tm <- models[[nm]]
+    tm$log_mass <- log_sum_exp(tm$lj_plain)      # log p(y), shared by the folds
     do.call(rbind, lapply(seq_len(ctx$n_x), function(k) fold_one(ctx, tm, k, nm)))
   })
   out <- do.call(rbind, rows)
@@ -29,12 +30,14 @@ fold_one <- function(ctx, tm, k, model) {
     m * log(point$Rx_inv[k, k]) - sum(log1p(-point$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)
-  lj <- collapsed_log_joint(matrix(Qm, nrow(tm$Q)), n - m, ctx$logdet + ld_bb, ctx$prior,
-                            tm$log_prior_run, ctx$log_prior_grid)
-  lpd <- log_sum_exp(tm$lj_plain) - log_sum_exp(lj)
-  w <- normalise_log(lj)
+  # the leave-B-out posterior over (run, grid point) and its log evidence, in
+  # passes over Qm (src/exact_posterior.cpp, as grid_posterior())
+  post <- grid_posterior_cpp(matrix(Qm, nrow(tm$Q)), a + (n - m) / 2, b, ctx$logdet + ld_bb,
+                             tm$log_prior_run, ctx$log_prior_grid, TRUE, griddy_threads())
+  lpd <- tm$log_mass - (post$log_norm + log_evidence_constant(ctx$prior, n - m))
+  w <- post$joint
   y_b <- ctx$y[cols]
-  pred <- drop(rowSums(w) %*% tm$Y[, cols, drop = FALSE])
+  pred <- term_mean(tm, post$run)[cols]
   # physics-only predictive: simulator at the run plus fitted noise (t), each
   # point's noise sd times its relative sd
   keep <- top_pairs(w, 0.9999, 500L)
@@ -42,7 +45,7 @@ fold_one <- function(ctx, tm, k, model) {
   ij <- arrayInd(keep, dim(w))
   nu <- 2 * a + n - m
   scale <- sqrt((b + Qm[keep] / 2) / (a + (n - m) / 2))
-  z <- (matrix(y_b, length(keep), m, byrow = TRUE) - tm$Y[ij[, 1], cols, drop = FALSE]) / scale
+  z <- (matrix(y_b, length(keep), m, byrow = TRUE) - term_outputs(tm, ij[, 1], cols)) / scale
   if (!is.null(ctx$sd)) z <- sweep(z, 2, ctx$sd[cols], "/")
   pit <- colSums(wk * stats::pt(z, nu))
   data.frame(model = model, x = k, n = m, sse = sum((y_b - pred)^2),

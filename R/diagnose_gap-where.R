@@ -32,7 +32,7 @@ gap_where <- function(ctx, tm, windows, fdr) {
     chols <- lapply(P_BB, function(S) if (!is.null(S)) chol(S))
     for (p in at) {
       j <- pairs[p, 1]
-      e <- tm$E[j, ctx$obs]
+      e <- ctx$y[ctx$obs] - tm$Y[j, ctx$obs]
       err <- run_emulation(tm$emulation, j, ctx$obs)
       if (is.null(err)) {
         h <- apply_precision(ctx, point, e)
@@ -154,7 +154,8 @@ gap_windows <- function(ctx, tm, windows) {
 # (each point's own, with relative sd); NA at missing cells.
 gap_map <- function(ctx, tm, w) {
   wr <- rowSums(w)
-  resid <- colSums(tm$E * wr)
+  # sum_j wr_j (y - Y_j), without the runs x data points residuals
+  resid <- ctx$y * sum(wr) - term_mean(tm, wr)
   sigma <- sqrt(sum(w * (ctx$prior$rate + tm$Q / 2) / (ctx$prior$shape + ctx$n / 2)))
   if (!is.null(ctx$sd)) sigma <- sigma * ctx$sd
   data.frame(x = rep(seq_len(ctx$n_x), each = ctx$n_t), t = rep(ctx$t, ctx$n_x),

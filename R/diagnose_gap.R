@@ -293,8 +293,7 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
     # the zero level of a refined candidate is the refined base: its rows'
     # leave-out pieces are the base's
     shared <- if (!is.null(m$base_rows)) base_terms
-    matched_terms(ctx, m$Y, m$log_prior, m$C, is_plain = m$is_plain, shared = shared,
-                  keep_E = FALSE)
+    matched_terms(ctx, m$Y, m$log_prior, m$C, is_plain = m$is_plain, shared = shared)
   })
   other <- other_log_evidence(ctx, base_terms, other_scales)
 

@@ -265,10 +265,21 @@ whiten_rows <- function(M, point, n_x, n_t, over_x = TRUE) {
 # Rows of M (full library-order vectors) whitened group by group under a
 # dense grid point: the observed columns, divided by their sd, times A_k.
 whiten_groups <- function(M, point) {
-  d <- point$dense
+  Map(`%*%`, group_columns(M, point$dense), point$dense$A)
+}
+
+# Is A the identity matrix (a factor of independent noise, rho = 0)? Then
+# rotating by it is a copy, not an O(N n^2) product.
+is_identity <- function(A) nrow(A) == ncol(A) && all(A == diag(nrow(A)))
+
+# The observed columns of rows M (full library-order vectors), divided by
+# their sd, cut into the noise groups of dense factors `d`: what the groups'
+# factors multiply.
+group_columns <- function(M, d) {
   M <- M[, d$obs, drop = FALSE]
   if (!is.null(d$scale)) M <- sweep(M, 2, d$scale, "*")
-  Map(function(idx, A) M[, idx, drop = FALSE] %*% A, d$groups, d$A)
+  if (length(d$groups) == 1L) return(list(M))
+  lapply(d$groups, function(idx) M[, idx, drop = FALSE])
 }
 
 # Draw rows of N(0, R_g) noise under grid point `point`: the inverse of
@@ -318,20 +329,24 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
   }
   C <- matrix(0, nrow(Y), n_grid_points(setup))
   dense <- setup$dense
-  resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
+  # the residuals' observed, scaled columns of each group, cut once for all
+  # rotations (a discrepancy grid has one rotation per length scale)
+  blocks <- group_columns(matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y, dense)
   # one rotation per (rho, length scale) pair; each ratio lambda then
   # weighs its squared rotated residuals (dense_factors())
   for (r in unique(dense$rot)) {
     at <- which(dense$rot == r)
-    Z2 <- lapply(whiten_groups(resid, list(dense = c(dense[c("obs", "scale", "groups")],
-                                                    list(A = dense$W[[r]])))), `^`, 2)
-    Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
-    for (k in seq_along(Z2)) {
-      weights <- vapply(at, function(g) {
-        if (is.null(dense$w[[g]])) rep(1, ncol(Z2[[k]])) else dense$w[[g]][[k]]
-      }, numeric(ncol(Z2[[k]])))
-      Ck[, , k] <- Z2[[k]] %*% weights + setup$pure_ss[k]
+    Z2 <- Map(function(B, A) (if (is_identity(A)) B else B %*% A)^2, blocks, dense$W[[r]])
+    weights <- lapply(seq_along(Z2), function(k) vapply(at, function(g) {
+      if (is.null(dense$w[[g]])) rep(1, ncol(Z2[[k]])) else dense$w[[g]][[k]]
+    }, numeric(ncol(Z2[[k]]))))
+    if (length(Z2) == 1L) {
+      # one noise group: its forms are C itself (no per-column copies)
+      C[, at] <- Z2[[1]] %*% weights[[1]] + setup$pure_ss[1]
+      next
     }
+    Ck <- array(0, c(nrow(Y), length(at), length(Z2)))
+    for (k in seq_along(Z2)) Ck[, , k] <- Z2[[k]] %*% weights[[k]] + setup$pure_ss[k]
     for (j in seq_along(at)) C[, at[j]] <- fold_groups(Ck[, j, ], setup)
   }
   if (!all(is.finite(C))) {

@@ -301,6 +301,14 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
   if (dir.exists(file)) {
     griddy_abort("`file` (", file, ") is a directory; give the path of an HDF5 file.")
   }
+  commit_runs(library, file, append, chunk_size)
+  invisible(hdf5_library(file))
+}
+
+# write_library()'s work, without opening the result: under the lock, the
+# file created (append = FALSE) and the runs of `library` (any number, one
+# is enough) appended and committed.
+commit_runs <- function(library, file, append, chunk_size = NULL) {
   token <- library_lock(file, "library file")
   on.exit(library_unlock(token), add = TRUE)
   write_hook("locked")
@@ -316,9 +324,9 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
     }
     h5_create_library(library, file, chunk_size)
   }
-  h5_append_runs(library, file)
+  n <- h5_append_runs(library, file)
   write_hook("done")
-  invisible(hdf5_library(file))
+  invisible(n)
 }
 
 #' Repair a library left incomplete by an interrupted write
@@ -471,31 +479,59 @@ lib_check_integrity.hdf5_library <- function(library) {
 
 # ---- reading HDF5 ----------------------------------------------------------
 
-# Opens a file, turning HDF5's error stack into one sentence.
-h5_open <- function(file, mode) {
+# Opens a file, turning HDF5's error stack into one sentence. HDF5 refuses
+# to open a file that another process has open for writing, and a writer a
+# file that others are reading. A reader is refused at once (a write may
+# take long); a writer ("r+", which holds griddy's lock, so the others are
+# readers, each open for the moment of a read) tries again for up to
+# `wait` seconds, so that someone looking at a campaign's library does not
+# stop the campaign.
+h5_open <- function(file, mode, wait = if (identical(mode, "r+")) 60 else 0) {
+  start <- proc.time()[["elapsed"]]
+  pause <- 0.02
+  repeat {
+    h5 <- tryCatch(h5_open_once(file, mode), error = function(e) e)
+    if (!inherits(h5, "error")) return(h5)
+    waited <- proc.time()[["elapsed"]] - start
+    if (!grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) || waited >= wait) {
+      h5_open_failed(file, mode, h5, waited)
+    }
+    Sys.sleep(min(pause, wait - waited))
+    pause <- min(1, pause * 1.5)
+  }
+}
+
+h5_open_once <- function(file, mode) {
   # closing the file closes every object opened in it (H5F_CLOSE_STRONG):
   # faster than hdf5r's close_all(), which runs the garbage collector
   fapl <- hdf5r::H5P_FILE_ACCESS$new()
   # hdf5r wraps H5Pset_fclose_degree() without an R method for it: call its
   # registered routine, found at run time
   .Call(h5_set_fclose_degree(), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
-  tryCatch(hdf5r::H5File$new(file, mode, file_access_pl = fapl), error = function(e) {
-    msg <- conditionMessage(e)
-    if (!file.exists(file)) {
-      griddy_abort("The HDF5 file ", file, " does not exist.", class = "library")
+  hdf5r::H5File$new(file, mode, file_access_pl = fapl)
+}
+
+h5_open_failed <- function(file, mode, e, waited) {
+  msg <- conditionMessage(e)
+  if (!file.exists(file)) {
+    griddy_abort("The HDF5 file ", file, " does not exist.", class = "library")
+  }
+  if (grepl("unable to lock", msg, ignore.case = TRUE)) {
+    if (mode != "r") {
+      griddy_abort("The HDF5 file ", file, " is held open by another process (a reader) and ",
+                   "HDF5 refuses to write it meanwhile; it still was after ", round(waited),
+                   " s. Close the other sessions' views of it and run again.", class = "lock")
     }
-    if (grepl("unable to lock", msg, ignore.case = TRUE)) {
-      lock <- lock_path(file)
-      griddy_abort("The HDF5 file ", file, " is open for writing by another process",
-                   if (dir.exists(lock)) paste0(" (the lock ", lock, " is held by ",
-                                                lock_who(lock_owner(lock)), ")"),
-                   ", and HDF5 refuses to open it meanwhile; try again when that write ",
-                   "has finished.", class = "lock")
-    }
-    griddy_abort("The file ", file, " cannot be opened as an HDF5 file",
-                 if (mode != "r") " for writing", ": ", h5_error_summary(e), ".",
-                 class = "library")
-  })
+    lock <- lock_path(file)
+    griddy_abort("The HDF5 file ", file, " is open for writing by another process",
+                 if (dir.exists(lock)) paste0(" (the lock ", lock, " is held by ",
+                                              lock_who(lock_owner(lock)), ")"),
+                 ", and HDF5 refuses to open it meanwhile; try again when that write ",
+                 "has finished.", class = "lock")
+  }
+  griddy_abort("The file ", file, " cannot be opened as an HDF5 file",
+               if (mode != "r") " for writing", ": ", h5_error_summary(e), ".",
+               class = "library")
 }
 
 h5_set_fclose_degree <- function() {
@@ -861,6 +897,29 @@ h5_append_runs <- function(library, file) {
   h5$flush()
   write_hook("committed")
   invisible(n0 + k)
+}
+
+# The committed runs of a file written by write_library(), read without the
+# checks of a library (it may hold one run, or none): list(theta = a
+# data.frame, n_out). NULL when the file does not exist.
+h5_committed_theta <- function(file) {
+  if (!file.exists(file)) return(NULL)
+  h5 <- h5_open(file, "r")
+  on.exit(h5_close(h5), add = TRUE)
+  meta <- h5_griddy_meta(h5)
+  if (!meta$griddy) {
+    griddy_abort("`file` (", file, ") was not written by write_library(): griddy adds ",
+                 "runs only to its own files.", class = "library")
+  }
+  ds <- h5[["theta"]]
+  names <- h5_names_attr(ds)
+  theta <- if (meta$n_runs > 0L) {
+    ds$read(args = list(seq_len(meta$n_runs), seq_along(names)), drop = FALSE)
+  } else {
+    matrix(0, 0L, length(names))
+  }
+  colnames(theta) <- names
+  list(theta = as.data.frame(theta), n_out = as.integer(h5[["y"]]$dims[2]))
 }
 
 repair_h5_library <- function(file) {

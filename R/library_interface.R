@@ -238,8 +238,8 @@ lib_prediction_errors <- function(library) UseMethod("lib_prediction_errors")
 lib_prediction_errors.default <- function(library) NULL
 
 # A sim_library of any number of runs (one is enough), unchecked: a piece of
-# runs to write to a file (write_library(append = TRUE)) whose runs were
-# checked where they came from.
+# runs to write to a file (write_library(append = TRUE)), or a part of a
+# library, whose runs were checked where they came from.
 runs_piece <- function(theta, y, x, t) {
   structure(list(theta = as.data.frame(theta), y = y, x = x, t = t), class = "sim_library")
 }
@@ -276,6 +276,9 @@ lib_emulator.default <- function(library, region) {
   emulator$refine_region <- as.matrix(region)
   emulator$loo <- loo$residuals
   emulator$loo_theta <- as.matrix(lib_theta(library)[loo$rows, , drop = FALSE])
+  # the error model's directions (an SVD of the residuals, runs x outputs),
+  # once per emulator rather than once per round it predicts
+  emulator$loo_model <- emulation_error_model(loo$residuals, NA_real_)
   emulator
 }
 
@@ -287,8 +290,10 @@ lib_predict <- function(emulator, theta_new, noise_var) {
     return(emulated_library_batch(emulator$library, theta_new, noise_var))
   }
   pred <- emulator_predict(emulator, theta_new)
-  list(y = pred$outputs, rel_var = pred$rel_var,
-       error = emulation_error_model(emulator$loo, noise_var))
+  error <- if ("loo_model" %in% names(emulator)) emulator$loo_model else
+    emulation_error_model(emulator$loo, noise_var)
+  if (!is.null(error)) error$noise_var <- noise_var
+  list(y = pred$outputs, rel_var = pred$rel_var, error = error)
 }
 
 # The library with what its misfit table `C` (lib_quad_forms()) found for

@@ -105,8 +105,10 @@ marginal_resolution <- function(mass, v, support, level, min_values) {
 # Group ids (1, 2, ... in increasing order of value) that merge values closer
 # than `tol` to the previous one.
 value_groups <- function(v, tol, o = order(v)) {
-  ids <- cumsum(c(TRUE, diff(v[o]) > tol))
-  ids[order(o)]
+  ids <- integer(length(v))
+  # back to run order by the permutation itself (no second sort)
+  ids[o] <- cumsum(c(TRUE, diff(v[o]) > tol))
+  ids
 }
 
 # The resolution table of a fit, from its exact posterior over runs.

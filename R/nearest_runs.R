@@ -19,7 +19,9 @@ nearest_runs <- function(query, ref, k, exclude_self = FALSE) {
     d2 <- outer(rowSums(query[rows, , drop = FALSE]^2), ref_sq, "+") -
       2 * tcrossprod(query[rows, , drop = FALSE], ref)
     if (exclude_self) d2[cbind(seq_along(rows), rows)] <- Inf
-    idx[rows, ] <- t(apply(d2, 1, smallest_k, k = k))
+    # the nearest alone (as smallest_k(), the first of ties) without a call per row
+    idx[rows, ] <- if (k == 1L) max.col(-d2, ties.method = "first") else
+      t(apply(d2, 1, smallest_k, k = k))
   }
   # distances again, by differences: the expansion above loses the exact 0 at a run
   dist <- matrix(0, m, k)

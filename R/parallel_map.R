@@ -5,19 +5,24 @@
 # costs more than most maps.
 
 # The number of workers of the user's plan, 1 when griddy maps sequentially.
-griddy_workers <- function() {
+# `scheduled = FALSE` is for work that is cheap next to a scheduler's
+# latency (calibrate()'s chains): on a cluster scheduler's plan
+# (future.batchtools: Slurm, SGE, ...) it stays in this process, so that
+# refine() sends its simulations to the cluster and not its chains.
+griddy_workers <- function(scheduled = TRUE) {
   if (!isNamespaceLoaded("future") || !requireNamespace("future.apply", quietly = TRUE)) {
     return(1L)
   }
+  if (!scheduled && inherits(future::plan(), "batchtools")) return(1L)
   max(1L, as.integer(future::nbrOfWorkers()))
 }
 
-# lapply(X, FUN, ...) on the plan's workers when griddy_workers() > 1, else
-# in this process. With `seeds` (one integer per element of X), element i
+# lapply(X, FUN, ...) on the plan's workers when griddy_workers(scheduled) > 1,
+# else in this process. With `seeds` (one integer per element of X), element i
 # runs with set.seed(seeds[i]) (R's stream restored after), so a stochastic
 # FUN gives the same results under any plan; without, FUN must not draw
 # random numbers. Workers need griddy installed.
-griddy_map <- function(X, FUN, ..., seeds = NULL) {
+griddy_map <- function(X, FUN, ..., seeds = NULL, scheduled = TRUE) {
   if (!is.null(seeds)) {
     stopifnot(length(seeds) == length(X))
     fun <- FUN
@@ -27,8 +32,13 @@ griddy_map <- function(X, FUN, ..., seeds = NULL) {
   } else {
     call <- FUN
   }
-  if (griddy_workers() > 1L) {
-    future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy")
+  if (griddy_workers(scheduled) > 1L) {
+    # a worker lost, or a batch job the scheduler reports expired (batchtools
+    # may, for a moment, of one that has just finished): the map runs again
+    # here, with the same results (each element has its own seed)
+    tryCatch(
+      future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy"),
+      FutureError = function(e) lapply(X, call, ...))
   } else {
     lapply(X, call, ...)
   }

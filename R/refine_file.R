@@ -83,8 +83,8 @@ read_store_proposal <- function(store, round, library) {
 store_keeper <- function(store) {
   if (is.null(store)) return(NULL)
   function(theta, y) {
-    write_library(runs_piece(theta, y, store$x, store$t), store$file,
-                  append = file.exists(store$file))
+    commit_runs(runs_piece(theta, y, store$x, store$t), store$file,
+                append = file.exists(store$file))
     table <- read_store_table(store)
     table$n[nrow(table)] <- table$n[nrow(table)] + nrow(theta)
     write_store_table(store, table)

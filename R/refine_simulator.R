@@ -1,38 +1,146 @@
-# refine()'s calls of the user's simulator: in chunks, on the future plan's
-# workers when there are any (griddy_map()), each chunk's outputs checked
-# and handed on as soon as its wave finishes, so that a failure or an
-# interrupt loses only the chunks still running.
+# Calls of the user's simulator, shared by refine() and simulate_library():
+# in chunks, on the future plan's workers when there are any, each finished
+# chunk checked and handed on (to be kept, or written to disk) as soon as it
+# finishes, so that an interrupt, a killed session or a lost node loses only
+# the chunks still running. A chunk whose call fails is run again row by
+# row, so only the failing rows are left out.
+#
+# The simulator contract (the same for both callers): `simulator(theta, ...)`
+# receives a data.frame of theta rows (one column per parameter, named as the
+# library's) and returns a numeric matrix with one row per theta row, in
+# order, and the library's outputs as columns (blocks by x setting; see
+# sim_library()). A row with a non-finite output counts as a failed run; an
+# error counts as the failure of every row of the call; a matrix of the
+# wrong shape is a broken contract and stops everything at once.
+#
+# Parallel workers. With a plan of more than one worker (griddy_workers()),
+# each chunk is a future (future::future()) of its own: at most one per
+# worker runs at a time, and a finished one is handed on while the others
+# run, in the order they finish. A future that cannot deliver its value (a
+# worker that died, a Slurm job cancelled: a FutureError) fails its chunk
+# like an error, and its rows are run again one by one (a chunk of one row
+# too, once). Otherwise the chunks run in this
+# process, in order.
 
 # A function(theta, n_out, progress, on_chunk) that runs the user's simulator
-# over the rows of theta and calls on_chunk(rows, y) with each finished
-# chunk's rows (of theta) and checked outputs, in order.
+# over the rows of theta: calls on_chunk(rows, y) for each finished chunk's
+# rows (of theta) and checked outputs, and returns the failed rows, a list of
+# list(row, condition). `n_out` may be NULL (the first chunk fixes it).
 #
 # Each chunk runs with its own seed, that of its first row among seeds drawn
-# for every row from R's stream, so the stream moves on by the same amount
-# under any plan, and a deterministic simulator gives the same library under
-# any plan (a stochastic one, under plans with the same number of workers).
+# for every row from R's stream (a row run again alone gets its own), so the
+# stream moves on by the same amount under any plan, and a deterministic
+# simulator gives the same runs under any plan (a stochastic one, under
+# plans with the same number of workers).
 simulator_caller <- function(simulator, dots) {
   force(simulator)
+  force(dots)
   function(theta, n_out, progress, on_chunk) {
-    chunks <- simulator_chunks(nrow(theta))
-    seeds <- sample.int(.Machine$integer.max, nrow(theta))
-    bar <- if (progress) cli::cli_progress_bar("Simulating", total = nrow(theta),
-                                               .envir = environment())
-    call_chunk <- function(rows) {
-      do.call(simulator, c(list(theta[rows, , drop = FALSE]), dots))
-    }
-    per_wave <- griddy_workers()
-    for (wave in split(seq_along(chunks), (seq_along(chunks) - 1L) %/% per_wave)) {
-      out <- griddy_map(chunks[wave], call_chunk,
-                        seeds = seeds[vapply(chunks[wave], `[`, 1L, 1L)])
-      for (j in seq_along(wave)) {
-        rows <- chunks[[wave[j]]]
-        on_chunk(rows, check_simulated(out[[j]], rows, theta, n_out))
-      }
-      if (progress) cli::cli_progress_update(inc = sum(lengths(chunks[wave])), id = bar)
-    }
-    invisible()
+    run_chunks(simulator_job(simulator, dots), theta, n_out, progress, on_chunk)
   }
+}
+
+# The work of one chunk as it travels to a worker: a function of the chunk's
+# theta rows and seed, which returns list(y) or list(error = the condition).
+# Built here, so that it carries the simulator and its arguments only.
+simulator_job <- function(simulator, dots) {
+  function(theta_rows, seed) {
+    with_seed(seed, tryCatch(list(y = do.call(simulator, c(list(theta_rows), dots))),
+                             error = function(e) list(error = e)))
+  }
+}
+
+run_chunks <- function(job, theta, n_out, progress, on_chunk) {
+  seeds <- sample.int(.Machine$integer.max, nrow(theta))
+  state <- new.env(parent = emptyenv())
+  state$n_out <- n_out
+  state$failed <- list()
+  bar <- if (progress) cli::cli_progress_bar("Simulating", total = nrow(theta),
+                                             .envir = environment())
+  retry <- list()
+  # A finished task: its runs handed on, or (a chunk) its rows queued to run
+  # alone, or (one row) recorded as failed.
+  finish <- function(rows, result) {
+    y <- result$y
+    if (is.null(result$error)) {
+      y <- check_simulated(y, rows, theta, state$n_out)
+      state$n_out <- ncol(y)
+      ok <- apply(is.finite(y), 1, all)
+      if (any(ok)) on_chunk(rows[ok], y[ok, , drop = FALSE])
+      for (r in rows[!ok]) {
+        state$failed[[length(state$failed) + 1L]] <- list(row = r, condition = non_finite(theta, r))
+      }
+    } else if (length(rows) > 1L || (first_pass && inherits(result$error, "FutureError"))) {
+      # a chunk that failed, or a run whose worker was lost, runs again alone
+      retry <<- c(retry, as.list(rows))
+      return(invisible())
+    } else {
+      state$failed[[length(state$failed) + 1L]] <- list(row = rows, condition = result$error)
+    }
+    if (progress) cli::cli_progress_update(inc = length(rows), id = bar)
+  }
+  chunks <- simulator_chunks(nrow(theta))
+  first_pass <- TRUE
+  run_tasks(job, theta, chunks, seeds[vapply(chunks, `[`, 1L, 1L)], finish)
+  first_pass <- FALSE
+  if (length(retry) > 0L) {
+    rows <- unlist(retry)
+    run_tasks(job, theta, retry, seeds[rows], finish)
+  }
+  state$failed
+}
+
+# Runs job(theta[rows, ], seed) for each element of `chunks` and calls
+# finish(rows, result) as each finishes.
+run_tasks <- function(job, theta, chunks, seeds, finish) {
+  workers <- griddy_workers()
+  if (workers <= 1L) {
+    for (i in seq_along(chunks)) {
+      finish(chunks[[i]], job(theta[chunks[[i]], , drop = FALSE], seeds[i]))
+    }
+    return(invisible())
+  }
+  running <- list()
+  next_i <- 1L
+  idle <- 0L
+  while (next_i <= length(chunks) || length(running) > 0L) {
+    while (length(running) < workers && next_i <= length(chunks)) {
+      rows <- chunks[[next_i]]
+      # a worker that died stays dead under some plans (multisession with
+      # future < 1.32): launching on it fails like the chunk itself
+      launched <- tryCatch(launch_job(job, theta[rows, , drop = FALSE], seeds[next_i]),
+                           FutureError = function(e) e)
+      next_i <- next_i + 1L
+      if (inherits(launched, "FutureError")) {
+        finish(rows, list(error = launched))
+      } else {
+        running[[length(running) + 1L]] <- list(rows = rows, future = launched)
+      }
+    }
+    done <- vapply(running, function(r) {
+      tryCatch(future::resolved(r$future), error = function(e) TRUE)
+    }, logical(1))
+    if (!any(done)) {
+      # each poll of a scheduler's future asks the scheduler: slow down
+      # while nothing finishes
+      idle <- idle + 1L
+      Sys.sleep(min(1, 0.02 * 1.3^idle))
+      next
+    }
+    idle <- 0L
+    for (r in running[done]) {
+      finish(r$rows, tryCatch(future::value(r$future), error = function(e) list(error = e)))
+    }
+    running <- running[!done]
+  }
+  invisible()
+}
+
+launch_job <- function(job, theta_rows, seed) {
+  task <- function() job(theta_rows, seed)
+  # the label names a scheduler's jobs (squeue shows griddy-simulator)
+  future::future(task(), globals = list(task = task), packages = "griddy", seed = NULL,
+                 label = "griddy-simulator")
 }
 
 # Chunks of rows: about four per worker, and at least ten for the progress
@@ -43,43 +151,73 @@ simulator_chunks <- function(n) {
   unname(split(seq_len(n), cut(seq_len(n), k, labels = FALSE)))
 }
 
+# The shape of a chunk's outputs; non-finite rows are left to the caller.
 check_simulated <- function(y, rows, theta, n_out) {
   if (is.numeric(y) && is.null(dim(y)) && length(rows) == 1L) y <- matrix(y, 1L)
-  if (!is.matrix(y) || !is.numeric(y) || nrow(y) != length(rows) || ncol(y) != n_out) {
+  if (!is.matrix(y) || !is.numeric(y) || nrow(y) != length(rows) ||
+      (!is.null(n_out) && ncol(y) != n_out)) {
     griddy_abort("`simulator` must return a numeric matrix with one row per theta row and ",
-                 n_out, " columns (the library's outputs); for rows ",
+                 if (is.null(n_out)) "one column per output" else
+                   paste0(n_out, " columns (the library's outputs)"), "; for rows ",
                  show_some(rows), " it returned ",
                  if (is.matrix(y)) paste0("a ", nrow(y), " x ", ncol(y), " ", typeof(y),
                                           " matrix") else class(y)[1], ".", class = "shape")
-  }
-  if (!all(is.finite(y))) {
-    bad <- rows[!apply(is.finite(y), 1, all)]
-    griddy_abort("`simulator` returned non-finite outputs for theta ",
-                 paste0(names(theta), " = ", format(unlist(theta[bad[1], ]), digits = 4),
-                        collapse = ", "), " (", length(bad), " run(s)).", class = "numeric")
   }
   storage.mode(y) <- "double"
   unname(y)
 }
 
+non_finite <- function(theta, row) {
+  rlang::error_cnd(c("griddy_error_numeric", "griddy_error"),
+                   message = paste0("`simulator` returned non-finite outputs for theta ",
+                                    show_theta(theta, row), "."))
+}
+
+show_theta <- function(theta, row) {
+  paste0(names(theta), " = ", format(unlist(theta[row, ]), digits = 4), collapse = ", ")
+}
+
+# The failed rows as one line each: theta and the simulator's message.
+failed_lines <- function(failed, theta) {
+  vapply(failed, function(f) {
+    paste0("row ", f$row, " (", show_theta(theta, f$row), "): ",
+           trimws(conditionMessage(f$condition)))
+  }, "")
+}
+
 # Simulates the rows of theta_new, keeping what finishes: list(rows = the
-# rows simulated, y = their outputs, failure = NULL or the condition (an
-# error or an interrupt) that stopped the simulator). `keep(rows, y)` is
-# called with each finished chunk first (to write it to disk).
+# rows simulated, in order, y = their outputs, failed = the failed rows (see
+# run_chunks()), failure = NULL or the condition that stopped the
+# simulator: an interrupt, a broken contract, or an error naming the failed
+# rows, with the class of the first failure). `keep(theta, y)` is called
+# with each finished chunk first (to write it to disk).
 simulate_runs <- function(simulator, theta_new, n_out, progress, keep = NULL) {
   done <- new.env(parent = emptyenv())
   done$rows <- integer()
   done$y <- list()
   on_chunk <- function(rows, y) {
-    force(y)  # a chunk counts once its outputs are checked
     if (!is.null(keep)) keep(theta_new[rows, , drop = FALSE], y)
     done$rows <- c(done$rows, rows)
     done$y[[length(done$y) + 1L]] <- y
   }
+  failed <- list()
   failure <- tryCatch({
-    simulator(theta_new, n_out, progress, on_chunk)
-    NULL
+    failed <- simulator(theta_new, n_out, progress, on_chunk)
+    if (length(failed) > 0L) simulation_failure(failed, theta_new) else NULL
   }, error = function(e) e, interrupt = function(e) e)
-  list(rows = done$rows, y = if (length(done$y) > 0L) do.call(rbind, done$y) else
-         matrix(0, 0, n_out), failure = failure)
+  y <- if (length(done$y) > 0L) do.call(rbind, done$y) else matrix(0, 0, n_out)
+  in_order <- order(done$rows)
+  list(rows = done$rows[in_order], y = y[in_order, , drop = FALSE], failed = failed,
+       failure = failure)
+}
+
+# One error for the failed rows, with the griddy class of the first failure.
+simulation_failure <- function(failed, theta) {
+  first <- failed[[1]]$condition
+  lines <- failed_lines(failed, theta)
+  rlang::error_cnd(
+    unique(c(grep("^griddy_error_", class(first), value = TRUE), "griddy_error")),
+    message = paste0("The simulator failed on ", length(failed), " run(s): ",
+                     paste(utils::head(lines, 5L), collapse = "; "),
+                     if (length(lines) > 5L) "; ..."))
 }

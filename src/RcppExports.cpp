@@ -109,6 +109,24 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// other_drops_cpp
+Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx, const Rcpp::List& Mts, const Rcpp::List& Ws, const Rcpp::IntegerVector& x_first, const Rcpp::IntegerVector& x_count, int threads);
+RcppExport SEXP _griddy_other_drops_cpp(SEXP YSEXP, SEXP ySEXP, SEXP MxSEXP, SEXP MtsSEXP, SEXP WsSEXP, SEXP x_firstSEXP, SEXP x_countSEXP, SEXP threadsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type y(ySEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type Mx(MxSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type Mts(MtsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type Ws(WsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type x_first(x_firstSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type x_count(x_countSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(other_drops_cpp(Y, y, Mx, Mts, Ws, x_first, x_count, threads));
+    return rcpp_result_gen;
+END_RCPP
+}
 // piston_precompute_cpp
 Rcpp::List piston_precompute_cpp(int n, int bw, const arma::uvec& pair_i, const arma::uvec& pair_j, const arma::vec& pair_g, const arma::vec& diag_fixed, const arma::vec& rhs_fixed, const arma::uvec& s_cells);
 RcppExport SEXP _griddy_piston_precompute_cpp(SEXP nSEXP, SEXP bwSEXP, SEXP pair_iSEXP, SEXP pair_jSEXP, SEXP pair_gSEXP, SEXP diag_fixedSEXP, SEXP rhs_fixedSEXP, SEXP s_cellsSEXP) {
@@ -272,6 +290,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
+    {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 8},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},

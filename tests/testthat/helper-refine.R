@@ -25,14 +25,18 @@ refine_toy_reference <- function(toy) {
 }
 
 # refine_sim() that records every theta it is given (in `seen`) and, at its
-# `fail_at`-th call, stops with `fail` (a function signalling a condition).
+# `fail_at`-th call, stops with `fail` (a function signalling a condition);
+# the first theta of that call stays broken: every later call with it fails
+# too (so a failing chunk run again row by row loses that run only).
 refine_sim_failing <- function(fail_at = Inf, fail = function() stop("the solver diverged")) {
   env <- new.env()
   env$calls <- 0L
   env$seen <- NULL
+  env$broken <- numeric(0)
   env$sim <- function(theta) {
     env$calls <- env$calls + 1L
-    if (env$calls == fail_at) fail()
+    if (env$calls == fail_at) env$broken <- theta$k[1]
+    if (any(theta$k %in% env$broken)) fail()
     env$seen <- rbind(env$seen, theta)
     refine_sim(theta)
   }

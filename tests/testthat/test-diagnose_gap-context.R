@@ -82,8 +82,13 @@ test_that("a model's rows shared with another take its leave-out pieces", {
   Y <- rbind(toy$lib$y, lib_outputs(toy$quad))
   prior <- rep(-log(nrow(Y)), nrow(Y))
   whole <- gap_terms(ctx, Y, prior)
-  shared <- gap_terms(ctx, Y, prior, shared = base, keep_E = FALSE)
+  # Y holds only the rows after the shared ones
+  shared <- gap_terms(ctx, lib_outputs(toy$quad), prior, shared = base)
   expect_identical(shared$D[seq_len(nrow(toy$lib$y)), , ], base$D)
   expect_equal(shared$D, whole$D, tolerance = 1e-12)
-  expect_null(shared$E)
+  expect_equal(shared$Q, whole$Q, tolerance = 1e-12)
+  expect_equal(shared$lj, whole$lj, tolerance = 1e-12)
+  # its outputs read across the two parts as the whole's
+  rows <- c(1L, nrow(toy$lib$y), nrow(toy$lib$y) + 1L, nrow(Y), 5L)
+  expect_identical(term_outputs(shared, rows, 2:4), Y[rows, 2:4])
 })

@@ -83,3 +83,36 @@ test_that("a smooth kernel's low-rank factor reproduces it, and 'other' stays ex
   }
   expect_equal(got, log_sum_exp(terms) - log(4), tolerance = 1e-8)
 })
+
+test_that("the compiled runs' products of 'other' are the plain products, for every term", {
+  set.seed(3)
+  n_x <- 3
+  n_t <- 7
+  J <- 301                                   # blocks and tiles with a remainder
+  Y <- matrix(rnorm(J * n_x * n_t), J)
+  y <- rnorm(n_x * n_t)
+  Mx <- matrix(rnorm(n_x * 5), n_x)          # two x steps: directions 1-3 and 4-5
+  terms <- list(list(first = 0L, count = 3L, Mt = matrix(rnorm(n_t * 7), n_t)),
+                list(first = 3L, count = 2L, Mt = matrix(rnorm(n_t * 2), n_t)),
+                list(first = 0L, count = 3L, Mt = matrix(rnorm(n_t * 13), n_t)))
+  Ws <- lapply(terms, function(tm) matrix(runif(tm$count * ncol(tm$Mt) * 2), ncol = 2))
+  out <- other_drops_cpp(Y, y, Mx, lapply(terms, `[[`, "Mt"), Ws,
+                         vapply(terms, `[[`, integer(1), "first"),
+                         vapply(terms, `[[`, integer(1), "count"), 1L)
+  E <- rep(y, each = J) - Y
+  for (m in seq_along(terms)) {
+    tm <- terms[[m]]
+    rt <- ncol(tm$Mt)
+    want <- matrix(0, J, 2)
+    for (ix in seq_len(tm$count)) {
+      v <- matrix(E, J * n_t, n_x) %*% Mx[, tm$first + ix]      # E_j Mx, runs x n_t
+      Z <- matrix(v, J, n_t) %*% tm$Mt
+      want <- want + Z^2 %*% Ws[[m]][(ix - 1) * rt + seq_len(rt), ]
+    }
+    expect_equal(out[, (m - 1) * 2 + 1:2], want, tolerance = 1e-12)
+  }
+  # threads do not change a number
+  expect_identical(other_drops_cpp(Y, y, Mx, lapply(terms, `[[`, "Mt"), Ws,
+                                   vapply(terms, `[[`, integer(1), "first"),
+                                   vapply(terms, `[[`, integer(1), "count"), 2L), out)
+})

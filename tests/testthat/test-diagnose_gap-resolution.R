@@ -32,7 +32,12 @@ test_that("a resolved base is left as it is, and the candidate still nests it", 
   if (resolved) expect_identical(base, toy$fit)
   cand <- matched_candidate(toy$quad, base, 2000)
   zero <- cand$theta$s == 0
-  expect_equal(cand$Y[zero, ], lib_outputs(base$library))
+  # the zero level is the base's runs, first (Y holds the rows after them)
+  expect_identical(which(zero), seq_len(cand$base_rows))
+  expect_identical(nrow(cand$Y), sum(!zero))
+  expect_equal(cand$C[zero, , drop = FALSE], unname(base$C))
+  expect_equal(as.matrix(cand$theta[zero, names(lib_theta(base$library))]),
+               as.matrix(lib_theta(base$library)), ignore_attr = TRUE)
   expect_equal(sum(exp(cand$log_prior)), 1)
   expect_equal(sum(exp(cand$log_prior[zero])), 1 / 4)
 })

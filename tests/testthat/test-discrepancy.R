@@ -147,18 +147,20 @@ test_that("an emulated library's error and a discrepancy enter together", {
 test_that("refine() keeps the discrepancy in every round", {
   skip_if_not_installed("RobustGaSP")
   toy <- gap_toy(bump = 0.1)
-  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1)
-  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100, seed = 1,
-                                    discrepancy = disc))
   sim <- function(theta) {
     t <- lib_t(toy$library)
     t(mapply(function(a, b) unlist(lapply(c(1, 2, 3), function(l) a * l * exp(-b * t))),
              theta$a, theta$b))
   }
-  ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
-  expect_identical(names(ref$grid), names(fit$grid))
-  expect_equal(nrow(ref$grid), nrow(fit$grid))
-  expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+  for (scaled in c(FALSE, TRUE)) {
+    disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 1, scaled = scaled)
+    fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 300, burn_in = 100,
+                                      seed = 1, discrepancy = disc))
+    ref <- suppressWarnings(refine(fit, sim, max_runs = 200, runs_per_round = 100, seed = 1))
+    expect_identical(names(ref$grid), names(fit$grid))
+    expect_equal(nrow(ref$grid), nrow(fit$grid))
+    expect_true(is.finite(discrepancy_evidence(ref)$log_bayes_factor))
+  }
 })
 
 test_that("an orthogonal discrepancy cannot imitate a change of theta", {
@@ -179,4 +181,64 @@ test_that("an orthogonal discrepancy cannot imitate a change of theta", {
                                discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
                                                             length_t = 0.5, orthogonal = FALSE))
   expect_null(attr(attr(plain$setup$discrepancy, "kernels"), "sensitivity"))
+})
+
+test_that("a scaled discrepancy (S-GaSP) has Gu and Wang's kernel, one per ratio", {
+  toy <- gap_toy(bump = 0.1)
+  y <- toy$field$y
+  y[2, 3:4] <- NA  # the scaled kernel conditions on the observed points only
+  field <- field_data(y, x = toy$field$x, t = toy$field$t)
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = c(0.3, 0.6),
+                         orthogonal = FALSE, scaled = TRUE)
+  problem <- calibration_problem(toy$library, field, 0, 0, NULL, 2, NULL, discrepancy = disc)
+  points <- problem$setup$discrepancy
+  kernels <- attr(points, "kernels")
+  expect_equal(nrow(kernels), 4L)  # 2 ratios x 2 lengths: a kernel per point
+  expect_equal(points$kernel[points$ratio > 0], 1:4)
+  obs <- which(!is.na(problem$y_field))
+  expect_equal(attr(kernels, "observed"), obs)
+  plain <- discrepancy_kernels(toy$library, kernels[c("length_x", "length_t")])
+  scaled <- discrepancy_kernels(toy$library, kernels)
+  for (k in seq_len(nrow(kernels))) {
+    # RobustCalibration's default lambda_z = sqrt(n |1 / l| / eta), eta = 1 / ratio
+    lambda_z <- sqrt(length(obs) * sqrt(1 / kernels$length_x[k]^2 + 1 / kernels$length_t[k]^2) *
+                       kernels$ratio[k])
+    K <- plain[[k]][obs, obs]
+    # the Woodbury form of K - K (K + n / lambda_z I)^-1 K
+    expected <- solve(solve(K + diag(1e-10, length(obs))) + lambda_z / length(obs) * diag(length(obs)))
+    expect_equal(scaled[[k]][obs, obs], expected, tolerance = 1e-5)
+    # scaling only shrinks: K - K_z is positive semi-definite
+    expect_gt(min(eigen(plain[[k]] - scaled[[k]], symmetric = TRUE)$values), -1e-8)
+  }
+  # and the engine uses each point's own kernel
+  for (g in c(2, 4, 5)) {
+    bf <- brute_force_point(problem, 11, g)
+    expect_equal(problem$C[11, g], bf$C, tolerance = 1e-10)
+    expect_equal(problem$setup$logdet[g], bf$logdet, tolerance = 1e-10)
+  }
+})
+
+test_that("a scaled discrepancy grows like the square root of its ratio", {
+  K <- exp(-outer(1:20 / 20, 1:20 / 20, "-")^2 / 0.3^2)
+  size <- function(ratio) {
+    ratio * sum(diag(scaled_kernel(K, 1:20, scaled_lambda_z(ratio, 20, 0.3))))
+  }
+  # a plain GaSP's mean square grows like the ratio, 100 times for 1e2 -> 1e4;
+  # a scaled one's like its square root, 10 times (13.5 here: its smallest
+  # components are not yet scaled)
+  expect_lt(size(1e4) / size(1e2), 25)
+  expect_gt(size(1e4) / size(1e2), 5)
+})
+
+test_that("a scaled discrepancy runs through calibrate(), its evidence and posterior", {
+  toy <- gap_toy(bump = 0.1)
+  expect_error(gp_discrepancy(scaled = NA), class = "griddy_error_input")
+  expect_output(print(gp_discrepancy(scaled = TRUE)), "S-GaSP")
+  disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = 0.5, scaled = TRUE)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, n_iter = 400, burn_in = 100,
+                                    seed = 1, discrepancy = disc))
+  expect_true(is.finite(discrepancy_evidence(fit)$log_bayes_factor))
+  expect_true(all(c("delta_ratio", "delta_length_t") %in% names(fit$grid)))
+  post <- discrepancy_posterior(fit)
+  expect_true(all(is.finite(post$mean)))
 })

@@ -52,4 +52,9 @@ test_that("as.matrix() checks the size before reading, with a classed error nami
   lib <- disk_library(dir, trust = TRUE)
   unlink(file.path(dir, "chunk-000001.rds"))
   expect_error(as.matrix(lib, max_bytes = 1000), class = "griddy_error_memory")
+  # and so is an HDF5 library
+  skip_if_not_installed("hdf5r")
+  h5 <- write_library(toy$library, withr::local_tempfile(fileext = ".h5"), chunk_size = 20)
+  expect_error(as.matrix(h5, max_bytes = 1000), class = "griddy_error_memory")
+  expect_identical(dim(as.matrix(h5, max_bytes = 4000)), c(50L, 10L))
 })

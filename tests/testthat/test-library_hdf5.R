@@ -311,3 +311,23 @@ test_that("print.hdf5_library() shows the runs, the dataset and the chunks", {
                      t = "sim/time", chunk_size = 7)
   expect_snapshot(print(h5), transform = scrub_print)
 })
+
+test_that("a writer waits for a reader that holds the file open, and is refused after `wait`", {
+  skip_if_not_installed("hdf5r")
+  skip_on_cran()
+  toy <- toy_ar1(n_runs = 30, n_t = 8)
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(lib_rows(toy$library, 1:10), file)
+  # another process reads the file (HDF5's shared lock) for 2 s
+  marker <- withr::local_tempfile()
+  reader <- sprintf(paste0("h5 <- hdf5r::H5File$new(%s, 'r'); invisible(file.create(%s)); ",
+                           "Sys.sleep(2); h5$close_all()"), deparse(file), deparse(marker))
+  system2(file.path(R.home("bin"), "Rscript"), c("-e", shQuote(reader)), wait = FALSE)
+  wait_for_file(marker)
+  expect_error(h5_open(file, "r+", wait = 0), "held open by another process",
+               class = "griddy_error_lock")
+  start <- proc.time()[["elapsed"]]
+  lib <- write_library(lib_rows(toy$library, 11:30), file, append = TRUE)
+  expect_gt(proc.time()[["elapsed"]] - start, 0.5)  # it waited for the reader
+  expect_identical(lib_outputs(lib), unname(toy$library$y))
+})

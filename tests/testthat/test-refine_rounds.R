@@ -51,14 +51,17 @@ test_that("a simulator failing in round 2 leaves every finished run in e$fit, an
   expect_match(conditionMessage(e$parent), "the solver diverged")
   fit <- e$fit
   expect_s3_class(fit, "griddy_fit")
-  # round 1 (20 runs) and round 2's first three chunks (6 runs), all simulated
-  expect_equal(lib_n_runs(fit$library), 7L + 20L + 6L)
-  expect_equal(fit$refinement$runs_added, 26L)
+  expect_match(conditionMessage(e$parent), "failed on 1 run")
+  # round 1 (20 runs) and round 2 but the one run that fails alone: its
+  # fourth chunk failed and was run again row by row
+  expect_equal(lib_n_runs(fit$library), 7L + 20L + 19L)
+  expect_equal(fit$refinement$runs_added, 39L)
   expect_equal(fit$refinement$reason, "stopped")
   theta_added <- lib_theta(fit$library)[-(1:7), , drop = FALSE]
-  expect_equal(theta_added$k, s$seen$k)
-  expect_equal(lib_outputs(fit$library, 8:33), refine_sim(theta_added))
-  expect_equal(sapply(lib_rounds(fit$library), `[[`, "n"), c(20, 6))
+  expect_setequal(theta_added$k, s$seen$k)
+  expect_false(s$broken %in% theta_added$k)
+  expect_equal(lib_outputs(fit$library, 8:46), refine_sim(theta_added))
+  expect_equal(sapply(lib_rounds(fit$library), `[[`, "n"), c(20, 19))
   # carrying on adds runs; none of those already there is simulated again
   s2 <- refine_sim_failing()
   ref <- refine(fit, s2$sim, max_runs = 400, runs_per_round = 20, seed = 2)
@@ -77,10 +80,10 @@ test_that("an interrupt of the simulator keeps the chunks that finished", {
   expect_equal(lib_theta(e$fit$library)$k[-(1:7)], s$seen$k)
 })
 
-test_that("a simulator failing in the first chunk leaves the fit as it was", {
+test_that("a simulator failing on every run leaves the fit as it was", {
   toy <- refine_toy()
-  s <- refine_sim_failing(fail_at = 1L)
-  e <- tryCatch(refine(toy$fit, s$sim, max_runs = 40, seed = 1), error = function(e) e)
+  failing <- function(theta) stop("no licence")
+  e <- tryCatch(refine(toy$fit, failing, max_runs = 40, seed = 1), error = function(e) e)
   expect_s3_class(e, "griddy_error_simulator")
   expect_identical(e$fit, toy$fit)
 })

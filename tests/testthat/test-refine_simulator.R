@@ -1,6 +1,7 @@
 test_that("refine() runs the simulator on the workers of a future plan, same result", {
   skip_if_not_installed("future.apply")
   skip_on_cran()
+  skip_if_not(installed_griddy_is_current("run_chunks"), "the installed griddy is not this version")
   toy <- refine_toy()
   # a simulator as a user defines it, in the global environment: one defined
   # in the test's environment drags the attached package's environment to
