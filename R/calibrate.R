@@ -407,7 +407,8 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
            head_length = vapply(out$chains, function(d) d$head_length, numeric(1)))),
     class = "griddy_fit"
   )
-  fit$resolution <- resolution_table(fit$exact$run, lib_theta(problem$library))
+  fit$resolution <- resolution_table(fit$exact$run, lib_theta(problem$library),
+                                    scattered = has_proposal_rounds(problem$library))
   fit$diagnostics <- fit_diagnostics(fit)
   fit$runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
   fit

@@ -11,7 +11,9 @@
 #   over theta only while the runs fill the parameter box evenly. refine()
 #   adds runs by rounds of Latin hypercubes in smaller boxes, so the design
 #   density is a sum of uniform densities: N0 / vol(B0) over the base
-#   library's box B0, plus n_r / vol(B_r) over each round's box B_r. Each run
+#   library's box B0, plus n_r / vol(B_r) over each round's box B_r (or, in
+#   four or more parameters, n_r times the density of the round's proposal,
+#   a defensive uniform plus a t mixture: refine_proposal.R). Each run
 #   is weighed by prior density / design density (the balance heuristic of
 #   multiple importance sampling), which keeps the prior uniform over B0.
 # * Emulation error. Runs predicted by an emulator rather than simulated
@@ -71,11 +73,20 @@ add_runs <- function(library, theta_new, y_new, round, rel_var = NULL) {
   if (is.null(round)) return(library)
   if (is.null(rel_var)) rel_var <- numeric(nrow(theta_new))
   r <- length(library$rounds) + 1L
-  new_refined_library(
+  out <- new_refined_library(
     library$base, rbind(library$theta, theta_new), rbind(library$added$y, y_new),
     rounds = c(library$rounds, list(round)),
     round_of = c(library$added$round, rep(r, nrow(theta_new))),
     rel_var = c(library$added$rel_var, rel_var), replaced = library$replaced)
+  # the design density at every run, kept up to date round by round: the
+  # old runs gain the new round's density, the new runs get all rounds'
+  # (recomputing every round's density at every run each round cost
+  # refine() most of its time in many parameters)
+  before <- if (is.null(library$density)) design_density(library, library$theta) else
+    library$density
+  out$density <- c(before + round_density(round, library$theta, library_box(library$base)),
+                   design_density(out, theta_new))
+  out
 }
 
 # Replace predicted runs `rows` (of the whole library) by the simulator's
@@ -274,21 +285,31 @@ lib_log_prior.default <- function(library) {
 
 #' @exportS3Method
 lib_log_prior.refined_library <- function(library) {
-  w <- -log(design_density(library, library$theta))
+  density <- if (is.null(library$density)) design_density(library, library$theta) else
+    library$density
+  w <- -log(density)
   w - log_sum_exp(w)
 }
 
 # The design density of a refined library at the rows of `theta`: the base
 # library's runs spread evenly over its box, plus each round's runs over its
-# box. Constant columns take no part in the volumes.
+# box, or by its proposal's density (refine_proposal.R, four or more
+# parameters). Constant columns take no part in the volumes.
 design_density <- function(library, theta) {
   theta <- as.matrix(theta)
   box0 <- library_box(library$base)
   density <- lib_n_runs(library$base) / box_volume(box0) * in_box(theta, box0)
-  for (round in library$rounds) {
-    density <- density + round$n / box_volume(round$box, box0) * in_box(theta, round$box)
-  }
+  for (round in library$rounds) density <- density + round_density(round, theta, box0)
   density
+}
+
+# One round's share of the design density at the rows of `theta`.
+round_density <- function(round, theta, box0) {
+  if (is.null(round$proposal)) {
+    round$n / box_volume(round$box, box0) * in_box(as.matrix(theta), round$box)
+  } else {
+    round$n * proposal_density(round$proposal, theta)
+  }
 }
 
 # The box spanned by a library's runs: a 2-row matrix (lower, upper) with one

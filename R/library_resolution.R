@@ -48,13 +48,22 @@ value_tolerance <- 1e-9
 # that move a value by less than the tolerance: a group's value is the
 # smallest value that carries mass, and values are merged along chains of
 # near-equal values that carry mass (not through runs that carry none).
-resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values) {
+resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min_values,
+                             scattered = FALSE) {
   support <- which(p > 0)
   rows <- lapply(names(theta), function(j) {
     marginal_resolution(p[support], theta[[j]], support, level, min_values)
   })
   out <- cbind(data.frame(parameter = names(theta)), do.call(rbind, rows))
   rownames(out) <- NULL
+  # from four parameters, or in a library grown by refine()'s proposals
+  # (`scattered`), the posterior over runs as an importance sample
+  # (resolution_runs.R): a parameter is limited while it is not resolved
+  runs <- run_resolution(p, sum(!out$constant), scattered)
+  out$effective_runs <- runs$effective_runs
+  out$pareto_k <- runs$pareto_k
+  out$limited <- out$limited | (!runs$resolved & !out$constant)
+  attr(out, "runs") <- runs
   out
 }
 
@@ -107,7 +116,8 @@ value_groups <- function(v, tol, o = order(v)) {
 # warning and a default summary() read.
 resolution_limited <- function(fit, level = 0.95) {
   if (level == 0.95 && !is.null(fit$resolution)) return(fit$resolution)
-  resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level)
+  resolution_table(exact_margins(fit)$run, lib_theta(fit$library), level,
+                   scattered = has_proposal_rounds(fit$library))
 }
 
 # What summary() reports: the resolution table (exact posterior), the
@@ -140,6 +150,15 @@ warn_resolution <- function(fit) {
   tab <- resolution_limited(fit)
   tab <- tab[tab$limited & !tab$constant, , drop = FALSE]
   if (nrow(tab) == 0L) {
+    return(invisible(NULL))
+  }
+  runs <- run_resolution_reason(attr(resolution_limited(fit), "runs"))
+  if (!is.null(runs)) {
+    griddy_warn(
+      "The posterior is limited by the library's resolution: it rests on ", runs,
+      ", so its intervals show where the runs are, not the data's uncertainty, and may ",
+      "miss the truth. Add runs where the posterior has its mass (see ?refine).",
+      class = "resolution")
     return(invisible(NULL))
   }
   griddy_warn(
@@ -182,6 +201,11 @@ format_adequacy <- function(adequacy) {
   # a summary saved before 0.1.1.9000 counted the library's values instead
   constant <- if (is.null(tab$constant)) tab$library_values <= 1L else tab$constant
   lim <- tab$limited & !constant
+  runs <- run_resolution_reason(attr(tab, "runs"))
+  if (!is.null(runs)) {
+    lines <- c(lines, paste0("Runs: the posterior rests on ", runs, "; see ?refine"))
+    lim <- lim & tab$effective_values < resolution_min_values
+  }
   c(lines,
     paste0(tab$parameter[constant], ": constant in the library, not calibrated.",
            recycle0 = TRUE),

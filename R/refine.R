@@ -25,12 +25,32 @@
 #' not by the data: the next box then reaches a whole box width further, so
 #' a box that missed the truth finds it in a few rounds.
 #'
+#' **A round in four or more parameters.** A box of the marginals' ranges is
+#' then mostly empty of posterior mass, and cannot hold two modes. A round
+#' instead draws its runs from a proposal fitted to the weighted library, as
+#' population Monte Carlo and adaptive multiple importance sampling do
+#' (Cappe et al. 2004; Cornuet et al. 2012): a mixture of multivariate t
+#' distributions (4 degrees of freedom), one per cluster of the weighted
+#' runs (a Gaussian mixture fitted by weighted EM, so separated modes get a
+#' component each), fitted to the posterior over runs tempered until it rests
+#' on at least \eqn{\max(50, 10p)} effective runs (so a first, coarse
+#' library gives a wide proposal, which narrows round by round), plus a
+#' defensive 15% drawn uniformly over the library's range (Hesterberg 1995),
+#' so no region, and no mode, stops receiving runs. The tempering uses the
+#' likelihood at the best run's noise level, whose tails are Gaussian; the
+#' posterior itself is the package's, with the noise integrated out. In two
+#' or three parameters the rounds follow such a proposal too when the one
+#' fitted to the base library finds separated modes (a box spanning two
+#' modes spreads its runs over the empty space between them, and the rounds
+#' after zoom in on one); otherwise they are the boxes above.
+#'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
 #' evenly. Each run of the refined library is therefore weighed by the prior
 #' density over the density of the design that produced it (the base
-#' library spread over its range plus every round's hypercube over its box),
-#' so the prior stays uniform over the library's range. The weights travel
+#' library spread over its range plus every round's hypercube over its box,
+#' or its proposal's density: the balance heuristic of multiple importance
+#' sampling), so the prior stays uniform over the library's range. The weights travel
 #' with the library: [calibrate()] on it uses them.
 #'
 #' **Resolved** means that every parameter's marginal posterior spreads
@@ -39,7 +59,18 @@
 #' sd \eqn{s} on runs spaced \eqn{h} apart this is \eqn{3.5 s / h}, so runs
 #' at most about a third of a standard deviation apart), that no interval
 #' bound moved by more than a fifth of the interval's width in the last
-#' round, and that no interval is cut off by the last box (above).
+#' round, and that no interval is cut off by the last box (above). In four
+#' or more parameters each run of a scattered library has its own value of
+#' every parameter, so effective values count runs: the posterior over runs
+#' (and in a library grown by proposals in fewer parameters)
+#' must also rest on at least \eqn{\max(100, 20p)} effective runs
+#' (\eqn{1 / \sum_i p_i^2}; 11 effective runs in 11 parameters are not
+#' resolved), the Pareto-smoothed importance sampling \eqn{\hat k} of its
+#' weights (`loo::psis()`, Vehtari et al. 2024) must stay below
+#' \eqn{\min(1 - 1/\log_{10} S, 0.7)} for \eqn{S} runs, and no more than
+#' 1% of the posterior may lie far from every component of the last
+#' proposal (a mode the proposal has not covered yet). [summary()][summary.griddy_fit]
+#' and [calibrate()]'s warning apply the same test.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped.
@@ -105,8 +136,8 @@
 #'   parameters 1600 to 2800).
 #' @param ... Further arguments to `simulator`.
 #' @param runs_per_round Runs added per round; `NULL` is
-#'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters, at most
-#'   `max_runs`.
+#'   \eqn{100 \times 2^{p - 1}} for \eqn{p} varying parameters (with a
+#'   simulator, \eqn{50 p} from four), at most `max_runs`.
 #' @param file `NULL`, or the path of an HDF5 file that keeps every simulated
 #'   run as it finishes (with a simulator only), and from which a later
 #'   `refine()` resumes: see Details.
@@ -126,7 +157,22 @@
 #'   fit that is already resolved (and, with a simulator, rests on simulated
 #'   runs) is returned as it was.
 #' @seealso [calibrate()], [summary.griddy_fit()], [posterior_exact()]
-#' @references Ritter, C. and Tanner, M. A. (1992). Facilitating the Gibbs
+#' @references Cappe, O., Guillin, A., Marin, J.-M. and Robert, C. P. (2004).
+#'   Population Monte Carlo. Journal of Computational and Graphical
+#'   Statistics 13, 907-929.
+#'
+#'   Cornuet, J.-M., Marin, J.-M., Mira, A. and Robert, C. P. (2012).
+#'   Adaptive multiple importance sampling. Scandinavian Journal of
+#'   Statistics 39, 798-812.
+#'
+#'   Hesterberg, T. (1995). Weighted average importance sampling and
+#'   defensive mixture distributions. Technometrics 37, 185-194.
+#'
+#'   Vehtari, A., Simpson, D., Gelman, A., Yao, Y. and Gabry, J. (2024).
+#'   Pareto smoothed importance sampling. Journal of Machine Learning
+#'   Research 25(72), 1-58.
+#'
+#'   Ritter, C. and Tanner, M. A. (1992). Facilitating the Gibbs
 #'   sampler: the Gibbs stopper and the griddy-Gibbs sampler. Journal of the
 #'   American Statistical Association 87, 861-868.
 #' @examples
@@ -154,7 +200,7 @@ refine <- function(fit, simulator = NULL, max_runs = control$max_runs, ...,
   }
   max_runs <- assert_count(max_runs, "max_runs")
   runs_per_round <- if (is.null(runs_per_round)) {
-    min(default_runs_per_round(lib_theta(fit$library)), max_runs)
+    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator)), max_runs)
   } else {
     assert_count(runs_per_round, "runs_per_round")
   }
@@ -184,10 +230,18 @@ check_refinable <- function(fit) {
   }
 }
 
-default_runs_per_round <- function(theta) {
+default_runs_per_round <- function(theta, proposals = FALSE) {
   p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
+  # a proposal that follows the posterior (four or more parameters, with a
+  # simulator) needs no box's doubling per parameter, and more rounds adapt
+  # it better; predicted runs keep the boxes and their sizes
+  if (proposals && p >= proposal_min_parameters) {
+    return(as.integer(proposal_round_per_parameter * p))
+  }
   100L * 2L^(max(p, 1L) - 1L)
 }
+
+proposal_round_per_parameter <- 50
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or
@@ -255,11 +309,24 @@ warn_unresolved <- function(state, rounds) {
   cut <- colSums(truncated_sides(state)) > 0
   moved <- pmax(abs(tab$lower - previous$lower), abs(tab$upper - previous$upper)) >
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
-  why <- ifelse(tab$limited & !tab$constant,
+  runs <- run_resolution_reason(attr(tab, "runs"))
+  few_values <- tab$effective_values < resolution_min_values
+  why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
          ifelse(moved, "its interval still moved in the last round", NA)))
   bad <- !is.na(why)
+  extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
+             if (state$far_mass > far_mass_tol) {
+               paste0(format(100 * state$far_mass, digits = 2), "% of the posterior lies ",
+                      "far from where the last round's runs went: a mode may be lost or ",
+                      "unresolved")
+             })
+  if (length(extra) > 0L) {
+    why <- c(why[bad], extra)
+    tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))
+    bad <- rep(TRUE, length(why))
+  }
   if (rounds$source == "simulator" && predicted_mass(state) > predicted_tol) {
     why <- c(why[bad], "the posterior still rests on predicted runs")
     tab <- data.frame(parameter = c(tab$parameter[bad], "all"))

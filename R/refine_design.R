@@ -1,5 +1,36 @@
 # Where refine()'s new runs go: the box of a round around the posterior,
-# a Latin hypercube in it, and which predicted runs a simulator replaces.
+# a Latin hypercube in it (or, in four or more parameters, a proposal fitted
+# to the posterior: refine_proposal.R), and which predicted runs a
+# simulator replaces.
+
+# The new runs of a round of n: list(theta, round = the round's design as
+# the refined library keeps it, box or proposal). The box's Latin hypercube
+# up to three parameters, the proposal from four (see uses_proposal()), and
+# in fewer when the posterior has separated modes: a box spanning two modes
+# spreads its runs over the empty space between them, and the rounds after
+# zoom in on whichever mode one run happened to land nearest (issue 24: in
+# an aliased two-parameter oscillator, three of six refinements lost the
+# mode and one kept only the wrong one, all "resolved").
+round_design <- function(state, n) {
+  library <- state$problem$library
+  names <- names(lib_theta(library))
+  follows <- uses_proposal(library) || !is.null(last_proposal(library))
+  # below four parameters the fit only decides, so it leaves the random
+  # stream as it was: a unimodal posterior gets the same boxes as before
+  # (only on the base library, spread evenly: once boxes have crowded runs
+  # into one region, tempering shows their crowd and the runs outside as
+  # two clusters that are not two modes)
+  first <- length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs
+  proposal <- if (follows) fit_proposal(state) else if (first) {
+    withr::with_preserve_seed(fit_proposal(state))
+  }
+  if (!is.null(proposal) && (follows || separated_modes(proposal))) {
+    return(list(theta = draw_proposal(n, proposal, names),
+                round = list(box = NULL, proposal = proposal)))
+  }
+  box <- refine_box(state)
+  list(theta = latin_hypercube(n, box, names), round = list(box = box, proposal = NULL))
+}
 
 # The box of the marginal posteriors' central 99%, widened on each side by
 # the local spacing around the most probable run or a quarter of its width,

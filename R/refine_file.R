@@ -6,8 +6,10 @@
 # or a killed session no run in the file is simulated again.
 #
 # The table has one row per round, written before the round's first run:
-# its kind ("add": a Latin hypercube in the box lower_*, upper_*; "replace":
-# predicted runs simulated at their theta) and `n`, the runs of it in the
+# its kind ("add": a Latin hypercube in the box lower_*, upper_*; "propose":
+# draws from a proposal (four or more parameters, refine_proposal.R), whose
+# components are rows of `<file>.proposals.csv`; "replace": predicted runs
+# simulated at their theta) and `n`, the runs of it in the
 # file, updated after each append. The runs in the file are in round order;
 # runs beyond the table's count (a session killed between an append and the
 # table's update) belong to its last round.
@@ -15,6 +17,7 @@
 refine_store <- function(file, library) {
   if (is.null(file)) return(NULL)
   list(file = file, table = paste0(file, ".rounds.csv"),
+       proposals = paste0(file, ".proposals.csv"),
        names = names(lib_theta(library)), x = lib_x(library), t = lib_t(library))
 }
 
@@ -31,14 +34,48 @@ write_store_table <- function(store, table) {
 }
 
 # A new round in the table.
-store_round <- function(store, kind, box) {
+store_round <- function(store, kind, box, proposal = NULL) {
   if (is.null(store)) return(invisible())
   p <- length(store$names)
   if (is.null(box)) box <- matrix(NA_real_, 2L, p)
+  if (!is.null(proposal)) kind <- "propose"
   row <- data.frame(kind = kind, n = 0L, matrix(c(box[1, ], box[2, ]), 1L,
                                                 dimnames = list(NULL, NULL)))
   names(row)[-(1:2)] <- c(paste0("lower_", store$names), paste0("upper_", store$names))
-  write_store_table(store, rbind(read_store_table(store), row))
+  table <- read_store_table(store)
+  if (!is.null(proposal)) write_store_proposal(store, NROW(table) + 1L, proposal)
+  write_store_table(store, rbind(table, row))
+}
+
+# A round's proposal as plain rows, one per component: its weight, centre
+# and Cholesky factor (by column) in unit coordinates, with the proposal's
+# df, defensive share and mass inside the range. The range is the base
+# library's, which the fit holds.
+write_store_proposal <- function(store, round, proposal) {
+  rows <- do.call(rbind, lapply(proposal$components, function(cmp) {
+    c(round = round, df = proposal$df, defensive = proposal$defensive,
+      inside = proposal$inside, beta = proposal$beta, weight = cmp$weight,
+      stats::setNames(cmp$centre, paste0("centre_", seq_along(cmp$centre))),
+      stats::setNames(as.vector(cmp$chol), paste0("chol_", seq_along(cmp$chol))))
+  }))
+  old <- if (file.exists(store$proposals)) utils::read.csv(store$proposals) else NULL
+  tmp <- paste0(store$proposals, ".tmp")
+  utils::write.csv(rbind(old, rows), tmp, row.names = FALSE)
+  file.rename(tmp, store$proposals)
+}
+
+read_store_proposal <- function(store, round, library) {
+  rows <- utils::read.csv(store$proposals)
+  rows <- rows[rows$round == round, , drop = FALSE]
+  range0 <- library_box(lib_base(library))
+  varies <- range0[2, ] > range0[1, ]
+  q <- sum(varies)
+  components <- lapply(seq_len(nrow(rows)), function(i) {
+    list(weight = rows$weight[i], centre = unlist(rows[i, paste0("centre_", seq_len(q))]),
+         chol = matrix(unlist(rows[i, paste0("chol_", seq_len(q * q))]), q, q))
+  })
+  list(range = range0, varies = varies, components = components, df = rows$df[1],
+       defensive = rows$defensive[1], inside = rows$inside[1], beta = rows$beta[1])
 }
 
 # A function(theta, y) appending finished runs to the file and counting
@@ -88,9 +125,13 @@ store_resume <- function(store, problem) {
     } else {
       todo <- which(is.na(held))
       if (length(todo) == 0L) next
-      box <- rbind(unlist(table[r, paste0("lower_", store$names)]),
-                   unlist(table[r, paste0("upper_", store$names)]))
-      round <- list(box = unname(box), n = length(todo), source = "simulator", error = NULL)
+      round <- if (table$kind[r] == "propose") {
+        list(box = NULL, proposal = read_store_proposal(store, r, problem$library))
+      } else {
+        list(box = unname(rbind(unlist(table[r, paste0("lower_", store$names)]),
+                                unlist(table[r, paste0("upper_", store$names)]))))
+      }
+      round <- c(round, list(n = length(todo), source = "simulator", error = NULL))
       problem <- extend_problem(problem, theta[todo, , drop = FALSE], y[todo, , drop = FALSE],
                                 round, NULL)
     }

@@ -79,8 +79,14 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 # or, with a simulator, rests on predicted runs.
 needs_round <- function(state, previous, simulating) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
+    state$far_mass > far_mass_tol ||
     (simulating && predicted_mass(state) > predicted_tol)
 }
+
+# Posterior mass far from every component of the last round's proposal
+# (far_mass()) above which a mode is not covered: another round, whose
+# proposal gives it a component.
+far_mass_tol <- 0.01
 
 # One round with the simulator: predicted runs near the posterior simulated
 # at their theta, or else a Latin hypercube of new runs in the round's box.
@@ -97,12 +103,13 @@ simulated_round <- function(state, simulator, n, progress, store) {
                          keep = store_keeper(store))
     if (length(sim$rows) > 0L) problem <- replace_in_problem(problem, rows[sim$rows], sim$y)
   } else {
-    box <- refine_box(state)
-    theta_new <- latin_hypercube(n, box, names(lib_theta(library)))
-    store_round(store, "add", box)
+    design <- round_design(state, n)
+    theta_new <- design$theta
+    store_round(store, "add", design$round$box, design$round$proposal)
     sim <- simulate_runs(simulator, theta_new, n_out, progress, keep = store_keeper(store))
     if (length(sim$rows) > 0L) {
-      round <- list(box = box, n = length(sim$rows), source = "simulator", error = NULL)
+      round <- list(box = design$round$box, proposal = design$round$proposal,
+                    n = length(sim$rows), source = "simulator", error = NULL)
       problem <- extend_problem(problem, theta_new[sim$rows, , drop = FALSE], sim$y, round,
                                 NULL)
     }
@@ -115,8 +122,9 @@ simulated_round <- function(state, simulator, n, progress, store) {
 refine_state <- function(problem) {
   post <- grid_posterior(problem)
   p <- post$run
-  list(problem = problem, joint = post$joint, p = p,
-       table = resolution_table(p, lib_theta(problem$library)))
+  theta <- lib_theta(problem$library)
+  list(problem = problem, joint = post$joint, p = p, table = resolution_table(p, theta, scattered = has_proposal_rounds(problem$library)),
+       far_mass = far_mass(p, theta, last_proposal(problem$library)))
 }
 
 # Resolved: no parameter limited by the library, and (after a round) no

@@ -49,3 +49,26 @@ signal_interrupt <- function() {
                             list(message = "", call = NULL)))
   stop("an interrupt is not caught")
 }
+
+# y = X theta at 30 points, 4 parameters, theta in [0, 1]^4
+linear4_sim <- function(theta) {
+  x <- seq(0, 1, length.out = 30)
+  X <- cbind(1, cos(pi * x), cos(2 * pi * x), cos(3 * pi * x))
+  as.matrix(theta) %*% t(X)
+}
+
+# A 500-run Latin hypercube library of linear4_sim() and a fit to data at
+# (0.4, 0.55, 0.6, 0.45) with noise sd 0.02: the posterior is far narrower
+# than the runs' spacing.
+linear4_toy <- function() {
+  set.seed(4)
+  n <- 500
+  theta <- as.data.frame(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n,
+                                numeric(n)))
+  names(theta) <- paste0("th", 1:4)
+  lib <- sim_library(theta, linear4_sim(theta))
+  y <- linear4_sim(matrix(c(0.4, 0.55, 0.6, 0.45), 1)) + stats::rnorm(30, sd = 0.02)
+  field <- field_data(y, t = lib$t)
+  list(lib = lib, y = y,
+       fit = suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1)))
+}

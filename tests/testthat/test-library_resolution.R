@@ -4,7 +4,7 @@ test_that("resolution_table reports the marginal interval, effective values and 
   tab <- resolution_table(p, theta)
   expect_identical(names(tab), c("parameter", "lower", "upper", "effective_values",
                                  "distinct_in_interval", "limited", "mass_at_min",
-                                 "mass_at_max", "constant"))
+                                 "mass_at_max", "constant", "effective_runs", "pareto_k"))
   expect_identical(tab$parameter, c("a", "b"))
   # a: masses 0.025, 0.95, 0.025 on 1, 2, 3; 0.025 + 0.95 rounds below 0.975
   expect_equal(tab$effective_values[1], 1 / (2 * 0.025^2 + 0.95^2))

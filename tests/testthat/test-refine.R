@@ -114,3 +114,10 @@ test_that("the posterior noise variance is the exact posterior mean of 1/tau, co
   expected <- sum(state$joint * (pr$prior$rate + pr$C / 2)) / (pr$prior$shape + n / 2 - 1)
   expect_equal(posterior_noise_var(state), expected, tolerance = 1e-12)
 })
+
+test_that("rounds of a proposal are 50 runs per parameter; boxes keep their doubling", {
+  theta <- data.frame(a = 1:3, b = 1:3, c = 1:3, d = 1:3, e = 1)
+  expect_equal(default_runs_per_round(theta), 800)
+  expect_identical(default_runs_per_round(theta, proposals = TRUE), 200L)
+  expect_equal(default_runs_per_round(theta[1:2], proposals = TRUE), 200)
+})

@@ -53,3 +53,32 @@ test_that("refine(file =) refuses a file without a simulator and a file of other
   expect_error(refine(toy$fit, refine_sim, file = file, max_runs = 20),
                class = "griddy_error_library")
 })
+
+test_that("a proposal round (four parameters) on disk resumes with the same proposal", {
+  skip_if_not_installed("hdf5r")
+  toy <- linear4_toy()
+  file <- withr::local_tempfile(fileext = ".h5")
+  withr::defer(unlink(paste0(file, c(".rounds.csv", ".proposals.csv"))))
+  done <- 0L
+  failing <- function(theta) {
+    done <<- done + nrow(theta)
+    if (done > 1200L) stop("the solver diverged")
+    linear4_sim(theta)
+  }
+  e <- tryCatch(refine(toy$fit, failing, max_runs = 2000, runs_per_round = 500, file = file,
+                       seed = 1), error = function(e) e)
+  expect_s3_class(e, "griddy_error_simulator")
+  kept <- lib_rounds(e$fit$library)
+  expect_false(is.null(kept[[2]]$proposal))
+  ref <- suppressWarnings(refine(toy$fit, linear4_sim, max_runs = 1, file = file, seed = 2))
+  resumed <- lib_rounds(ref$library)[seq_along(kept)]
+  expect_identical(vapply(resumed, `[[`, integer(1), "n"), vapply(kept, `[[`, integer(1), "n"))
+  expect_equal(resumed[[2]]$proposal, kept[[2]]$proposal, tolerance = 1e-12, ignore_attr = TRUE)
+  # the design density: the kept rounds' as before, plus the new round's
+  theta <- lib_theta(e$fit$library)
+  new <- lib_rounds(ref$library)[-seq_along(kept)]
+  extra <- Reduce(`+`, lapply(new, function(r) {
+    if (is.null(r$proposal)) 0 else r$n * proposal_density(r$proposal, theta)
+  }), 0)
+  expect_equal(design_density(ref$library, theta), design_density(e$fit$library, theta) + extra)
+})

@@ -87,3 +87,13 @@ test_that("a simulator failing on every run leaves the fit as it was", {
   expect_s3_class(e, "griddy_error_simulator")
   expect_identical(e$fit, toy$fit)
 })
+
+test_that("posterior mass far from the last proposal asks for another round", {
+  toy <- linear4_toy()
+  state <- refine_state(toy$fit)
+  state$table$limited[] <- FALSE
+  state$far_mass <- 0
+  expect_false(needs_round(state, NULL, FALSE))
+  state$far_mass <- 2 * far_mass_tol
+  expect_true(needs_round(state, NULL, FALSE))
+})
