@@ -134,6 +134,7 @@ test_that("a fit made with a discrepancy is diagnosed as the fit without it", {
 })
 
 test_that("an emulated library is diagnosed without candidates", {
+  skip_if_not_installed("RobustGaSP")
   lib <- emulated_toy_library(n_runs = 300)
   field <- emulated_toy_field()
   fit <- suppressWarnings(calibrate(lib, field, n_iter = 200, burn_in = 50, seed = 1))

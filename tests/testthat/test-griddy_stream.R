@@ -25,6 +25,7 @@ test_that("stream_data() holds the data in arrival order", {
 })
 
 test_that("a library of emulated runs is refused", {
+  skip_if_not_installed("RobustGaSP")
   expect_error(griddy_stream(emulated_toy_library(n_runs = 200)),
                class = "griddy_error_unsupported")
 })
