@@ -39,18 +39,10 @@
 # (also Rprof() one call with the 100-point grid and print where its time
 # goes). Writes bench/results/discrepancy-speed.csv and .md. About 3-5
 # minutes on a shared 2-core machine.
-suppressPackageStartupMessages({
-  if (file.exists("DESCRIPTION") && requireNamespace("pkgload", quietly = TRUE) &&
-      identical(Sys.getenv("GRIDDY_LOAD_ALL"), "true")) {
-    pkgload::load_all(".", quiet = TRUE)
-  } else {
-    library(griddy)
-  }
-  library(data.table)
-})
+source("bench/helpers.R")
+load_griddy()
 stopifnot(requireNamespace("RobustCalibration", quietly = TRUE),
           requireNamespace("coda", quietly = TRUE))
-source("bench/helpers.R")
 start_note <- machine_note()
 griddy_iter <- 35000L
 griddy_burn <- 15000L

@@ -61,14 +61,7 @@ suppressPackageStartupMessages(library(griddy))
 dir <- if (length(args) >= 1) args[1] else file.path(tempdir(), "griddy-1e6")
 unlink(dir, recursive = TRUE)
 dir.create(dir, recursive = TRUE)
-locations <- seq(0, 1, length.out = n)
-theta <- thesis_theta(n_runs = N)
-t_write <- time_it(for (k in seq_len(N / chunk)) {
-  rows <- (k - 1) * chunk + seq_len(chunk)
-  piece <- sim_library(theta[rows, ], thesis_response(as.matrix(theta[rows, ]), locations),
-                       t = locations)
-  write_library(piece, file.path(dir, "library.h5"), append = k > 1)
-})
+t_write <- write_thesis_hdf5(dir, N, n, chunk)
 write_peak <- peak_mb()
 disk_mb <- file.size(file.path(dir, "library.h5")) / 2^20
 

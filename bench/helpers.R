@@ -378,3 +378,31 @@ load_save <- function(name) {
   e[[name]]
 }
 
+
+# Loads griddy for a script: the installed package, or the source tree with
+# GRIDDY_LOAD_ALL=true (pkgload::load_all(), from the package root); and
+# data.table.
+load_griddy <- function() {
+  suppressPackageStartupMessages({
+    if (file.exists("DESCRIPTION") && requireNamespace("pkgload", quietly = TRUE) &&
+        identical(Sys.getenv("GRIDDY_LOAD_ALL"), "true")) {
+      pkgload::load_all(".", quiet = TRUE)
+    } else {
+      library(griddy)
+    }
+    library(data.table)
+  })
+}
+
+# Writes N random runs of the thesis's test response at n locations to an
+# HDF5 library in `dir`, `chunk` runs per append; returns the seconds taken.
+write_thesis_hdf5 <- function(dir, N, n, chunk) {
+  locations <- seq(0, 1, length.out = n)
+  theta <- thesis_theta(n_runs = N)
+  time_it(for (k in seq_len(N / chunk)) {
+    rows <- (k - 1) * chunk + seq_len(chunk)
+    piece <- sim_library(theta[rows, ], thesis_response(as.matrix(theta[rows, ]), locations),
+                         t = locations)
+    write_library(piece, file.path(dir, "library.h5"), append = k > 1)
+  })
+}

@@ -30,17 +30,9 @@
 # 5-10 minutes on a shared 2-core machine (data-raw/ch4.R stores the time).
 # data-raw/ch4.R sources this file and ships the posterior summaries for
 # vignette("chapter4").
-suppressPackageStartupMessages({
-  if (file.exists("DESCRIPTION") && requireNamespace("pkgload", quietly = TRUE) &&
-      identical(Sys.getenv("GRIDDY_LOAD_ALL"), "true")) {
-    pkgload::load_all(".", quiet = TRUE)
-  } else {
-    library(griddy)
-  }
-  library(data.table)
-})
-stopifnot(requireNamespace("RobustCalibration", quietly = TRUE))
 source("bench/helpers.R")
+load_griddy()
+stopifnot(requireNamespace("RobustCalibration", quietly = TRUE))
 load_at_start <- machine_note()
 
 sizes <- c(6, 15, 27, 54)

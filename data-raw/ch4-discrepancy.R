@@ -21,17 +21,9 @@
 #   GRIDDY_LOAD_ALL=true Rscript data-raw/ch4-discrepancy.R
 # About 5-10 minutes on a shared 2-core machine (stored as settings$script_s).
 script_start <- proc.time()[["elapsed"]]
-suppressPackageStartupMessages({
-  if (file.exists("DESCRIPTION") && requireNamespace("pkgload", quietly = TRUE) &&
-      identical(Sys.getenv("GRIDDY_LOAD_ALL"), "true")) {
-    pkgload::load_all(".", quiet = TRUE)
-  } else {
-    library(griddy)
-  }
-  library(data.table)
-})
-stopifnot(requireNamespace("RobustCalibration", quietly = TRUE))
 source("bench/helpers.R")
+load_griddy()
+stopifnot(requireNamespace("RobustCalibration", quietly = TRUE))
 start_note <- machine_note()
 
 sizes <- c(6, 15, 27, 54)
