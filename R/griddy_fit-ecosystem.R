@@ -233,8 +233,8 @@ glance.griddy_fit <- function(x, ...) {
              n_runs = lib_n_runs(x$library), n_grid = nrow(x$grid),
              chains = x$control$chains, draws = nrow(x$draws),
              log_evidence = if (x$prior$rate == 0) NA_real_ else exact$log_evidence,
-             effective_runs = 1 / sum(exact$run^2),
-             effective_runs_sampled = 1 / sum(sampled^2),
+             effective_runs = effective_count(exact$run),
+             effective_runs_sampled = effective_count(sampled),
              runtime = sum(x$runtime))
 }
 

@@ -164,7 +164,7 @@ scattered_library <- function(library) {
 # can rest on some 20 effective runs out of 10,000) as if they were the shape.
 posterior_density <- function(fit, theta) {
   weights <- exact_margins(fit)$run
-  n_eff <- 1 / sum(weights^2)
+  n_eff <- effective_count(weights)
   curves <- do.call(rbind, lapply(names(theta), function(p) {
     d <- weighted_density(theta[[p]], weights, n_eff)
     data.frame(parameter = factor(p, levels = names(theta)), value = d$x, density = d$y)

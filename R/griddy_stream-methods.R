@@ -135,13 +135,12 @@ summary.griddy_stream <- function(object, level = 0.95, ...) {
     bounds <- weighted_quantile(grid[[p]], grid$prob, c((1 - level) / 2, (1 + level) / 2))
     rows <- rbind(rows, data.frame(parameter = p, mean = sum(grid$prob * grid[[p]]),
                                    lower = bounds[1], upper = bounds[2],
-                                   effective_values = 1 / sum(tapply(grid$prob, grid[[p]],
-                                                                     sum)^2),
+                                   effective_values = effective_count(tapply(grid$prob, grid[[p]], sum)),
                                    resolution = NA_character_))
   }
   rownames(rows) <- NULL
   structure(rows, class = c("griddy_stream_summary", "data.frame"), level = level,
-            effective_runs = 1 / sum(margins$run^2), log_evidence = margins$log_evidence,
+            effective_runs = effective_count(margins$run), log_evidence = margins$log_evidence,
             n_obs = nobs(object))
 }
 
@@ -186,7 +185,7 @@ print.griddy_stream <- function(x, ...) {
   if (n > 0L) {
     margins <- stream_margins(x)
     top <- order(margins$run, decreasing = TRUE)[seq_len(min(5L, length(margins$run)))]
-    cli::cat_line("  effective number of runs: ", format(1 / sum(margins$run^2), digits = 3))
+    cli::cat_line("  effective number of runs: ", format(effective_count(margins$run), digits = 3))
     cli::cat_line("  most probable runs: ", paste0(top, " (", format(margins$run[top],
                                                                      digits = 3), ")",
                                                    collapse = ", "))

@@ -6,6 +6,11 @@
 # marginal of the posterior over runs: how many distinct values carry it, and
 # how much of it sits at the library's minimum or maximum.
 
+# How many equal weights would carry the same mass as probabilities p
+# (summing to 1): 1 / sum p^2, Kish's effective sample size. Every
+# "effective runs" and "effective values" in griddy is this count.
+effective_count <- function(p) 1 / sum(p^2)
+
 # The fewest effective values (1 / sum m_v^2 over the marginal masses m_v of a
 # parameter's distinct values) at which a marginal resolves its interval. For
 # a Gaussian marginal of sd s on a grid of step h, m_v ~ h phi(v / s) / s, so
@@ -94,9 +99,9 @@ marginal_resolution <- function(mass, v, support, level, min_values) {
   lower <- bounds[1]
   upper <- bounds[2]
   band <- max(tol, edge_band_share * (upper - lower))
-  data.frame(lower = lower, upper = upper, effective_values = 1 / sum(group_mass^2),
+  data.frame(lower = lower, upper = upper, effective_values = effective_count(group_mass),
              distinct_in_interval = sum(values >= lower & values <= upper),
-             limited = 1 / sum(group_mass^2) < min_values,
+             limited = effective_count(group_mass) < min_values,
              mass_at_min = sum(mass[vs <= span[1] + band]),
              mass_at_max = sum(mass[vs >= span[2] - band]),
              constant = span[1] == span[2])
@@ -128,8 +133,8 @@ library_adequacy <- function(fit, level = 0.95) {
   exact <- exact_margins(fit)$run
   effective_draws <- stored_diagnostics(fit)$effective_draws
   list(parameters = resolution_limited(fit, level),
-       effective_runs = 1 / sum(exact^2),
-       effective_runs_sampled = 1 / sum(sampled_frequencies(fit$draws$run)$freq^2),
+       effective_runs = effective_count(exact),
+       effective_runs_sampled = effective_count(sampled_frequencies(fit$draws$run)$freq),
        tv_distance = run_tv_distance(fit$draws$run, exact),
        tv_reference = expected_tv(exact, effective_draws),
        effective_draws = effective_draws,

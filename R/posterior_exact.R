@@ -86,7 +86,7 @@ print.griddy_exact <- function(x, ...) {
   top <- order(x$run, decreasing = TRUE)[seq_len(min(5L, length(x$run)))]
   cli::cat_line("<griddy_exact> exact posterior over ", length(x$run), " runs x ",
                 nrow(x$grid), " correlation grid point(s)")
-  cli::cat_line("  effective number of runs: ", format(1 / sum(x$run^2), digits = 3))
+  cli::cat_line("  effective number of runs: ", format(effective_count(x$run), digits = 3))
   cli::cat_line("  most probable runs: ", paste0(top, " (", format(x$run[top], digits = 3),
                                                  ")", collapse = ", "))
   cli::cat_line("  log evidence: ", format(x$log_evidence, digits = 6))

@@ -125,13 +125,12 @@ proposal_log_lik <- function(problem) {
 # posterior's own does).
 tempered_weights <- function(log_lik, log_prior, target) {
   at <- function(beta) normalise_log(log_prior + beta * log_lik)
-  ess <- function(w) 1 / sum(w^2)
-  if (ess(at(1)) >= target) return(list(w = at(1), beta = 1))
+  if (effective_count(at(1)) >= target) return(list(w = at(1), beta = 1))
   lo <- 0
   hi <- 1
   for (i in 1:30) {
     mid <- (lo + hi) / 2
-    if (ess(at(mid)) >= target) lo <- mid else hi <- mid
+    if (effective_count(at(mid)) >= target) lo <- mid else hi <- mid
   }
   beta <- max(lo, 1e-6)
   list(w = at(beta), beta = beta)
@@ -149,7 +148,7 @@ tempered_weights <- function(log_lik, log_prior, target) {
 # of collapsing.
 weighted_components <- function(u, w) {
   q <- ncol(u)
-  ess <- 1 / sum(w^2)
+  ess <- effective_count(w)
   k <- max(1L, min(proposal_max_components, floor(ess / (2 * q)), sum(!duplicated(u))))
   resp <- matrix(1, nrow(u), 1L)
   if (k > 1L) {
@@ -189,7 +188,7 @@ mixture_components <- function(u, w, resp) {
   parts <- lapply(seq_len(ncol(resp)), function(j) {
     rj <- resp[, j] * w
     m <- weighted_moments(u, rj / sum(rj))
-    list(weight = sum(rj), centre = m$mean, cov = m$cov, ess = sum(rj)^2 / sum(rj^2))
+    list(weight = sum(rj), centre = m$mean, cov = m$cov, ess = effective_count(rj / sum(rj)))
   })
   pooled <- regularised_cov(Reduce(`+`, lapply(parts, function(x) x$weight * x$cov)) /
                               sum(vapply(parts, `[[`, numeric(1), "weight")))

@@ -60,7 +60,7 @@ pareto_k_threshold <- function(S) min(1 - 1 / log10(S), 0.7)
 # The run-level test: list(effective_runs, needed, pareto_k, k_threshold,
 # resolved); `applies` FALSE (and resolved TRUE) below four parameters.
 run_resolution <- function(p, n_varying, scattered = FALSE) {
-  ess <- 1 / sum(p^2)
+  ess <- effective_count(p)
   applies <- runs_test_applies(n_varying, scattered)
   k <- if (applies) weights_pareto_k(p) else NA_real_
   needed <- effective_runs_needed(n_varying)
