@@ -446,6 +446,9 @@ normalise_log <- function(lj) {
   exp(lj - log_sum_exp(lj))
 }
 
+# The same, kept in logs (no probability underflows to zero).
+normalise_log_prob <- function(lj) lj - log_sum_exp(lj)
+
 # log sum_i p(run i, grid point g, y) per grid point g, up to the constant
 # shared by all (log_evidence_constant()): one column of C at a time, so no
 # temporary is as large as C.

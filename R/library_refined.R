@@ -287,8 +287,7 @@ lib_log_prior.default <- function(library) {
 lib_log_prior.refined_library <- function(library) {
   density <- if (is.null(library$density)) design_density(library, library$theta) else
     library$density
-  w <- -log(density)
-  w - log_sum_exp(w)
+  normalise_log_prob(-log(density))
 }
 
 # The design density of a refined library at the rows of `theta`: the base

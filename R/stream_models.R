@@ -121,8 +121,6 @@ models_add <- function(state, y, x, t) {
   invisible(state)
 }
 
-normalise_log_prob <- function(lp) lp - log_sum_exp(lp)
-
 #' History and evidence of a model choice
 #'
 #' @param x,object A [stream_models()].
