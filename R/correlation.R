@@ -92,7 +92,7 @@ scale_unit <- function(v) {
 # R_x at one combination of per-column correlations `rho` (one per x column):
 # the product of the columns' factors (corr_x_factor()), in column order.
 corr_x <- function(x, rho, power = 2) {
-  n_x <- if (is.null(x)) 1L else nrow(x)
+  n_x <- n_settings(x)
   R <- matrix(1, n_x, n_x)
   if (n_x == 1L) {
     return(R)

@@ -143,7 +143,7 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
     x
   }
   x <- as_settings(x, "x")
-  n_x <- if (is.null(x)) 1L else nrow(x)
+  n_x <- n_settings(x)
   if (is.character(t)) {
     t_ds <- h5_dataset(h5, t, "t", file)
     t <- h5_read_vector(t_ds, "t", t, file)

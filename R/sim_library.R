@@ -39,7 +39,7 @@ sim_library <- function(theta, y, x = NULL, t = NULL) {
                  " rows but `y` has ", nrow(y), ".")
   }
   x <- as_settings(x, "x")
-  n_x <- if (is.null(x)) 1L else nrow(x)
+  n_x <- n_settings(x)
   if (ncol(y) %% n_x != 0L) {
     griddy_abort("`y` has ", ncol(y), " columns, which is not a multiple of the ",
                  n_x, " x settings (rows of `x`).")
@@ -204,3 +204,6 @@ warn_constant_columns <- function(theta_mat) {
                  "they cannot be calibrated and their interval will be a single value.")
   }
 }
+
+# The number of x settings: the rows of `x`, or 1 without x.
+n_settings <- function(x) if (is.null(x)) 1L else nrow(x)

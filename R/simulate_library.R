@@ -136,8 +136,6 @@ simulate_library <- function(simulator, design, file, x = NULL, t = NULL, ..., s
   out
 }
 
-n_settings <- function(x) if (is.null(x)) 1L else nrow(x)
-
 # The design rows not yet in `file` (by their exact theta values), the
 # design with its columns in the file's order, and the file's outputs per
 # run (NULL for a new file).
