@@ -51,6 +51,32 @@ if (length(missing)) {
   ncpus <- max(1L, min(4L, parallel::detectCores(logical = FALSE), na.rm = TRUE))
   install.packages(missing, repos = repos, Ncpus = ncpus)
 }
+
+# An installed package can fail to load when a dependency CRAN brought in is
+# newer than the one it was built against: Debian's knitr 1.42 with CRAN's
+# xfun 0.62, which litedown pulls in, stops at "object 'attr' is not exported
+# by 'namespace:xfun'". Reinstall from CRAN whatever does not load, checked
+# in a fresh R each time (a failed load leaves the session half-loaded), and
+# check again, since fixing one can fix the packages that import it.
+fails_to_load <- function(p) {
+  if (!length(p)) return(character())
+  script <- tempfile(fileext = ".R")
+  on.exit(unlink(script))
+  writeLines(c("p <- commandArgs(TRUE)",
+               "ok <- vapply(p, function(q) isTRUE(suppressWarnings(suppressMessages(",
+               "  requireNamespace(q, quietly = TRUE)))), logical(1))",
+               "cat(p[!ok], sep = '\\n')"), script)
+  out <- system2(file.path(R.home("bin"), "Rscript"), c("--vanilla", script, p),
+                 stdout = TRUE, stderr = FALSE)
+  intersect(trimws(out), p)
+}
+for (attempt in 1:2) {
+  broken <- fails_to_load(wanted[have(wanted)])
+  if (!length(broken)) break
+  message("Installed but not loading, reinstalling from CRAN: ", paste(broken, collapse = ", "))
+  install.packages(broken, repos = repos, lib = .libPaths()[1])
+}
+
 still <- wanted[!have(wanted)]
 if (length(setdiff(still, optional)))
   stop("could not install: ", paste(setdiff(still, optional), collapse = ", "), call. = FALSE)
