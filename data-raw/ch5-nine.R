@@ -23,9 +23,8 @@
 #
 # Run from the package root:
 #   Rscript -e 'pkgload::load_all(".", quiet = TRUE); source("data-raw/ch5-nine.R")'
-# Writes inst/extdata/ch5_nine.rds. Took 170 s on a shared 2-core machine
-# at load average about 0-1 (patch: library 14 s, refine 26 s; disc: library
-# 42 s, refine 85 s). Neither refinement resolves in 3,000 added runs (12.8
+# Writes inst/extdata/ch5_nine.rds. Took 165 s on a shared 2-core machine
+# at load average about 2 (the disc's roughness scan included). Neither refinement resolves in 3,000 added runs (12.8
 # and 1.0 effective runs); see vignette("chapter5").
 # Not shipped, a probe (same script, disc only, max_runs <- 9000): 9,000
 # added runs in 20 rounds, 288 s in all, still stopped at max_runs with 13.3
@@ -98,7 +97,7 @@ one_contact <- function(contact) {
   out <- list(contact = contact, plain = record(fit), refined = record(refined),
               runs_added = ref$runs_added, rounds = ref$rounds, reason = ref$reason,
               resolved = identical(ref$reason, "resolved"), history = ref$history, warnings = unique(warn),
-              time_library = t_lib, time_refine = t_refine)
+              time_library = t_lib, time_refine = t_refine, refined_fit = refined)
   cat(contact, ": library", round(t_lib, 1), "s; refine", round(t_refine, 1), "s,",
       ref$runs_added, "runs added,", ref$rounds, "rounds, reason", format(ref$reason), "\n")
   print(out$refined$summary)
@@ -116,9 +115,47 @@ results <- lapply(c(patch = "patch", disc = "disc"), one_contact)
 log_bf_disc_patch <- results$disc$refined$log_evidence - results$patch$refined$log_evidence
 cat("log Bayes factor, disc over patch:", log_bf_disc_patch, "\n")
 
+# Why the disc posterior does not resolve: its likelihood is rough at the
+# scale of the posterior. Along k and along c through the disc fit's most
+# probable run, the misfit in log-likelihood units (n/2 log of the sum of
+# squares over its smallest, the likelihood with the noise integrated out
+# under independent errors) at 41 steps each, over +-0.1 N/mm in k and
+# +-0.001 N s/mm in c: a smooth likelihood would trace one parabola; the
+# stand-in's fixed-step integration of the wheel over the cleat (contact
+# switching at time steps) gives jumps of several log units between
+# neighbouring values. field$y is heights x samples, the simulator's row
+# blocks by height: hence t() (an earlier version of this scan compared them
+# interleaved).
+roughness_scan <- function(r, contact, half_width) {
+  f <- r$refined_fit
+  th <- lib_theta(f$library)
+  best <- th[which.max(tabulate(f$draws$run, nrow(th))), ]
+  obs <- as.vector(t(as.matrix(field$y)))
+  n <- length(obs)
+  rbindlist(lapply(names(half_width), function(par) {
+    at <- best[[par]] + seq(-half_width[[par]], half_width[[par]], length.out = 41)
+    ss <- vapply(at, function(v) {
+      b <- best
+      b[[par]] <- v
+      sum((as.vector(fiala_nine(b, contact)) - obs)^2)
+    }, numeric(1))
+    data.table(parameter = par, offset = at - best[[par]],
+               log_lik_drop = n / 2 * log(ss / min(ss)))
+  }))
+}
+scan <- roughness_scan(results$disc, "disc", c(k = 0.1, c = 0.001))
+# per parameter: the largest jump between neighbouring values, and the
+# number of local minima along the line (1 for a smooth peak)
+scan_step_jump <- scan[, .(largest_step = max(abs(diff(log_lik_drop))),
+                           local_minima = sum(diff(sign(diff(log_lik_drop))) > 0),
+                           step = diff(offset[1:2])), by = parameter]
+print(scan_step_jump)
+results <- lapply(results, function(r) { r$refined_fit <- NULL; r })
+
 elapsed <- proc.time()[["elapsed"]] - t_script
 saveRDS(list(ranges = ranges, seeds = seeds, n_base = n_base, max_runs = max_runs,
              results = results, log_bf_disc_patch = log_bf_disc_patch,
+             scan = scan, scan_step_jump = scan_step_jump,
              elapsed = elapsed, date = Sys.time()),
         "inst/extdata/ch5_nine.rds", compress = "xz")
 cat("total", round(elapsed, 1), "s\n")
