@@ -70,7 +70,12 @@
 #' \eqn{\min(1 - 1/\log_{10} S, 0.7)} for \eqn{S} runs, and no more than
 #' 1% of the posterior may lie far from every component of the last
 #' proposal (a mode the proposal has not covered yet). [summary()][summary.griddy_fit]
-#' and [calibrate()]'s warning apply the same test.
+#' and [calibrate()]'s warning apply the same test. When the last proposal
+#' has separated modes each holding at least 2% of the posterior, `refine()`
+#' also asks each mode for as many effective runs of its own as the whole
+#' needs: a mode's share is estimated from its own runs, and one resting on
+#' a few is often too small (on a folded 4-parameter system, 20% where
+#' symmetry makes it 50%). The warning at `max_runs` names such a mode.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped.
@@ -302,6 +307,21 @@ warn_emulation <- function(ratio) {
               "library, where you can.", class = "emulation")
 }
 
+# One reason per mode resting on too few effective runs, naming where it is
+# (its most probable run) and the share of the posterior it holds.
+unresolved_mode_reasons <- function(state) {
+  if (is.null(state$modes)) return(character())
+  modes <- state$modes[unresolved_modes(state), , drop = FALSE]
+  vapply(seq_len(nrow(modes)), function(i) {
+    at <- modes$at[[i]]
+    paste0("the mode near ", paste0(names(at), " = ", format(unlist(at), digits = 3),
+                                    collapse = ", "),
+           ", holding ", format(100 * modes$mass[i], digits = 2), "% of the posterior, rests on ",
+           format(modes$effective_runs[i], digits = 3), " effective runs (",
+           attr(state$table, "runs")$needed, " needed): its share may be wrong")
+  }, character(1))
+}
+
 # refine() ran out of runs: say which parameters are not resolved and why.
 warn_unresolved <- function(state, rounds) {
   tab <- state$table
@@ -321,7 +341,8 @@ warn_unresolved <- function(state, rounds) {
                paste0(format(100 * state$far_mass, digits = 2), "% of the posterior lies ",
                       "far from where the last round's runs went: a mode may be lost or ",
                       "unresolved")
-             })
+             },
+             unresolved_mode_reasons(state))
   if (length(extra) > 0L) {
     why <- c(why[bad], extra)
     tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))

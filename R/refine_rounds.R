@@ -79,7 +79,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 # or, with a simulator, rests on predicted runs.
 needs_round <- function(state, previous, simulating) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
-    state$far_mass > far_mass_tol ||
+    state$far_mass > far_mass_tol || length(unresolved_modes(state)) > 0L ||
     (simulating && predicted_mass(state) > predicted_tol)
 }
 
@@ -87,6 +87,14 @@ needs_round <- function(state, previous, simulating) {
 # (far_mass()) above which a mode is not covered: another round, whose
 # proposal gives it a component.
 far_mass_tol <- 0.01
+
+# The modes (rows of state$modes) resting on fewer effective runs than the
+# whole posterior needs (mode_resolution()).
+unresolved_modes <- function(state) {
+  modes <- state$modes
+  if (is.null(modes)) return(integer())
+  which(modes$effective_runs < attr(state$table, "runs")$needed)
+}
 
 # One round with the simulator: predicted runs near the posterior simulated
 # at their theta, or else a Latin hypercube of new runs in the round's box.
@@ -124,7 +132,8 @@ refine_state <- function(problem) {
   p <- post$run
   theta <- lib_theta(problem$library)
   list(problem = problem, joint = post$joint, p = p, table = resolution_table(p, theta, scattered = has_proposal_rounds(problem$library)),
-       far_mass = far_mass(p, theta, last_proposal(problem$library)))
+       far_mass = far_mass(p, theta, last_proposal(problem$library)),
+       modes = mode_resolution(p, theta, last_proposal(problem$library)))
 }
 
 # Resolved: no parameter limited by the library, and (after a round) no

@@ -83,6 +83,41 @@ test_that("posterior mass far from every component of the last proposal is measu
   expect_identical(far_mass(c(0.5, 0.3, 0.2), theta, NULL), 0)
 })
 
+test_that("components are grouped into modes by separation", {
+  proposal <- toy_proposal()
+  # toy: centres 0.3 and 0.7 on all four axes, sds 0.05 and 0.1: 7 apart
+  expect_identical(proposal_modes(proposal), c(1L, 2L))
+  # a third component beside the first is the same mode; merged transitively
+  proposal$components[[3]] <- list(weight = 0.1, centre = rep(0.33, 4), chol = diag(0.05, 4))
+  expect_identical(proposal_modes(proposal), c(1L, 2L, 1L))
+  proposal$components[[2]]$centre <- rep(0.4, 4)
+  expect_identical(proposal_modes(proposal), c(1L, 1L, 1L))
+})
+
+test_that("each mode's effective runs are counted from its own runs", {
+  proposal <- toy_proposal()
+  set.seed(3)
+  # 40 equally weighted runs at the first mode, 4 at the second (a mode
+  # resting on few runs, as in bench/many-parameters.R bimodal-4 trial 10)
+  u <- rbind(matrix(0.3 + stats::rnorm(160, sd = 0.01), 40),
+             matrix(0.7 + stats::rnorm(16, sd = 0.01), 4))
+  theta <- data.frame(a = 2 * u[, 1], b = u[, 2], c = u[, 3], d = u[, 4], e = 5)
+  p <- c(rep(0.6 / 40, 40), c(0.37, 0.01, 0.01, 0.01))
+  modes <- mode_resolution(p, theta, proposal)
+  expect_equal(modes$mass, c(0.6, 0.4))
+  expect_equal(modes$effective_runs[1], 40)
+  expect_equal(modes$effective_runs[2], 1 / sum((c(0.37, 0.01, 0.01, 0.01) / 0.4)^2))
+  expect_equal(modes$at[[2]], theta[41, ], ignore_attr = TRUE)
+  # a mode under mode_min_mass is not a mode to resolve, and one mode is the
+  # whole posterior
+  p2 <- c(rep(0.99 / 40, 40), rep(0.0025, 4))
+  expect_null(mode_resolution(p2, theta, proposal))
+  expect_null(mode_resolution(p, theta, NULL))
+  one <- proposal
+  one$components <- one$components[1]
+  expect_null(mode_resolution(p, theta, one))
+})
+
 test_that("refine() in 4 parameters follows the posterior and resolves it", {
   toy <- linear4_toy()
   fit <- toy$fit
@@ -142,4 +177,39 @@ test_that("refine() in two parameters keeps both modes of an aliased oscillator"
   expect_lt(upper, 0.7)
   # scattered runs: the run-level test applies in two parameters
   expect_false(is.na(resolution_limited(r)$pareto_k[1]))
+})
+
+test_that("refine() resolves each of two modes, not only the whole posterior", {
+  # bench/many-parameters.R's bimodal-4, trial 10: th1 enters as
+  # 4 (th1 - 0.5)^2, so th1 and 1 - th1 fit equally and each mode holds half
+  # the posterior. Resolving the whole alone stopped with the mirror mode on
+  # 19.5 of 174 effective runs and 0.22 of the mass.
+  set.seed(244)
+  G <- matrix(stats::rnorm(320), 80, 4)
+  H <- matrix(stats::rnorm(320), 80, 4)
+  sim <- function(theta) {
+    th <- as.matrix(theta)
+    th[, 1] <- 4 * (th[, 1] - 0.5)^2
+    sin(pi * th %*% t(G)) + 0.5 * exp(th %*% t(H) / 2)
+  }
+  lhs <- function(n) {
+    u <- matrix(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n, numeric(n)), n)
+    stats::setNames(as.data.frame(u), paste0("th", 1:4))
+  }
+  set.seed(2024)
+  theta <- lhs(2000)
+  lib <- sim_library(theta, sim(theta))
+  set.seed(1010)
+  truth <- unlist(lhs(1)) * 0.7 + 0.15
+  truth[1] <- 0.5 + stats::runif(1, 0.15, 0.35)
+  y <- sim(matrix(truth, 1))[1, ] + stats::rnorm(80, sd = 0.05)
+  fit <- suppressWarnings(calibrate(lib, field_data(matrix(y, 1), t = lib$t), n_iter = 1000,
+                                    burn_in = 200, seed = 10))
+  r <- suppressMessages(refine(fit, sim, max_runs = 20000, seed = 10))
+  expect_identical(r$refinement$reason, "resolved")
+  state <- refine_state(r)
+  expect_identical(unresolved_modes(state), integer())
+  mirror <- sum(r$exact$run[lib_theta(r$library)$th1 < 0.5])
+  expect_gt(mirror, 0.3)
+  expect_lt(mirror, 0.7)
 })

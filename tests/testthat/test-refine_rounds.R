@@ -97,3 +97,24 @@ test_that("posterior mass far from the last proposal asks for another round", {
   state$far_mass <- 2 * far_mass_tol
   expect_true(needs_round(state, NULL, FALSE))
 })
+
+test_that("a mode resting on too few effective runs asks for another round, and is named", {
+  toy <- linear4_toy()
+  state <- refine_state(toy$fit)
+  state$table$limited[] <- FALSE
+  state$far_mass <- 0
+  needed <- attr(state$table, "runs")$needed
+  at <- lib_theta(toy$fit$library)[1:2, ]
+  state$modes <- data.frame(mass = c(0.7, 0.3), effective_runs = c(2 * needed, needed),
+                            at = I(list(at[1, ], at[2, ])))
+  expect_false(needs_round(state, NULL, FALSE))
+  expect_identical(unresolved_modes(state), integer())
+  state$modes$effective_runs[2] <- needed / 5
+  expect_true(needs_round(state, NULL, FALSE))
+  expect_identical(unresolved_modes(state), 2L)
+  reason <- unresolved_mode_reasons(state)
+  expect_length(reason, 1L)
+  expect_match(reason, "holding 30% of the posterior", fixed = TRUE)
+  expect_match(reason, paste0("(", needed, " needed)"), fixed = TRUE)
+  expect_match(reason, paste0(names(at)[1], " = "), fixed = TRUE)
+})
