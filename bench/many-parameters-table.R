@@ -1,6 +1,7 @@
 # The summary table of bench/README.md's "Many parameters" section, from
 # the CSVs bench/many-parameters.R writes (one row per trial and parameter).
-# Run: Rscript bench/many-parameters-table.R  (prints markdown)
+# Run: Rscript bench/many-parameters-table.R  (prints markdown; writes
+# inst/extdata/many_parameters_trials.csv, one row per trial, for the vignette)
 library(data.table)
 files <- Sys.glob("bench/results/many-parameters-*.csv")
 files <- files[grepl("many-parameters-(smooth|sharp|bimodal)-[0-9]+\\.csv$", files)]
@@ -45,3 +46,10 @@ all <- d[, .(pairs = .N, refine = mean(covered), reference = mean(ref_covered),
 cat(sprintf("\nAll %d pairs: refine covers %.1f%%, the reference %.1f%%; width / reference %.2f-%.2f (median %.2f).\n",
             all$pairs, 100 * all$refine, 100 * all$reference, all$width_lo, all$width_hi,
             all$width_med))
+
+# Per trial, for vignette("between-the-runs"): what each refinement did.
+trials <- d[, .(p = p[1], kind = kind[1], runs_added = runs_added[1], reason = reason[1],
+                mirror_mass = mirror_mass[1], coverage = mean(covered),
+                ref_coverage = mean(ref_covered), width_ratio = median(width_ratio),
+                warned = warned[1], seconds = seconds[1]), by = .(system, trial)]
+fwrite(trials, "inst/extdata/many_parameters_trials.csv")
