@@ -1,0 +1,187 @@
+# An independent reference posterior for Al-5083 (see data-raw/al5083.R):
+# a Gaussian-process emulator of SEPIA's 1,000 runs and adaptive Metropolis
+# on it, none of it griddy's code.
+#
+# Emulator: RobustGaSP::ppgasp() (Gu and Berger 2016; one Matern 5/2
+# correlation shared by the 12 outputs, a constant mean and a variance per
+# output, a nugget estimated) from theta, scaled to [0, 1] over the design's
+# range, to the 12 outputs, each standardised over the runs. Checked first by
+# a fit on 900 runs predicting the 100 others (a fixed random hold-out): its
+# error, in observation sds, is the reference's own uncertainty.
+#
+# Likelihood: griddy's (calibrate()'s collapsed update, no correlation, no
+# discrepancy) with the emulator's mean in place of a library run:
+# y ~ N(m(theta), tau^-1 S^2), S = diag(SEPIA's observation sd), tau ~
+# Gamma(1e-9, 1e-9) integrated out, so
+#   log p(theta | y) = const - (a + n/2) log(b + C(theta)/2),
+#   C(theta) = sum_j ((y_j - m_j(theta)) / s_j)^2,
+# uniform prior on the design's box. Variant "emulator variance": the
+# emulator's predictive variance v_j(theta) added to each output's noise
+# variance (tau^-1 s_j^2 + v_j(theta)), tau sampled as a 12th coordinate
+# (log tau, with the same Gamma prior, truncated at tau = 1e4), as SEPIA's emulator-based likelihood
+# carries the emulator's uncertainty.
+#
+# Sampler: adaptive Metropolis (Haario, Saksman and Tamminen 2001) on the
+# unit cube, 8 chains started at 8 of the 20 library runs with the smallest
+# C, the proposal covariance (2.38^2 / d) Sigma + 1e-8 I adapted from each
+# chain's own history every 250 iterations during the burn-in (the first
+# half) and fixed after it; only the second half is kept. R-hat and ESS from
+# posterior::summarise_draws().
+#
+# al5083_reference() is called by data-raw/al5083.R; about 10 minutes on a
+# shared 2-core machine (two ppgasp fits of several minutes, then the chains).
+# `emulator_cache`: a file that keeps the two ppgasp fits (read when it
+# exists, written when not; "" for neither).
+al5083_reference <- function(design, sim, obs, obs_sd, n_iter = 60000L, chains = 8L,
+                             seed = 20261127L, emulator_cache = "") {
+  set.seed(seed)
+  lo <- vapply(design, min, numeric(1))
+  hi <- vapply(design, max, numeric(1))
+  unit <- function(theta) sweep(sweep(as.matrix(theta), 2, lo), 2, hi - lo, "/")
+  u <- unit(design)
+  y_mean <- colMeans(sim)
+  y_sd <- apply(sim, 2, stats::sd)
+  ys <- sweep(sweep(sim, 2, y_mean), 2, y_sd, "/")
+  fit_gp <- function(rows) {
+    utils::capture.output(em <- suppressWarnings(RobustGaSP::ppgasp(
+      design = u[rows, , drop = FALSE], response = ys[rows, , drop = FALSE],
+      nugget.est = TRUE, num_initial_values = 2)))
+    em
+  }
+  # the emulator's mean and variance of the outputs, in their own units
+  predict_gp <- function(em, z) {
+    p <- RobustGaSP::predict.ppgasp(em, z)
+    list(mean = sweep(sweep(p$mean, 2, y_sd, "*"), 2, y_mean, "+"),
+         var = sweep(p$sd^2, 2, y_sd^2, "*"))
+  }
+
+  # ---- the emulator's error, on 100 runs it did not see --------------------------------
+  misfit <- colSums(((t(sim) - obs) / obs_sd)^2)
+  hold <- sample(nrow(u), 100L)
+  cached <- nzchar(emulator_cache) && file.exists(emulator_cache)
+  if (cached) {
+    fits <- readRDS(emulator_cache)
+  } else {
+    started <- proc.time()[["elapsed"]]
+    em_check <- fit_gp(-hold)
+    check_seconds <- proc.time()[["elapsed"]] - started
+    started <- proc.time()[["elapsed"]]
+    em <- fit_gp(seq_len(nrow(u)))
+    fit_seconds <- proc.time()[["elapsed"]] - started
+    fits <- list(em_check = em_check, em = em, hold = hold,
+                 seconds = c(check_fit = check_seconds, fit = fit_seconds))
+    if (nzchar(emulator_cache)) saveRDS(fits, emulator_cache)
+  }
+  stopifnot(identical(fits$hold, hold))
+  em_check <- fits$em_check
+  em <- fits$em
+  p <- predict_gp(em_check, u[hold, , drop = FALSE])
+  err <- sweep(p$mean - sim[hold, , drop = FALSE], 2, obs_sd, "/")
+  z <- (p$mean - sim[hold, , drop = FALSE]) / sqrt(p$var)
+  near <- order(misfit[hold])[1:20]
+  holdout <- data.frame(
+    output = colnames(sim),
+    rmse_all = sqrt(colMeans(err^2)),
+    rmse_near = sqrt(colMeans(err[near, , drop = FALSE]^2)),
+    pred_sd_near = sqrt(colMeans(sweep(p$var[near, , drop = FALSE], 2, obs_sd^2, "/"))),
+    coverage95 = colMeans(abs(z) < stats::qnorm(0.975)),
+    row.names = NULL)
+
+  # ---- the chains, on the emulator of all 1,000 runs -------------------------------
+  set.seed(seed + 1L)  # the same chains whether the emulators were fitted or read
+  a <- 1e-9
+  b <- 1e-9
+  n <- length(obs)
+  # with the emulator's variance the likelihood stays finite as tau grows
+  # (the noise vanishes, the emulator's variance remains), and the Gamma(1e-9,
+  # 1e-9) prior is flat in log tau up to 1e9: tau is kept below 1e4 (a noise
+  # sd a hundredth of SEPIA's), which the likelihood never reaches
+  log_tau_max <- log(1e4)
+  # log posterior of each row of z (unit cube), and for the variance variant
+  # of its last column, log tau
+  log_post <- function(z, variance) {
+    d <- ncol(u)
+    theta <- z[, seq_len(d), drop = FALSE]
+    out <- rep(-Inf, nrow(z))
+    inside <- rowSums(theta < 0 | theta > 1) == 0
+    if (!any(inside)) return(out)
+    p <- predict_gp(em, theta[inside, , drop = FALSE])
+    r2 <- sweep(sweep(p$mean, 2, obs), 2, obs_sd, "/")^2
+    if (!variance) {
+      out[inside] <- -(a + n / 2) * log(b + rowSums(r2) / 2)
+    } else {
+      log_tau <- z[inside, d + 1L]
+      v <- sweep(p$var, 2, obs_sd^2, "/") + exp(-log_tau)  # in units of s_j^2
+      out[inside] <- ifelse(log_tau > log_tau_max, -Inf,
+                            -0.5 * rowSums(log(v)) - 0.5 * rowSums(r2 / v) +
+                              a * log_tau - b * exp(log_tau))
+    }
+    out
+  }
+  starts <- order(misfit)[sample(20L, chains)]
+  run_chains <- function(variance) {
+    d <- ncol(u) + variance
+    z0 <- u[starts, , drop = FALSE]
+    if (variance) z0 <- cbind(z0, log(n / misfit[starts]))
+    cur <- z0
+    lp <- log_post(cur, variance)
+    root <- lapply(seq_len(chains), function(k) diag(c(rep(0.01, ncol(u)),
+                                                        if (variance) 0.1), d))
+    keep <- array(NA_real_, c(n_iter / 2, chains, d))
+    accepted <- 0
+    burn <- n_iter / 2
+    for (it in seq_len(n_iter)) {
+      prop <- t(vapply(seq_len(chains), function(k) {
+        cur[k, ] + drop(rnorm(d) %*% root[[k]])
+      }, numeric(d)))
+      lp_prop <- log_post(prop, variance)
+      ok <- log(runif(chains)) < lp_prop - lp
+      cur[ok, ] <- prop[ok, ]
+      lp[ok] <- lp_prop[ok]
+      if (it > burn) {
+        keep[it - burn, , ] <- cur
+        accepted <- accepted + sum(ok)
+      } else {
+        if (it == 1L) hist <- array(NA_real_, c(burn, chains, d))
+        hist[it, , ] <- cur
+        if (it %% 250L == 0L && it >= 1000L) {
+          from <- max(1L, it %/% 2L)  # the second half of the history so far
+          root <- lapply(seq_len(chains), function(k) {
+            chol((2.38^2 / d) * stats::cov(hist[from:it, k, ]) + diag(1e-8, d))
+          })
+        }
+      }
+    }
+    names_d <- c(names(design), if (variance) "log_tau")
+    dimnames(keep) <- list(NULL, NULL, names_d)
+    draws <- posterior::as_draws_array(keep)
+    # back to the parameters' own units
+    theta_draws <- posterior::as_draws_df(draws)
+    for (j in seq_along(lo)) {
+      theta_draws[[names(lo)[j]]] <- lo[j] + (hi[j] - lo[j]) * theta_draws[[names(lo)[j]]]
+    }
+    summ <- as.data.frame(posterior::summarise_draws(
+      posterior::as_draws_array(theta_draws), "mean", "sd",
+      ~stats::quantile(.x, c(0.025, 0.975)), "rhat", "ess_bulk", "ess_tail"))
+    summ[-1] <- lapply(summ[-1], as.numeric)
+    draws_df <- as.data.frame(theta_draws)[c(".chain", names_d)]
+    list(summary = summ, acceptance = accepted / (chains * burn),
+         draws = draws_df[seq(1L, nrow(draws_df), by = 20L), ], starts = starts)
+  }
+  started <- proc.time()[["elapsed"]]
+  plain <- run_chains(FALSE)
+  plain_seconds <- proc.time()[["elapsed"]] - started
+  started <- proc.time()[["elapsed"]]
+  with_var <- run_chains(TRUE)
+  var_seconds <- proc.time()[["elapsed"]] - started
+
+  # the emulator at the reference's posterior mean: how far from the data
+  at_mean <- predict_gp(em, unit(matrix(plain$summary$mean[seq_along(lo)], 1)))
+  list(holdout = holdout, emulator = list(range = em@beta_hat, nugget = em@nugget,
+                                          kernel = em@kernel_type),
+       mcmc = plain, mcmc_emulator_variance = with_var,
+       residual_at_mean = drop((obs - at_mean$mean) / obs_sd),
+       emulator_sd_at_mean = drop(sqrt(at_mean$var) / obs_sd),
+       settings = list(n_iter = n_iter, chains = chains, seed = seed, hold = hold),
+       seconds = c(fits$seconds, mcmc = plain_seconds, mcmc_emulator_variance = var_seconds))
+}
