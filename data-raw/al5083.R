@@ -24,7 +24,8 @@
 #   SEPIA_DIR=/path/to/SEPIA Rscript data-raw/al5083.R
 # About 15 minutes on a shared 2-core machine, most of it the reference's
 # emulator; AL5083_REFERENCE=file reuses (or, if absent, writes) the
-# reference's result there.
+# reference's result there, and AL5083_EMULATORS=file its two ppgasp fits
+# (about 160 MB).
 pkgload::load_all(".", quiet = TRUE)
 source("data-raw/sepia-al5083.R")
 source("data-raw/al5083-reference.R")
@@ -106,7 +107,8 @@ ref_file <- Sys.getenv("AL5083_REFERENCE", "")
 if (nzchar(ref_file) && file.exists(ref_file)) {
   reference <- readRDS(ref_file)
 } else {
-  reference <- al5083_reference(al_design, al_sim, al_obs, al_obs_sd)
+  reference <- al5083_reference(al_design, al_sim, al_obs, al_obs_sd,
+                                emulator_cache = Sys.getenv("AL5083_EMULATORS", ""))
   if (nzchar(ref_file)) saveRDS(reference, ref_file)
 }
 
