@@ -10,7 +10,8 @@
 # what each says: summary, adequacy (effective runs, Pareto k-hat, resolved
 # or limited), warnings and run time. Then an independent reference
 # (data-raw/al5083-reference.R: a Gaussian-process emulator of the 1,000 runs
-# and adaptive Metropolis on it, the same likelihood) and the comparison.
+# and a differential-evolution MCMC on it, then importance sampling from the
+# chains' draws, the same likelihood) and the comparison.
 #
 # SEPIA's own posterior is not used: examples/Al_5083/data/sepia_mcmc_samples10000.pkl
 # is listed in the repository's tree but its content was not in the snapshot
@@ -22,8 +23,8 @@
 # inst/extdata/al5083.rds (xz). Run from the package root with SEPIA's
 # repository (a checkout or a bare git directory) at SEPIA_DIR:
 #   SEPIA_DIR=/path/to/SEPIA Rscript data-raw/al5083.R
-# About 15 minutes on a shared 2-core machine, most of it the reference's
-# emulator; AL5083_REFERENCE=file reuses (or, if absent, writes) the
+# About 30 minutes on a shared 2-core machine, nearly all of it the
+# reference (griddy's part: about a minute); AL5083_REFERENCE=file reuses (or, if absent, writes) the
 # reference's result there, and AL5083_EMULATORS=file its two ppgasp fits
 # (about 160 MB).
 pkgload::load_all(".", quiet = TRUE)
@@ -106,6 +107,13 @@ closest <- c(library = min(library_rms), vapply(residual_predictive, rms, numeri
 ref_file <- Sys.getenv("AL5083_REFERENCE", "")
 if (nzchar(ref_file) && file.exists(ref_file)) {
   reference <- readRDS(ref_file)
+  if (is.null(reference$importance)) {
+    # an earlier result without the importance sampling: its chains, then that
+    reference <- al5083_reference(al_design, al_sim, al_obs, al_obs_sd,
+                                  emulator_cache = Sys.getenv("AL5083_EMULATORS", ""),
+                                  previous = reference)
+    saveRDS(reference, ref_file)
+  }
 } else {
   reference <- al5083_reference(al_design, al_sim, al_obs, al_obs_sd,
                                 emulator_cache = Sys.getenv("AL5083_EMULATORS", ""))
@@ -128,6 +136,9 @@ compare <- function(g, r) {
              row.names = NULL)
 }
 comparison <- lapply(griddy, function(x) compare(x$table, reference$mcmc$summary))
+comparison_importance <- lapply(griddy, function(x) {
+  compare(x$table, reference$importance$summary)
+})
 comparison_emulator_variance <- compare(griddy$stage2$table,
                                         reference$mcmc_emulator_variance$summary)
 # how far the posterior means moved between the refine() calls, in the
@@ -156,9 +167,13 @@ results <- list(
   reference_mcmc = lapply(reference[c("mcmc", "mcmc_emulator_variance")], function(m) {
     m[c("summary", "acceptance", "starts")]
   }),
-  comparison = comparison, comparison_emulator_variance = comparison_emulator_variance,
+  reference_importance = reference$importance,
+  comparison = comparison, comparison_importance = comparison_importance,
+  comparison_emulator_variance = comparison_emulator_variance,
   moved = moved, prior_sd = prior_sd)
 saveRDS(results, "inst/extdata/al5083.rds", compress = "xz")
 str(results, max.level = 1)
 print(comparison$stage2, digits = 3)
+print(comparison_importance$stage2, digits = 3)
+print(reference$importance[c("pareto_k", "ess", "n", "seconds")])
 print(moved, digits = 3)
