@@ -107,8 +107,9 @@ closest <- c(library = min(library_rms), vapply(residual_predictive, rms, numeri
 ref_file <- Sys.getenv("AL5083_REFERENCE", "")
 if (nzchar(ref_file) && file.exists(ref_file)) {
   reference <- readRDS(ref_file)
-  if (is.null(reference$importance)) {
-    # an earlier result without the importance sampling: its chains, then that
+  if (is.null(reference$importance$rounds)) {
+    # an earlier result without the rounds of importance sampling: its chains,
+    # then those
     reference <- al5083_reference(al_design, al_sim, al_obs, al_obs_sd,
                                   emulator_cache = Sys.getenv("AL5083_EMULATORS", ""),
                                   previous = reference)
