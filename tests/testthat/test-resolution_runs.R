@@ -48,3 +48,42 @@ test_that("the reason names the parameters, also where the floor of effective ru
   expect_identical(runs$needed, 100)
   expect_match(run_resolution_reason(runs), "100 needed for 4 parameters", fixed = TRUE)
 })
+
+test_that("11 parameters on a few effective runs stay limited through calibrate() and refine() without a simulator", {
+  # issue 24's Al-5083: 11 parameters, 12 outputs; refine() without a
+  # simulator used to end with every parameter "resolved" on 11 effective
+  # runs. Here the posterior rests on 10 to 220 effective runs: each
+  # marginal has more than 10 effective values (the per-parameter test alone
+  # passes), the run-level test fails
+  skip_if_not_installed("RobustGaSP")
+  set.seed(11)
+  n <- 300
+  theta <- as.data.frame(matrix(stats::runif(n * 11), ncol = 11,
+                                dimnames = list(NULL, paste0("th", 1:11))))
+  weights <- 0.04 * matrix(stats::rnorm(11 * 12), 11, 12)
+  sim <- function(th) as.matrix(th) %*% weights
+  lib <- sim_library(theta, sim(theta))
+  field <- field_data(drop(sim(matrix(0.5, 1, 11))) + stats::rnorm(12, sd = 0.1))
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 600, burn_in = 100, seed = 1))
+  s <- summary(fit)
+  adequacy <- attr(s, "adequacy")$parameters
+  runs <- attr(adequacy, "runs")
+  expect_true(all(adequacy$effective_values > 10))
+  expect_lt(runs$effective_runs, runs$needed)
+  expect_identical(unique(s$resolution[s$parameter %in% names(theta)]), "limited")
+
+  classes <- character()
+  ref <- withCallingHandlers(refine(fit, max_runs = 400, seed = 1), warning = function(w) {
+    classes <<- c(classes, class(w)[1])
+    invokeRestart("muffleWarning")
+  })
+  expect_true("griddy_warning_resolution" %in% classes)
+  expect_identical(ref$refinement$reason, "max_runs")
+  s_ref <- summary(ref)
+  adequacy_ref <- attr(s_ref, "adequacy")$parameters
+  runs_ref <- attr(adequacy_ref, "runs")
+  expect_true(all(adequacy_ref$effective_values > 10))
+  expect_lt(runs_ref$effective_runs, runs_ref$needed)
+  expect_false(runs_ref$resolved)
+  expect_identical(unique(s_ref$resolution[s_ref$parameter %in% names(theta)]), "limited")
+})
