@@ -59,13 +59,14 @@ separated_modes <- function(proposal) {
   comps <- Filter(function(cmp) cmp$weight >= 0.05, proposal$components)
   if (length(comps) < 2L) return(FALSE)
   pairs <- utils::combn(length(comps), 2L)
-  any(apply(pairs, 2, function(ij) {
-    a <- comps[[ij[1]]]
-    b <- comps[[ij[2]]]
-    d <- a$centre - b$centre
-    cov <- crossprod(a$chol) + crossprod(b$chol)
-    sum(d * solve(cov, d)) > mode_separation^2
-  }))
+  any(apply(pairs, 2, function(ij) components_apart(comps[[ij[1]]], comps[[ij[2]]])))
+}
+
+# Two components whose centres lie more than mode_separation apart in the
+# metric of their summed covariances.
+components_apart <- function(a, b) {
+  d <- a$centre - b$centre
+  sum(d * solve(crossprod(a$chol) + crossprod(b$chol), d)) > mode_separation^2
 }
 
 uses_proposal <- function(library) {
@@ -356,19 +357,15 @@ far_mass <- function(p, theta, proposal) {
 # `mode_min_mass` are left to far_mass().
 mode_min_mass <- 0.02
 
-# Modes of a proposal: its components grouped where their centres are not
-# separated (separated_modes()'s metric). An integer per component.
+# Modes of a proposal: its components grouped, transitively, where they are
+# not apart (components_apart()). An integer per component.
 proposal_modes <- function(proposal) {
   comps <- proposal$components
   mode <- seq_along(comps)
   if (length(comps) < 2L) return(mode)
   pairs <- utils::combn(length(comps), 2L)
   for (ij in split(pairs, col(pairs))) {
-    a <- comps[[ij[1]]]
-    b <- comps[[ij[2]]]
-    d <- a$centre - b$centre
-    close <- sum(d * solve(crossprod(a$chol) + crossprod(b$chol), d)) <= mode_separation^2
-    if (close) mode[mode == mode[ij[2]]] <- mode[ij[1]]
+    if (!components_apart(comps[[ij[1]]], comps[[ij[2]]])) mode[mode == mode[ij[2]]] <- mode[ij[1]]
   }
   match(mode, unique(mode))
 }

@@ -66,8 +66,11 @@ fails_to_load <- function(p) {
                "ok <- vapply(p, function(q) isTRUE(suppressWarnings(suppressMessages(",
                "  requireNamespace(q, quietly = TRUE)))), logical(1))",
                "cat(p[!ok], sep = '\\n')"), script)
-  out <- system2(file.path(R.home("bin"), "Rscript"), c("--vanilla", script, p),
-                 stdout = TRUE, stderr = FALSE)
+  # the child searches this session's libraries (a user library included)
+  out <- system2(file.path(R.home("bin"), "Rscript"),
+                 c("--no-save", "--no-restore", "--no-init-file", script, p),
+                 stdout = TRUE, stderr = FALSE,
+                 env = paste0("R_LIBS=", paste(.libPaths(), collapse = .Platform$path.sep)))
   intersect(trimws(out), p)
 }
 for (attempt in 1:2) {
