@@ -14,7 +14,7 @@ gap_context <- function(fit) {
   setup <- fit$setup
   n_x <- lib_n_x(lib)
   n_t <- lib_n_t(lib)
-  obs <- if (is.null(setup$dense)) seq_len(n_x * n_t) else setup$dense$obs
+  obs <- observed_outputs(setup, n_x * n_t)
   setting_pos <- lapply(seq_len(n_x), function(k) block_positions(obs, k, seq_len(n_t), n_t))
   points <- lapply(seq_len(n_grid_points(setup)), function(g) {
     fitted <- grid_point(setup, g)
@@ -31,7 +31,7 @@ gap_context <- function(fit) {
   list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
        points = points, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
        logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
-       obs = obs, sd = setup$pattern$sd, dense = !is.null(setup$dense),
+       obs = obs, sd = setup$pattern$sd, is_dense = !is.null(noise_layout(setup)),
        setting_pos = setting_pos)
 }
 
@@ -144,7 +144,7 @@ leave_setting_pieces <- function(ctx, E) {
 # (complete data, no relative sd, R_x^-1 diagonal: no rho_x): then a
 # setting's leave-out piece is its own quadratic form (setting_quad_forms()).
 settings_apart <- function(ctx) {
-  !ctx$dense && is.null(ctx$sd) && all(vapply(ctx$points, function(point) {
+  !ctx$is_dense && is.null(ctx$sd) && all(vapply(ctx$points, function(point) {
     R <- point$Rx_inv
     all(R[row(R) != col(R)] == 0)
   }, logical(1)))
@@ -181,7 +181,7 @@ setting_pieces <- function(ctx, E, point) {
   J <- nrow(E)
   n_x <- ctx$n_x
   n_t <- ctx$n_t
-  if (ctx$dense) {
+  if (ctx$is_dense) {
     H <- E[, ctx$obs, drop = FALSE] %*% point$P
     D <- matrix(0, J, n_x)
     for (k in seq_len(n_x)) {

@@ -38,9 +38,7 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                           absorbed_by = NA_character_, stringsAsFactors = FALSE)
   which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
   rownames(which_tab) <- NULL
-  # a gap only on evidence that is at least positive: the posterior log odds
-  # of "other" beyond Kass and Raftery's inconclusive band
-  found <- log(prob[["other"]]) - log(prob[["none"]]) > gap_detect_log_odds
+  found <- gap_found(prob)
   step("where the discrepancy lies")
   # the base model's own leave-block-out checks (diagnose_gap-where.R, one
   # noise precision): a gap too local or rough for a smooth discrepancy
@@ -54,12 +52,7 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   if (!found && !is.null(check) && any(check$blocks$flagged)) {
     where <- c(check, list(kind = "check"))
   }
-  verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
-  if (!found && identical(where$kind, "check")) {
-    verdict[c("answer", "prob", "reason")] <- list("other", prob[["other"]], "blocks")
-  } else if (!found && verdict$answer == "other") {
-    verdict[c("answer", "prob", "reason")] <- list("none", prob[["none"]], "inconclusive")
-  }
+  verdict <- discrepancy_verdict(which_tab, base, where, prob, found)
   structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
@@ -68,10 +61,6 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                  x = lib_x(base), t = lib_t(base)),
             class = "gap_diagnosis")
 }
-
-# The posterior log odds of "other" against "none" above which the answer is
-# "other": the top of the band that evidence_words() calls inconclusive.
-gap_detect_log_odds <- 1
 
 # gap_where() of a refined base problem: its leave-block-out checks.
 base_check <- function(matched, windows, fdr) {
@@ -126,14 +115,15 @@ setup_noise_pattern <- function(setup, n, prior) {
     return(list(observed = rep(TRUE, n), sd = NULL, sd_mean = NULL, group = rep(1L, n),
                 labels = "", prior = prior, pure_ss = 0, pure_df = 0L, log_sd_excess = 0))
   }
+  layout <- noise_layout(setup)
   sd_mean <- NULL
-  if (!is.null(setup$dense$scale)) {
+  if (!is.null(layout$scale)) {
     sd_mean <- rep(NA_real_, n)
-    sd_mean[setup$dense$obs] <- 1 / setup$dense$scale
+    sd_mean[layout$obs] <- 1 / layout$scale
   }
   c(kept[c("observed", "sd")], list(sd_mean = sd_mean), kept[c("group", "labels")],
     list(prior = setup$fold_prior, pure_ss = setup$pure_ss,
-         pure_df = as.integer(setup$group_sizes - lengths(setup$dense$groups)),
+         pure_df = as.integer(setup$group_sizes - lengths(layout$groups)),
          log_sd_excess = 0))
 }
 
@@ -141,27 +131,27 @@ setup_noise_pattern <- function(setup, n, prior) {
 
 # Where the discrepancy's posterior is away from zero, block by block (one x
 # setting times one window of t, as for the candidates' leave-block-out
-# checks). At a grid point with ratio lambda > 0, in the coordinates
-# whitened by the rotation W (A A' = (R + lambda K)^-1, A = W diag(w^1/2),
-# see dense_factors()), the discrepancy given run i has mean F (c * W'r) and
-# scale matrix v F diag(c) F', with F = W^-T, c = lambda s / (1 + lambda s)
-# and v = (b + C/2) / (a + n/2): a multivariate t with 2a + n degrees of
-# freedom once tau is integrated out (per noise group, with the group's C
-# and size). A block's statistic is T = m_B' S_B^+ m_B / d (d the rank of
-# S_B), F(d, 2a + n) distributed about the mean, and p = P(F > T) is the
-# posterior probability of discrepancies further from the mean than zero.
-# `score` and `p_value` average T and p over the exact posterior given a
-# discrepancy (the pairs of run and grid point holding 99.9% of the mass
-# with lambda > 0); blocks are flagged (Benjamini-Hochberg at `fdr`) only
-# when the evidence finds a gap (`found`): $where says where the gap lies
-# once the evidence says there is one.
+# checks). At a grid point with ratio lambda > 0, given run i, delta at the
+# observed outputs has delta_law()'s mean m and covariance tau^-1 P; once
+# tau is integrated out (per noise group, with the group's C and size) it is
+# a multivariate t with 2a + n degrees of freedom and scale matrix v P,
+# v = (b + C/2) / (a + n/2). A block's statistic is T = m_B' P_B^+ m_B /
+# (v d) (d the rank of P_B, taken over the sd-scaled outputs), F(d, 2a + n)
+# distributed about the mean, and p = P(F > T) is the posterior probability
+# of discrepancies further from the mean than zero. `score` and `p_value`
+# average T and p over the exact posterior given a discrepancy (the pairs of
+# run and grid point holding 99.9% of the mass with lambda > 0); blocks are
+# flagged (Benjamini-Hochberg at `fdr`) only when the evidence finds a gap
+# (`found`): $where says where the gap lies once the evidence says there is
+# one.
 discrepancy_where <- function(problem, exact, windows, fdr, found) {
   setup <- problem$setup
   library <- problem$library
   n_x <- lib_n_x(library)
   n_t <- lib_n_t(library)
   t <- lib_t(library)
-  dense <- setup$dense
+  layout <- noise_layout(setup)
+  obs <- layout$obs
   none <- setup$discrepancy$ratio[setup$gd] == 0
   joint <- exact$joint
   win <- if (is.list(windows)) windows else gap_windows(list(n_t = n_t, t = t,
@@ -171,14 +161,14 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
                      list(lj = log(joint * rep(none, each = nrow(joint)))), windows)
   blocks <- expand.grid(w = seq_along(win), x = seq_len(n_x))
   pos <- lapply(seq_len(nrow(blocks)), function(b) {
-    block_positions(dense$obs, blocks$x[b], win[[blocks$w[b]]], n_t)
+    block_positions(obs, blocks$x[b], win[[blocks$w[b]]], n_t)
   })
   size <- lengths(pos)
   w_other <- joint * rep(!none, each = nrow(joint))
   pairs <- if (sum(w_other) > 0) top_pairs(w_other, 0.999, 200L) else integer(0)
   stat <- matrix(0, length(pairs), nrow(blocks))
   pval <- matrix(1, length(pairs), nrow(blocks))
-  delta <- matrix(0, length(pairs), length(dense$obs))
+  delta <- matrix(0, length(pairs), length(obs))
   delta_var <- delta
   wp <- if (length(pairs) > 0L) w_other[pairs] / sum(w_other[pairs]) else numeric(0)
   pairs <- arrayInd(pairs, dim(joint))
@@ -186,30 +176,26 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
   b <- problem$prior$rate
   Y <- if (nrow(pairs) > 0L) lib_outputs(library, unique(pairs[, 1]))
   row_of <- match(pairs[, 1], unique(pairs[, 1]))
+  kernels <- if (nrow(pairs) > 0L) {
+    discrepancy_kernels(library, attr(setup$discrepancy, "kernels"))
+  }
+  scale <- if (is.null(layout$scale)) rep(1, length(obs)) else layout$scale
   for (g in unique(pairs[, 2])) {
-    post <- discrepancy_posterior_factors(setup, g)
+    law <- delta_law(setup, g, kernels, observed_only = TRUE)
+    P <- scaled_delta_covs(law, layout)
     at <- which(pairs[, 2] == g)
-    Ck <- group_quad_forms(Y[row_of[at], , drop = FALSE], problem$y_field, setup, g)
-    resid <- matrix(problem$y_field, length(at), ncol(Y), byrow = TRUE) -
-      Y[row_of[at], , drop = FALSE]
-    U <- resid[, dense$obs, drop = FALSE]
-    if (!is.null(dense$scale)) U <- sweep(U, 2, dense$scale, "*")
-    M <- matrix(0, length(at), length(dense$obs))        # the discrepancy's mean (scaled)
-    V <- M                                                # its pointwise scale
-    scale2 <- matrix(0, length(at), length(dense$groups))
-    for (k in seq_along(dense$groups)) {
-      idx <- dense$groups[[k]]
-      pk <- post[[k]]
-      M[, idx] <- (U[, idx, drop = FALSE] %*% pk$W) %*% (t(pk$F) * pk$c)
-      n_k <- setup$group_sizes[k]
-      scale2[, k] <- (b + Ck[, k] / 2) / (a + n_k / 2)
-      V[, idx] <- outer(scale2[, k], rowSums(pk$F^2 * rep(pk$c, each = nrow(pk$F))))
+    Yg <- Y[row_of[at], , drop = FALSE]
+    Ck <- group_quad_forms(Yg, problem$y_field, setup, g)
+    resid <- matrix(problem$y_field, length(at), ncol(Y), byrow = TRUE) - Yg
+    delta[at, ] <- delta_means(law, resid)[, obs, drop = FALSE]
+    M <- sweep(delta[at, , drop = FALSE], 2, scale, "*")   # the mean, sd-scaled
+    scale2 <- matrix(0, length(at), length(layout$groups))
+    for (k in seq_along(layout$groups)) {
+      scale2[, k] <- (b + Ck[, k] / 2) / (a + setup$group_sizes[k] / 2)
+      delta_var[at, layout$groups[[k]]] <- outer(scale2[, k], delta_cov_diag(law$groups[[k]]))
     }
-    unscale <- if (is.null(dense$scale)) 1 else 1 / dense$scale
-    delta[at, ] <- sweep(M, 2, unscale, "*")
-    delta_var[at, ] <- sweep(V, 2, unscale^2, "*")
     for (bl in which(size > 0L)) {
-      parts <- block_group_parts(pos[[bl]], dense$groups, post)
+      parts <- block_group_parts(pos[[bl]], layout$groups, P)
       for (j in seq_along(at)) {
         tt <- 0
         d <- 0
@@ -242,31 +228,32 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
   out <- data.frame(x = blocks$x, from = t_of(min), to = t_of(max), n = size,
                     score = score, p_value = p_value, flagged = flagged & !is.na(flagged))
   list(blocks = out, breaks = win, kind = "discrepancy",
-       map = discrepancy_map(delta, delta_var, wp, dense$obs, n_x, n_t, t))
+       map = discrepancy_map(delta, delta_var, wp, obs, n_x, n_t, t))
 }
 
-# Per noise group at discrepancy grid point g: the rotation W, F = W^-T and
-# c = lambda s / (1 + lambda s) (see discrepancy_where()).
-discrepancy_posterior_factors <- function(setup, g) {
-  dense <- setup$dense
-  W <- dense$W[[dense$rot[g]]]
-  w <- dense$w[[g]]
-  Map(function(Wk, wk) {
-    list(W = Wk, F = t(solve(Wk)), c = if (is.null(wk)) rep(0, ncol(Wk)) else 1 - wk)
-  }, W, if (is.null(w)) rep(list(NULL), length(W)) else w)
+# Per noise group of an observed-only delta_law(): delta's covariance P per
+# unit tau^-1 over the group's observed outputs, in sd-scaled units (S^-1 P
+# S^-1), where the blocks' numerical ranks are judged.
+scaled_delta_covs <- function(law, layout) {
+  lapply(seq_along(law$groups), function(k) {
+    P <- delta_cov(law$groups[[k]])
+    if (is.null(layout$scale)) return(P)
+    s <- layout$scale[layout$groups[[k]]]
+    P * outer(s, s)
+  })
 }
 
 # A block's parts, one per noise group it touches: the block's positions in
 # that group's data vector (`pos`, over all observed points), and the
-# eigen-pieces of its scale block F_B diag(c) F_B' above its numerical rank.
-block_group_parts <- function(pos, groups, post) {
+# eigen-pieces of its block of P (scaled_delta_covs(), one per group) above
+# its numerical rank.
+block_group_parts <- function(pos, groups, P) {
   parts <- list()
   for (k in seq_along(groups)) {
     here <- pos[pos %in% groups[[k]]]
     if (length(here) == 0L) next
-    Fb <- post[[k]]$F[match(here, groups[[k]]), , drop = FALSE]
-    S <- tcrossprod(sweep(Fb, 2, sqrt(post[[k]]$c), "*"))
-    e <- eigen(S, symmetric = TRUE)
+    j <- match(here, groups[[k]])
+    e <- eigen(P[[k]][j, j, drop = FALSE], symmetric = TRUE)
     keep <- e$values > max(e$values, 0) * 1e-8 & e$values > 0
     parts[[length(parts) + 1L]] <- list(group = k, pos = here, values = e$values[keep],
                                         vectors = e$vectors[, keep, drop = FALSE])

@@ -42,7 +42,7 @@ other_log_evidence <- function(ctx, base_terms, scales, ratios = 4^(1:4)) {
   kernels <- kernels[keep]
   # without a noise pattern, P = R_x^-1 (x) Pt and K = Kx (x) Kt: the
   # products go factor by factor (kronecker_products())
-  kron <- !ctx$dense && is.null(ctx$sd)
+  kron <- !ctx$is_dense && is.null(ctx$sd)
   factors <- if (kron) {
     lapply(scales[keep], function(sc) lapply(smooth_kernel_parts(ctx, sc), low_rank_factor))
   } else {
@@ -159,7 +159,7 @@ low_rank_factor <- function(K) {
 # grid point's inverse noise correlation (as apply_precision(), all columns
 # at once).
 precision_times <- function(ctx, point, M) {
-  if (ctx$dense) return(point$P %*% M)
+  if (ctx$is_dense) return(point$P %*% M)
   n_t <- ctx$n_t
   n_x <- ctx$n_x
   r <- ncol(M)

@@ -26,7 +26,7 @@ fold_one <- function(ctx, tm, k, model) {
   # log|R_-B| = log|R_g| + log|(R_g^-1)_BB|: for complete data (R^-1)_BB =
   # (R_x^-1)_kk Pt, otherwise from the point's factor of P_BB
   ld_bb <- vapply(ctx$points, function(point) {
-    if (ctx$dense) return(2 * sum(log(diag(point$setting_chol[[k]]))))
+    if (ctx$is_dense) return(2 * sum(log(diag(point$setting_chol[[k]]))))
     m * log(point$Rx_inv[k, k]) - sum(log1p(-point$phi^2))
   }, numeric(1))
   Qm <- pmax(tm$Q - tm$D[, , k], 0)

@@ -71,7 +71,7 @@ gap_where <- function(ctx, tm, windows, fdr) {
 # h = P e for the data vector e: P = R_x^-1 (x) Pt for complete data, the
 # point's dense P otherwise.
 apply_precision <- function(ctx, point, e) {
-  if (ctx$dense) return(drop(point$P %*% e))
+  if (ctx$is_dense) return(drop(point$P %*% e))
   as.vector(ar1_precision_times(point$Pt, matrix(e, ctx$n_t, ctx$n_x)) %*% point$Rx_inv)
 }
 
@@ -89,7 +89,7 @@ ar1_precision_times <- function(Pt, X) {
 
 # P_BB for the block of setting x and t indices W at data positions `pos`.
 block_precision <- function(ctx, point, pos, W, x) {
-  if (ctx$dense) return(point$P[pos, pos, drop = FALSE])
+  if (ctx$is_dense) return(point$P[pos, pos, drop = FALSE])
   point$Rx_inv[x, x] * point$Pt[W, W, drop = FALSE]
 }
 

@@ -1,19 +1,7 @@
 # Where the gap lies: the posterior of the discrepancy delta at every library
-# output (observed or not), from a fit with a gp_discrepancy().
-#
-# Given run i, grid point g (ratio lambda, lengths l) and the precision tau,
-# within each noise group (delta and the noise are independent between
-# groups), with r_i = y - g_i over the group's observed cells o and
-# Sigma = S R_g S + lambda K_oo (so Cov(y) = tau^-1 Sigma, data units):
-#   delta | y ~ N(lambda K_.o Sigma^-1 r_i,
-#                 tau^-1 (lambda K - lambda K_.o Sigma^-1 lambda K_o.)).
-# The engine's factor A (grid_point()$dense$A, A A' = (R + lambda K~)^-1 on
-# sd-scaled data, K~ = S^-1 K S^-1) gives Sigma^-1 = S^-1 A A' S^-1, so with
-# B = lambda K_.o S^-1 A the mean is B (A' S^-1 r_i) (the whitened residual
-# of whiten_groups()) and the covariance tau^-1 (lambda K - B B'). The mean
-# does not depend on tau. The posterior of delta is the mixture of these
-# over the fit's kept draws of (run, grid point, tau); lambda = 0 gives 0
-# (see ../shared/notes/discrepancy.md, section 5).
+# output (observed or not), from a fit with a gp_discrepancy(): the mixture
+# of delta's conditional law given (run, grid point, tau) (delta_law(),
+# discrepancy_law.R) over the fit's kept draws.
 
 #' The posterior of the model discrepancy
 #'
@@ -118,40 +106,15 @@ posterior_mean_outputs <- function(fit) {
   colSums(lib_outputs(fit$library, visited) * (freq[visited] / sum(freq)))
 }
 
-# What delta | y needs at grid point g, per noise group k: the group's
-# library outputs `cells`, the dense grid point, B = lambda K_{cells,o}
-# S^-1 A_k and the prior covariance lambda K_{cells,cells}. NULL at lambda = 0.
-# `kernels` is discrepancy_kernels() of the fit (computed once by the caller).
-delta_point <- function(fit, g, kernels) {
-  setup <- fit$setup
-  d <- setup$discrepancy[setup$gd[g], ]
-  if (d$ratio == 0) return(NULL)
-  point <- grid_point(setup, g)
-  dense <- point$dense
-  K <- kernels[[d$kernel]]
-  groups <- lapply(seq_along(dense$groups), function(k) {
-    idx <- dense$groups[[k]]
-    obs <- dense$obs[idx]
-    cells <- which(setup$pattern$group == k)
-    scale <- if (is.null(dense$scale)) 1 else dense$scale[idx]
-    list(cells = cells,
-         B = d$ratio * K[cells, obs, drop = FALSE] %*% (scale * dense$A[[k]]),
-         prior = d$ratio * K[cells, cells, drop = FALSE])
-  })
-  list(point = point, groups = groups)
+# The residuals y - g_i of the fit's runs `runs` (one row per run).
+run_residuals <- function(fit, runs) {
+  matrix(fit$y_field, length(runs), length(fit$y_field), byrow = TRUE) -
+    lib_outputs(fit$library, runs)
 }
 
-# The conditional means of delta (one row per run in `runs`, one column per
-# library output) at a delta_point().
-delta_means <- function(fit, runs, at) {
-  n <- length(fit$y_field)
-  resid <- matrix(fit$y_field, length(runs), n, byrow = TRUE) - lib_outputs(fit$library, runs)
-  z <- whiten_groups(resid, at$point)
-  m <- matrix(0, length(runs), n)
-  for (k in seq_along(at$groups)) {
-    m[, at$groups[[k]]$cells] <- z[[k]] %*% t(at$groups[[k]]$B)
-  }
-  m
+# The fit's discrepancy kernels (discrepancy_kernels()), for delta_law().
+fit_kernels <- function(fit) {
+  discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
 }
 
 # The draws' precisions, one column per noise group (group order).
@@ -163,25 +126,24 @@ tau_matrix <- function(fit, rows) {
 # of the mixture over all kept draws, E[m] and E[m^2 + diag(P) / tau] -
 # E[m]^2, with no random numbers (so calibrate()'s gap warning can use them).
 discrepancy_moments <- function(fit) {
-  kernels <- discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
+  kernels <- fit_kernels(fit)
   n <- length(fit$y_field)
   n_draws <- nrow(fit$draws)
   s1 <- numeric(n)
   s2 <- numeric(n)
   for (g in unique(fit$draws$grid_point)) {
-    at <- delta_point(fit, g, kernels)
-    if (is.null(at)) next
+    law <- delta_law(fit$setup, g, kernels)
+    if (is.null(law)) next
     rows <- which(fit$draws$grid_point == g)
     runs <- unique(fit$draws$run[rows])
     counts <- tabulate(match(fit$draws$run[rows], runs), length(runs))
-    m <- delta_means(fit, runs, at)
+    m <- delta_means(law, run_residuals(fit, runs))
     s1 <- s1 + colSums(m * counts)
     s2 <- s2 + colSums(m^2 * counts)
     inv_tau <- colSums(1 / tau_matrix(fit, rows))
-    for (k in seq_along(at$groups)) {
-      grp <- at$groups[[k]]
-      post_var <- pmax(diag(grp$prior) - rowSums(grp$B^2), 0)
-      s2[grp$cells] <- s2[grp$cells] + post_var * inv_tau[k]
+    for (k in seq_along(law$groups)) {
+      grp <- law$groups[[k]]
+      s2[grp$cells] <- s2[grp$cells] + delta_cov_diag(grp) * inv_tau[k]
     }
   }
   mean <- s1 / n_draws
@@ -190,23 +152,22 @@ discrepancy_moments <- function(fit) {
 
 # Draws of delta (one row per row of fit$draws in `pick`, one column per
 # library output): the conditional mean plus N(0, tau^-1 P) drawn through
-# P's eigen-decomposition (P = lambda K - B B' is often numerically
-# singular: smooth kernels, and zero where the data pin delta).
+# P's eigen-decomposition (P is often numerically singular, see delta_cov()).
 discrepancy_draws <- function(fit, pick) {
-  kernels <- discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
+  kernels <- fit_kernels(fit)
   d <- fit$draws[pick, ]
   tau <- tau_matrix(fit, pick)
   out <- matrix(0, length(pick), length(fit$y_field))
   for (g in unique(d$grid_point)) {
-    at <- delta_point(fit, g, kernels)
-    if (is.null(at)) next
+    law <- delta_law(fit$setup, g, kernels)
+    if (is.null(law)) next
     rows <- which(d$grid_point == g)
     runs <- unique(d$run[rows])
-    out[rows, ] <- delta_means(fit, runs, at)[match(d$run[rows], runs), , drop = FALSE]
-    for (k in seq_along(at$groups)) {
-      grp <- at$groups[[k]]
-      P <- grp$prior - tcrossprod(grp$B)
-      e <- eigen((P + t(P)) / 2, symmetric = TRUE)
+    out[rows, ] <- delta_means(law, run_residuals(fit, runs))[match(d$run[rows], runs), ,
+                                                             drop = FALSE]
+    for (k in seq_along(law$groups)) {
+      grp <- law$groups[[k]]
+      e <- eigen(delta_cov(grp), symmetric = TRUE)
       L <- sweep(e$vectors, 2, sqrt(pmax(e$values, 0)), "*")
       Z <- matrix(stats::rnorm(length(rows) * ncol(L)), length(rows))
       out[rows, grp$cells] <- out[rows, grp$cells] + tcrossprod(Z, L) / sqrt(tau[rows, k])

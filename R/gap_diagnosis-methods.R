@@ -1,4 +1,5 @@
-# The verdict of a gap diagnosis, and its print(), summary() and plot() methods.
+# How a gap diagnosis reads: its advice and its print(), summary() and plot()
+# methods (the verdict itself is decided in gap_verdict.R).
 
 # The advice for confounded candidates: per candidate, where across x it and
 # the parameter that absorbs it part (design_sentence(), from the diagnosis's
@@ -64,25 +65,6 @@ format_prob <- function(p) {
 prob_phrase <- function(p, what = "P") {
   s <- format_prob(p)
   paste0(what, ifelse(grepl("^[<>]", s), " ", " = "), s)
-}
-
-gap_verdict <- function(which_tab, separation, base, where) {
-  ok <- !which_tab$confounded
-  answer <- which_tab$effect[ok][1]
-  prob <- which_tab$prob[ok][1]
-  # the base model fails its own check: a gap is there even if no smooth
-  # discrepancy beats it in evidence (e.g. a gap too local or too rough)
-  n_flagged <- sum(where$blocks$flagged)
-  reason <- if (answer == "none" && n_flagged > 0L) "blocks" else "evidence"
-  if (reason == "blocks") {
-    answer <- "other"
-    prob <- which_tab$prob[which_tab$effect == "other"]
-  }
-  conf <- which_tab$effect[which_tab$confounded]
-  advice <- gap_advice(which_tab, separation, lib_x(base))
-  list(answer = answer, prob = prob, reason = reason, confounded = conf,
-       advice = unname(advice), n_flagged = n_flagged,
-       prob_none = which_tab$prob[which_tab$effect == "none"])
 }
 
 # The verdict in a few words: a gap flagged by blocks but beaten in evidence

@@ -30,13 +30,12 @@ test_that("delta | y at a run and grid point is the Gaussian conditional, per no
     toy$library, field_data(toy$y, x = toy$x, t = toy$t, sd = sd), rho_x = 0.5,
     rho_t = c(0, 0.6), n_iter = 100, burn_in = 10, seed = 1, noise_groups = groups,
     discrepancy = gp_discrepancy(ratio = c(0, 1, 10), length_x = 0.5, length_t = 0.3)))
-  kernels <- discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
   for (g in which(fit$grid$delta_ratio > 0)) {
-    at <- delta_point(fit, g, kernels)
+    at <- delta_law(fit$setup, g, fit_kernels(fit))
     want <- brute_delta(fit, 3, g, sd, groups)
-    expect_equal(delta_means(fit, 3, at)[1, ], want$mean, tolerance = 1e-10)
+    expect_equal(delta_means(at, run_residuals(fit, 3))[1, ], want$mean, tolerance = 1e-10)
     P <- matrix(0, 15, 15)
-    for (grp in at$groups) P[grp$cells, grp$cells] <- grp$prior - tcrossprod(grp$B)
+    for (grp in at$groups) P[grp$cells, grp$cells] <- delta_cov(grp)
     expect_equal(P, want$cov, tolerance = 1e-10)
   }
   # the draws at one (run, grid point, tau) have that mean and covariance / tau
@@ -63,8 +62,7 @@ test_that("with replicates delta | y is the conditional given every measurement"
     toy$library, toy$field, n_iter = 100, burn_in = 10, seed = 1,
     discrepancy = gp_discrepancy(ratio = c(0, 3), length_x = 0.5, length_t = 0.5)))
   g <- which(fit$grid$delta_ratio > 0)
-  at <- delta_point(fit, g, discrepancy_kernels(fit$library,
-                                                attr(fit$setup$discrepancy, "kernels")))
+  at <- delta_law(fit$setup, g, fit_kernels(fit))
   # every measurement: y_r = g + delta(cell) + e_r, e_r ~ N(0, sd_r^2 / tau) independent
   K <- 3 * discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))[[1]]
   cell <- as.vector(outer((toy$rows - 1L) * 5L, 1:5, "+"))
@@ -74,9 +72,9 @@ test_that("with replicates delta | y is the conditional given every measurement"
   Z <- diag(15)[cell, ]
   Sigma <- diag(as.vector(toy$sd)[keep]^2) + Z %*% K %*% t(Z)
   r <- y[keep] - toy$Y[2, cell]
-  expect_equal(delta_means(fit, 2, at)[1, ], drop(K %*% t(Z) %*% solve(Sigma, r)),
+  expect_equal(delta_means(at, run_residuals(fit, 2))[1, ], drop(K %*% t(Z) %*% solve(Sigma, r)),
                tolerance = 1e-10)
-  expect_equal(at$groups[[1]]$prior - tcrossprod(at$groups[[1]]$B),
+  expect_equal(delta_cov(at$groups[[1]]),
                K - K %*% t(Z) %*% solve(Sigma, Z %*% K), tolerance = 1e-10)
 })
 
