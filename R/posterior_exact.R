@@ -79,29 +79,33 @@ posterior_exact.default <- function(library, field, rho_x = 0, rho_t = 0, prior 
 #' @rdname posterior_exact
 #' @export
 posterior_exact.griddy_fit <- function(library, joint = TRUE, ...) {
-  check_no_dots(..., owner = "a fit")
+  check_no_dots(joint, ..., owner = "a fit")
   exact_from_problem(library, assert_flag(joint, "joint"))
 }
 
 #' @rdname posterior_exact
 #' @export
 posterior_exact.griddy_stream <- function(library, joint = TRUE, ...) {
-  check_no_dots(..., owner = "a stream")
+  check_no_dots(joint, ..., owner = "a stream")
   stream_posterior(library, joint)
 }
 
 # An argument that no method takes (a misspelt one, or data given to a fit
-# or a stream, which hold their own) is an error, not silently dropped.
-check_no_dots <- function(..., owner = NULL) {
+# or a stream, which hold their own) is an error, not silently dropped. For
+# a fit or a stream, `joint` comes first: data given in its place are named.
+check_no_dots <- function(joint = TRUE, ..., owner = NULL) {
+  own <- if (!is.null(owner)) paste0(" (", owner, " holds its own data, grid and priors)")
+  if (!is.logical(joint)) {
+    griddy_abort("posterior_exact() of ", owner, " takes `joint` (TRUE or FALSE) after it; ",
+                 "received ", class(joint)[1], own, ".")
+  }
   if (...length() == 0L) return(invisible())
   dots <- names(list(...))
   dots <- if (is.null(dots)) character() else dots[dots != ""]
   griddy_abort("posterior_exact()", if (!is.null(owner)) paste0(" of ", owner),
                " takes no further argument; received ",
                if (length(dots) > 0L) paste0("`", dots, "`", collapse = ", ") else
-                 paste(...length(), "unnamed"),
-               if (!is.null(owner)) paste0(" (", owner, " holds its own data, grid and priors)"),
-               ".")
+                 paste(...length(), "unnamed"), own, ".")
 }
 
 # The exact posterior of a calibration problem, or of a fit (which holds its
