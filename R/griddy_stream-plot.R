@@ -90,15 +90,15 @@ plot.griddy_stream_models <- function(x, ...) {
   state <- x$state
   models <- names(state$streams)
   h <- as.data.frame(x)
-  forgetting <- if (state$forgetting < 1) paste0("forgetting ", format(state$forgetting)) else
-    "no forgetting (exact posterior probabilities)"
+  forgetting <- if (state$forgetting < 1) paste0("Forgetting ", format(state$forgetting)) else
+    "No forgetting: the exact posterior probabilities"
   if (nrow(h) == 0L) {
     now <- data.frame(model = factor(models, levels = models), prob = exp(state$log_prob))
     return(ggplot2::ggplot(now, ggplot2::aes(.data$model, .data$prob)) +
              ggplot2::geom_col(fill = "steelblue") +
              ggplot2::scale_y_continuous(limits = c(0, 1)) +
              ggplot2::labs(x = "Model", y = "Probability", title = "Model probabilities",
-                           subtitle = paste0("No measurement yet; ", forgetting)) +
+                           subtitle = "No measurement yet: the prior") +
              ggplot2::theme_bw())
   }
   start <- if (is.null(state$initial_prob)) rep(NA_real_, length(models)) else state$initial_prob
