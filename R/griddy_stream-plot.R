@@ -52,36 +52,22 @@ stream_bar_plot <- function(run, theta) {
   bars <- do.call(rbind, lapply(names(theta), function(p) {
     prob <- tapply(run, theta[[p]], sum)
     v <- as.numeric(names(prob))
-    gaps <- diff(v)
-    half <- 0.45 * max(if (length(gaps)) min(gaps) else 0, diff(range(v)) / 200,
-                       abs(v[1]) * 1e-3, 1e-12)
-    data.frame(parameter = p, value = v, xmin = v - half, xmax = v + half,
-               prob = as.vector(prob))
+    value_bars(p, v, v, as.vector(prob))
   }))
   bars$parameter <- factor(bars$parameter, levels = names(theta))
-  ggplot2::ggplot(bars) +
-    ggplot2::geom_rect(ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = 0,
-                                    ymax = .data$prob), fill = "steelblue", colour = NA) +
-    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
+  bar_panels(bars) +
     ggplot2::labs(x = "Library value", y = "Probability",
                   subtitle = "Probability of each library value, summed over the runs at it")
 }
 
 # A scattered design: the runs' values weighted by their probability,
-# smoothed for the effective number of runs (weighted_density()).
+# smoothed for the effective number of runs (density_panels()).
 stream_density_plot <- function(run, theta) {
-  n_eff <- effective_count(run)
-  curves <- do.call(rbind, lapply(names(theta), function(p) {
-    d <- weighted_density(theta[[p]], run, n_eff)
-    data.frame(parameter = factor(p, levels = names(theta)), value = d$x, density = d$y)
-  }))
-  ggplot2::ggplot(curves, ggplot2::aes(.data$value, .data$density)) +
-    ggplot2::geom_area(fill = "steelblue", alpha = 0.35) +
-    ggplot2::geom_line(colour = "steelblue4") +
-    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
+  density_panels(run, theta) +
     ggplot2::labs(x = "Value", y = "Density",
                   subtitle = paste0("Runs weighted by their probability, smoothed for ",
-                                    format(n_eff, digits = 3), " effective runs"))
+                                    format(effective_count(run), digits = 3),
+                                    " effective runs"))
 }
 
 #' @rdname plot.griddy_stream
