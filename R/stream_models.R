@@ -30,7 +30,10 @@
 #' The streams are updated in place (see [griddy_stream()]): give each
 #' `stream_models()` streams of its own, or a stream shared by two of them
 #' takes every measurement twice. The same stream given for two models is
-#' refused (an error of class `griddy_error_duplicate_stream`).
+#' refused (an error of class `griddy_error_duplicate_stream`), and so is an
+#' update after a stream was updated outside the model choice (class
+#' `griddy_error_stream_changed`). [plot()][plot.griddy_stream_models] draws
+#' the probabilities as the data arrived.
 #'
 #' **An update reaches every model or none.** The measurements of one
 #' `update()` are first matched to every model's library; if a stream then
@@ -81,6 +84,7 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
                               upper = 1)
   state <- new.env(parent = emptyenv())
   state$streams <- streams
+  state$n_taken <- n[[1]]  # what every stream holds, unless updated behind our back
   state$forgetting <- forgetting
   state$log_evidence <- vapply(streams, function(s) as.numeric(logLik(s)), numeric(1))
   if (anyNA(state$log_evidence)) {
@@ -103,6 +107,7 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
 #' @export
 update.griddy_stream_models <- function(object, y, x = NULL, t = NULL, ...) {
   state <- object$state
+  assert_streams_in_step(state)
   libraries <- lapply(state$streams, function(s) s$state$library)
   cells <- lapply(libraries, stream_cells, y = y, x = x, t = t)
   first <- libraries[[1]]
@@ -134,6 +139,23 @@ assert_distinct_streams <- function(streams) {
   invisible(streams)
 }
 
+# A stream updated outside this model choice (directly, or by another
+# stream_models() that holds it too) no longer holds the models' data: its
+# evidence would be compared with the others' on different data.
+assert_streams_in_step <- function(state) {
+  n <- vapply(state$streams, nobs, integer(1))
+  off <- n != state$n_taken
+  if (any(off)) {
+    griddy_abort("Stream(s) ", show_some(paste0("`", names(n)[off], "`")), " hold ",
+                 show_some(n[off]), " measurement(s) where the models have taken ",
+                 state$n_taken, ": they were updated outside this stream_models() (directly ",
+                 "or by another one holding them), so the evidences would compare different ",
+                 "data. Give each stream_models() streams of its own, updated only through it.",
+                 class = "stream_changed")
+  }
+  invisible(state)
+}
+
 # The models' state and every stream's, to put back when an update fails
 # part-way: an update reaches every model or none. The forms C are changed
 # in place by stream_add_cpp(), so they are copied; everything else is
@@ -163,6 +185,7 @@ restore_env <- function(env, values) {
 models_add <- function(state, y, x, t) {
   before <- state$log_evidence
   for (s in state$streams) update(s, y = y, x = x, t = t)
+  state$n_taken <- state$n_taken + 1L
   state$log_evidence <- vapply(state$streams, function(s) as.numeric(logLik(s)), numeric(1))
   log_pred <- state$log_evidence - before
   state$log_prob <- normalise_log_prob(normalise_log_prob(state$forgetting * state$log_prob) +

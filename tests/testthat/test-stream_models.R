@@ -111,3 +111,16 @@ test_that("measurements one model's library lacks are refused before any model t
   expect_identical(vapply(m$streams, nobs, integer(1)), c(a = 0L, b = 0L))
   expect_identical(nrow(as.data.frame(m)), 0L)
 })
+
+test_that("a stream updated outside the model choice stops the next update", {
+  ex <- griddy_example()
+  x1 <- ex$field$x[1, , drop = FALSE]
+  a <- griddy_stream(ex$library)
+  m <- stream_models(a = a, b = griddy_stream(ex$library))
+  update(m, y = ex$field$y[1, 1:2], x = x1, t = ex$library$t[1:2])
+  update(a, y = ex$field$y[1, 3], x = x1, t = ex$library$t[3])
+  expect_error(update(m, y = ex$field$y[1, 4], x = x1, t = ex$library$t[4]),
+               "`a` hold 3 measurement\\(s\\) where the models have taken 2",
+               class = "griddy_error_stream_changed")
+  expect_identical(nobs(m$streams$b), 2L)
+})
