@@ -123,15 +123,31 @@ stream_accumulate <- function(state, column, y) {
                    "rounds to 1; use values further from 1.", class = "numeric")
     }
     one_minus <- 1 - phi^2
+    check_term_bound(state, y, column, prev, state$last_y[setting, k], phi, 1 / one_minus)
     add_column(state, column, y, prev, state$last_y[setting, k], phi, 1 / one_minus, k, G)
     state$logdet <- state$logdet + log(one_minus)
   } else {
+    check_term_bound(state, y, column, NA_integer_, 0, 0, 1)
     add_column(state, column, y, 0L, 0, numeric(G), rep(1, G), k, G)
   }
   state$n[k] <- state$n[k] + 1L
   state$last_column[setting, k] <- column
   state$last_y[setting, k] <- y
   state$cache <- NULL
+  invisible(state)
+}
+
+# The forms are changed in place, so a term that would overflow them is
+# refused before any is changed (the C++ check comes after the change, and
+# the stream would keep infinite forms): a bound on the new term,
+# (|y| + max |output| + phi (|y_prev| + max |previous output|))^2 scale,
+# added to the bound on every form so far.
+check_term_bound <- function(state, y, column, prev, y_prev, phi, scale) {
+  r <- abs(y) + state$out_absmax[column]
+  q <- if (is.na(prev)) 0 else max(abs(phi)) * (abs(y_prev) + state$out_absmax[prev])
+  bound <- state$C_bound + (r + q)^2 * max(scale)
+  if (!is.finite(bound)) abort_overflow(y)
+  state$C_bound <- bound
   invisible(state)
 }
 

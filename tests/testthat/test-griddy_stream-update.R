@@ -124,3 +124,18 @@ test_that("a field_data reaches the stream's cells as it reaches calibrate()'s (
   wrong <- field_data(y[1:2, ])
   expect_error(update(griddy_stream(ex$library), y = wrong), class = "griddy_error_shape")
 })
+
+test_that("a measurement that would overflow the forms is refused before it changes them", {
+  ex <- griddy_example()
+  x1 <- ex$field$x[1, , drop = FALSE]
+  s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
+  update(s, y = ex$field$y[1, 1:3], x = x1, t = ex$library$t[1:3])
+  # before: the forms took the infinite term, then the error; the stream
+  # went on with infinite forms
+  expect_error(update(s, y = 1e200, x = x1, t = ex$library$t[4]), class = "griddy_error_numeric")
+  expect_identical(nobs(s), 3L)
+  update(s, y = ex$field$y[1, 4:30], x = x1, t = ex$library$t[4:30])
+  field <- field_data(ex$field$y[1, , drop = FALSE], x = x1, t = ex$library$t)
+  expect_equal(posterior_exact(s), posterior_exact(ex$library, field, rho_t = c(0, 0.5)),
+               tolerance = 1e-10)
+})
