@@ -5,6 +5,10 @@ grid_posterior_cpp <- function(C, shape_post, rate, logdet, log_prior_run, log_p
     .Call(`_griddy_grid_posterior_cpp`, C, shape_post, rate, logdet, log_prior_run, log_prior_grid, joint, threads)
 }
 
+log_mass_cpp <- function(C, shape_post, rate, logdet, log_prior_run, log_prior_grid, threads = 1L) {
+    .Call(`_griddy_log_mass_cpp`, C, shape_post, rate, logdet, log_prior_run, log_prior_grid, threads)
+}
+
 run_order_cpp <- function(C, threads = 1L) {
     .Call(`_griddy_run_order_cpp`, C, threads)
 }
@@ -51,10 +55,6 @@ quad_forms_avx2_cpp <- function() {
 
 stream_add_cpp <- function(C, outputs, column, y, prev, y_prev, phi, scale, offset) {
     invisible(.Call(`_griddy_stream_add_cpp`, C, outputs, column, y, prev, y_prev, phi, scale, offset))
-}
-
-stream_log_sum_cpp <- function(C, shape_post, rate, grid_term, log_prior_run) {
-    .Call(`_griddy_stream_log_sum_cpp`, C, shape_post, rate, grid_term, log_prior_run)
 }
 
 omp_limits_cpp <- function() {

@@ -99,7 +99,8 @@
 #'   deviation from 0.3 to 100 times the noise's, in half-decade steps.
 #' @param length_x,length_t Grids of the length scales over the control
 #'   settings (isotropic over the x columns) and over the output coordinate,
-#'   both scaled to \[0, 1]: positive values. Ignored when the library has a
+#'   both scaled to \[0, 1]: positive values whose squares neither underflow
+#'   nor overflow (about 1.5e-154 to 1.3e154). Ignored when the library has a
 #'   single x setting, or a single output per setting.
 #' @param prior_none The prior probability of \eqn{\lambda = 0} (no
 #'   discrepancy), in (0, 1), when `ratio` holds 0.
@@ -146,6 +147,17 @@ gp_discrepancy <- function(ratio = c(0, 10^seq(-1, 4, by = 0.5)),
     if (any(!is.finite(v)) || any(v <= 0)) {
       griddy_abort("`", nm, "` must hold finite values > 0; received ", show_some(format(v)),
                    ".", class = "input")
+    }
+    # the kernel is exp(-d^2 / l^2): a square that underflows to 0 (or is
+    # denormal) gives 0 / 0 on the diagonal, one that overflows a kernel of
+    # ones whatever l
+    bad <- v[!(v^2 >= .Machine$double.xmin & v^2 <= .Machine$double.xmax)]
+    if (length(bad) > 0L) {
+      griddy_abort("`", nm, "` must hold length scales whose squares are ordinary doubles ",
+                   "(between ", format(sqrt(.Machine$double.xmin), digits = 3), " and ",
+                   format(sqrt(.Machine$double.xmax), digits = 3), ", on coordinates ",
+                   "scaled to [0, 1]); received ", show_some(format(bad)), ".",
+                   class = "input")
     }
     lengths[[nm]] <- v
   }

@@ -391,6 +391,17 @@ field_vector <- function(library, field) {
 # noise_pattern() hands pure_ss and its degrees of freedom to the noise
 # groups).
 field_layout <- function(library, field) {
+  cells <- field_cells(library, field)
+  cell_summary(cells$cell, cells$value, cells$sd, lib_n_x(library) * lib_n_t(library))
+}
+
+# The one mapping from field data to library cells, for calibrate() and
+# posterior_exact() (through field_layout()) and for the stream alike (so
+# both check the same things and read the same cells): for each entry of
+# the field's measurements, its library output `cell` (blocks of n_t by x
+# setting; settings and coordinates matched by value, see match_settings()),
+# its `value` (NA where not measured) and its relative `sd` (NULL without).
+field_cells <- function(library, field) {
   if (!inherits(field, "griddy_field")) {
     griddy_abort("`field` must be a griddy_field (see ?field_data); received ",
                  class(field)[1], ".")
@@ -399,55 +410,69 @@ field_layout <- function(library, field) {
   n_t <- lib_n_t(library)
   y <- field$y
   if (is.null(field$x) && is.null(field$t) && !isTRUE(field$one_setting)) {
-    # a vector (one row) is in the library's order; a matrix must have its
-    # shape, or a transposed one would be read in the wrong order
-    if (nrow(y) > 1L && !all(dim(y) == c(n_x, n_t))) {
-      griddy_abort("`field` is ", nrow(y), " x ", ncol(y), " (rows x columns of `y`) but ",
-                   "the library has ", n_x, " x settings x ", n_t, " outputs: `y` must be ",
-                   "an ", n_x, " x ", n_t, " matrix, one row per x setting in the library's ",
-                   "order",
-                   if (nrow(y) == n_t && ncol(y) == n_x) {
-                     paste0("; it looks transposed (one row per output): give t(y)")
-                   } else {
-                     "; or give `x` and `t` to say which row and column is which"
-                   }, ".", class = "shape")
-    }
-    if (length(y) != n_x * n_t) {
-      griddy_abort("`field` has ", length(y), " measurements but the library has ",
-                   n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
-    }
-    return(cell_summary(seq_len(n_x * n_t), as.vector(t(y)),
-                        if (!is.null(field$sd)) as.vector(t(field$sd)), n_x * n_t))
-  }
-  cols <- if (is.null(field$t)) {
-    if (ncol(y) != n_t) {
-      griddy_abort("`field` has ", ncol(y), " output(s) per x setting but the library has ",
-                   n_t, ".")
-    }
-    seq_len(n_t)
+    check_field_shape(y, n_x, n_t)
+    # rows are x settings in the library's order: the vector of t(y)
+    out <- list(cell = seq_len(n_x * n_t), value = as.vector(t(y)),
+                sd = if (!is.null(field$sd)) as.vector(t(field$sd)))
   } else {
-    match_coordinates(field$t, library$t)
+    cols <- field_columns(field, ncol(y), lib_t(library))
+    rows <- field_rows(field, nrow(y), n_x, lib_x(library))
+    out <- list(cell = as.vector(outer((rows - 1L) * n_t, cols, "+")), value = as.vector(y),
+                sd = if (!is.null(field$sd)) as.vector(field$sd))
   }
-  rows <- if (isTRUE(field$one_setting)) {
+  if (all(is.na(out$value))) {
+    griddy_abort("`field` holds no measurement at the library's settings.")
+  }
+  out
+}
+
+# A field without x and t is the library's outputs in order: a vector, or a
+# matrix of the library's shape (a transposed one would be read in the
+# wrong order).
+check_field_shape <- function(y, n_x, n_t) {
+  if (nrow(y) > 1L && !all(dim(y) == c(n_x, n_t))) {
+    griddy_abort("`field` is ", nrow(y), " x ", ncol(y), " (rows x columns of `y`) but ",
+                 "the library has ", n_x, " x settings x ", n_t, " outputs: `y` must be ",
+                 "an ", n_x, " x ", n_t, " matrix, one row per x setting in the library's ",
+                 "order",
+                 if (nrow(y) == n_t && ncol(y) == n_x) {
+                   paste0("; it looks transposed (one row per output): give t(y)")
+                 } else {
+                   "; or give `x` and `t` to say which row and column is which"
+                 }, ".", class = "shape")
+  }
+  if (length(y) != n_x * n_t) {
+    griddy_abort("`field` has ", length(y), " measurements but the library has ",
+                 n_x, " x setting(s) x ", n_t, " output(s) = ", n_x * n_t, ".")
+  }
+}
+
+# The library output coordinate of each column of the field's y.
+field_columns <- function(field, n_col, t_lib) {
+  if (!is.null(field$t)) return(match_coordinates(field$t, t_lib))
+  if (n_col != length(t_lib)) {
+    griddy_abort("`field` has ", n_col, " output(s) per x setting but the library has ",
+                 length(t_lib), ".")
+  }
+  seq_len(n_col)
+}
+
+# The library x setting of each row of the field's y.
+field_rows <- function(field, n_row, n_x, x_lib) {
+  if (isTRUE(field$one_setting)) {
     if (n_x != 1L) {
       griddy_abort("`field` has replicated measurements at one setting and no x columns, ",
                    "but the library has ", n_x, " x settings: give the x columns.")
     }
-    rep(1L, nrow(y))
-  } else if (is.null(field$x)) {
-    if (nrow(y) != n_x) {
-      griddy_abort("`field` has ", nrow(y), " x setting(s) but the library has ", n_x, ".")
+    return(rep(1L, n_row))
+  }
+  if (is.null(field$x)) {
+    if (n_row != n_x) {
+      griddy_abort("`field` has ", n_row, " x setting(s) but the library has ", n_x, ".")
     }
-    seq_len(n_x)
-  } else {
-    match_settings(field$x, library$x)
+    return(seq_len(n_x))
   }
-  out <- cell_summary(as.vector(outer((rows - 1L) * n_t, cols, "+")), as.vector(y),
-                      if (!is.null(field$sd)) as.vector(field$sd), n_x * n_t)
-  if (all(is.na(out$y))) {
-    griddy_abort("`field` holds no measurement at the library's settings.")
-  }
-  out
+  match_settings(field$x, x_lib)
 }
 
 # field_layout() from the measurements `value` (NA where missing), their

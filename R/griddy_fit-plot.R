@@ -165,6 +165,17 @@ scattered_library <- function(library) {
 posterior_density <- function(fit, theta) {
   weights <- exact_margins(fit)$run
   n_eff <- effective_count(weights)
+  density_panels(weights, theta, n_eff) +
+    ggplot2::labs(x = "Value", y = "Posterior density", title = "Posterior density",
+                  subtitle = paste0("Runs weighted by their exact posterior,\n",
+                                    "smoothed for ", format(n_eff, digits = 3),
+                                    " effective runs (Silverman's bandwidth)")) +
+    posterior_theme()
+}
+
+# One panel per parameter: the runs' values weighted by `weights`, smoothed
+# (weighted_density()); plot() of a fit and of a stream.
+density_panels <- function(weights, theta, n_eff = effective_count(weights)) {
   curves <- do.call(rbind, lapply(names(theta), function(p) {
     d <- weighted_density(theta[[p]], weights, n_eff)
     data.frame(parameter = factor(p, levels = names(theta)), value = d$x, density = d$y)
@@ -172,12 +183,7 @@ posterior_density <- function(fit, theta) {
   ggplot2::ggplot(curves, ggplot2::aes(.data$value, .data$density)) +
     ggplot2::geom_area(fill = "steelblue", alpha = 0.35) +
     ggplot2::geom_line(colour = "steelblue4") +
-    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
-    ggplot2::labs(x = "Value", y = "Posterior density", title = "Posterior density",
-                  subtitle = paste0("Runs weighted by their exact posterior,\n",
-                                    "smoothed for ", format(n_eff, digits = 3),
-                                    " effective runs (Silverman's bandwidth)")) +
-    posterior_theme()
+    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free")
 }
 
 # stats::density() of values x weighted by w (summing to 1), with Silverman's
@@ -209,26 +215,34 @@ posterior_theme <- function() {
 
 posterior_bars <- function(fit, theta) {
   bars <- do.call(rbind, lapply(names(theta), function(p) {
-    lib_values <- sort(unique(theta[[p]]))
-    gaps <- diff(lib_values)
-    half <- 0.45 * max(if (length(gaps)) min(gaps) else 0, diff(range(lib_values)) / 200,
-                       abs(lib_values[1]) * 1e-3, 1e-12)
     drawn <- theta[[p]][fit$draws$run]
     freq <- table(drawn) / length(drawn)
-    v <- as.numeric(names(freq))
-    data.frame(parameter = p, value = v, xmin = v - half, xmax = v + half,
-               prob = as.vector(freq))
+    value_bars(p, sort(unique(theta[[p]])), as.numeric(names(freq)), as.vector(freq))
   }))
   bars$parameter <- factor(bars$parameter, levels = names(theta))
-  p <- ggplot2::ggplot(bars) +
-    ggplot2::geom_rect(ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = 0,
-                                    ymax = .data$prob), fill = "steelblue", colour = NA) +
+  bar_panels(bars) +
     ggplot2::geom_point(data = library_ticks(theta, bars), ggplot2::aes(.data$value, 0),
                         shape = 15, size = 1, colour = "grey30") +
-    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free") +
     ggplot2::labs(x = "Library value", y = "Posterior probability",
                   title = "Posterior over the library's values") +
     posterior_theme()
+}
+
+# Bars of probability `prob` at values `v` of parameter `p`, as wide as
+# 0.45 of the library's smallest gap between its values `lib_values`.
+value_bars <- function(p, lib_values, v, prob) {
+  gaps <- diff(lib_values)
+  half <- 0.45 * max(if (length(gaps)) min(gaps) else 0, diff(range(lib_values)) / 200,
+                     abs(lib_values[1]) * 1e-3, 1e-12)
+  data.frame(parameter = p, value = v, xmin = v - half, xmax = v + half, prob = prob)
+}
+
+# One panel per parameter of value_bars(); plot() of a fit and of a stream.
+bar_panels <- function(bars) {
+  ggplot2::ggplot(bars) +
+    ggplot2::geom_rect(ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = 0,
+                                    ymax = .data$prob), fill = "steelblue", colour = NA) +
+    ggplot2::facet_wrap(ggplot2::vars(.data$parameter), scales = "free")
 }
 
 # The library's distinct values near the visited ones (two steps either side),

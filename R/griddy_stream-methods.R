@@ -20,15 +20,17 @@ stream_problem <- function(state) {
        log_prior_grid = state$log_prior_grid, grid = state$grid)
 }
 
-# The log evidence of the data so far: one pass over the forms
-# (src/stream_update.cpp), NA for an improper prior (as posterior_exact()).
+# The log evidence of the data so far: the log mass of the exact posterior
+# (log_mass_cpp(), the pruned sum that grid_posterior() uses too, in
+# src/grid_posterior.h) plus its constant; NA for an improper prior (as
+# posterior_exact()).
 stream_log_evidence <- function(state) {
   if (!is.null(state$cache$log_evidence)) return(state$cache$log_evidence)
-  prior <- state$prior
-  value <- if (prior$rate > 0) {
-    stream_log_sum_cpp(state$C, prior$shape + state$n / 2, prior$rate,
-                       state$log_prior_grid - state$logdet / 2, state$log_prior_run) +
-      log_evidence_constant(prior, state$n)
+  value <- if (state$prior$rate > 0) {
+    problem <- stream_problem(state)
+    log_mass_cpp(problem$C, state$prior$shape + sum(state$n) / 2, state$prior$rate,
+                 state$logdet, state$log_prior_run, state$log_prior_grid, griddy_threads()) +
+      log_evidence_constant(state$prior, state$n)
   } else {
     NA_real_
   }
@@ -36,7 +38,7 @@ stream_log_evidence <- function(state) {
   value
 }
 
-# posterior_exact() of a stream (called there).
+# The exact posterior of a stream's data so far (posterior_exact.griddy_stream()).
 stream_posterior <- function(stream, joint = TRUE) {
   joint <- assert_flag(joint, "joint")
   state <- stream$state

@@ -27,16 +27,19 @@
 #' @export
 update.griddy_stream <- function(object, y, x = NULL, t = NULL, ...) {
   state <- object$state
-  cells <- if (inherits(y, "griddy_field")) {
-    if (!is.null(x) || !is.null(t)) {
-      griddy_abort("With a field_data `y`, `x` and `t` must be NULL (the field has them).")
-    }
-    field_cells(state$library, y)
-  } else {
-    measurement_cells(state$library, y, x, t)
-  }
+  cells <- stream_cells(state$library, y, x, t)
   for (m in seq_along(cells$column)) stream_add(state, cells$column[m], cells$y[m])
   object
+}
+
+# The library output column and value of each measurement given to
+# update(): a field_data (stream_field_cells()) or vectors y, x, t.
+stream_cells <- function(library, y, x = NULL, t = NULL) {
+  if (!inherits(y, "griddy_field")) return(measurement_cells(library, y, x, t))
+  if (!is.null(x) || !is.null(t)) {
+    griddy_abort("With a field_data `y`, `x` and `t` must be NULL (the field has them).")
+  }
+  stream_field_cells(library, y)
 }
 
 # The library output column (blocks of n_t by x setting) and value of each
@@ -67,31 +70,16 @@ measurement_cells <- function(library, y, x, t) {
 }
 
 # The measurements of a field_data as columns and values, setting by setting
-# in increasing t (replicates one after the other).
-field_cells <- function(library, field) {
-  if (!is.null(field$sd)) {
+# in increasing t (replicates one after the other, in the field's order):
+# the cells of field_cells(), the mapping calibrate() uses.
+stream_field_cells <- function(library, field) {
+  if (inherits(field, "griddy_field") && !is.null(field$sd)) {
     griddy_abort("A stream takes no relative `sd` of measurements.", class = "unsupported")
   }
-  n_t <- lib_n_t(library)
-  cols <- if (is.null(field$t)) seq_len(ncol(field$y)) else
-    match_coordinates(field$t, lib_t(library))
-  rows <- if (isTRUE(field$one_setting) || lib_n_x(library) == 1L) {
-    rep(1L, nrow(field$y))
-  } else if (is.null(field$x)) {
-    seq_len(nrow(field$y))
-  } else {
-    match_settings(field$x, lib_x(library))
-  }
-  if (is.null(field$x) && is.null(field$t) && nrow(field$y) == 1L &&
-      ncol(field$y) == lib_n_out(library)) {
-    rows <- 1L
-    cols <- seq_len(lib_n_out(library))  # a vector in the library's order
-  }
-  cell <- as.vector(outer((rows - 1L) * n_t, cols, "+"))
-  value <- as.vector(field$y)
-  keep <- !is.na(value)
-  o <- order(cell[keep])
-  list(column = cell[keep][o], y = value[keep][o])
+  cells <- field_cells(library, field)
+  keep <- which(!is.na(cells$value))
+  o <- keep[order(cells$cell[keep])]  # order() keeps ties in place
+  list(column = cells$cell[o], y = cells$value[o])
 }
 
 # Add one measurement (library output `column`, value `y`) to the stream's
@@ -135,15 +123,31 @@ stream_accumulate <- function(state, column, y) {
                    "rounds to 1; use values further from 1.", class = "numeric")
     }
     one_minus <- 1 - phi^2
+    check_term_bound(state, y, column, prev, state$last_y[setting, k], phi, 1 / one_minus)
     add_column(state, column, y, prev, state$last_y[setting, k], phi, 1 / one_minus, k, G)
     state$logdet <- state$logdet + log(one_minus)
   } else {
+    check_term_bound(state, y, column, NA_integer_, 0, 0, 1)
     add_column(state, column, y, 0L, 0, numeric(G), rep(1, G), k, G)
   }
   state$n[k] <- state$n[k] + 1L
   state$last_column[setting, k] <- column
   state$last_y[setting, k] <- y
   state$cache <- NULL
+  invisible(state)
+}
+
+# The forms are changed in place, so a term that would overflow them is
+# refused before any is changed (the C++ check comes after the change, and
+# the stream would keep infinite forms): a bound on the new term,
+# (|y| + max |output| + phi (|y_prev| + max |previous output|))^2 scale,
+# added to the bound on every form so far.
+check_term_bound <- function(state, y, column, prev, y_prev, phi, scale) {
+  r <- abs(y) + state$out_absmax[column]
+  q <- if (is.na(prev)) 0 else max(abs(phi)) * (abs(y_prev) + state$out_absmax[prev])
+  bound <- state$C_bound + (r + q)^2 * max(scale)
+  if (!is.finite(bound)) abort_overflow(y)
+  state$C_bound <- bound
   invisible(state)
 }
 

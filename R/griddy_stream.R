@@ -109,6 +109,8 @@ griddy_stream <- function(library, rho_x = 0, rho_t = 0, prior = NULL, run_weigh
   state <- new.env(parent = emptyenv())
   state$library <- library
   state$outputs <- outputs
+  # each output's largest |value|, for the bound on a new term (stream_accumulate())
+  state$out_absmax <- apply(abs(outputs), 2, max)
   state$prior <- prior
   state$grid <- grid_table(library, grids)
   state$rho_t <- grids$t[setup$gt]
@@ -131,6 +133,7 @@ stream_reset <- function(state) {
   state$C <- matrix(0, N, G * K)
   state$n <- integer(K)
   state$logdet <- numeric(G)
+  state$C_bound <- 0  # no form exceeds it: the sum of the terms' bounds
   # per (x setting, noise group): the output column and value of the last
   # measurement, for the AR(1) innovations
   state$last_column <- matrix(NA_integer_, lib_n_x(state$library), K)

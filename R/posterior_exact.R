@@ -20,10 +20,19 @@
 #' are products over the groups (see [calibrate()]), and with relative `sd`
 #' (see [field_data()]) \eqn{|R_g|} is that of \eqn{S R_g S}.
 #'
+#' `posterior_exact()` is a generic: the default method takes a library and
+#' field data (the arguments of [calibrate()]); the method for a
+#' [calibrate()] fit gives the exact posterior of the fit's own problem; the
+#' method for a [griddy_stream()] the exact posterior of the data the stream
+#' has taken so far (the same object as `posterior_exact(library, all data
+#' so far)`, with the stream's correlation grid, prior and weights).
+#'
 #' @inheritParams calibrate
 #' @param library A [sim_library()] (or any griddy library); or a
-#'   [griddy_stream()], whose posterior of the data so far is returned (the
-#'   other arguments, but `joint`, are then the stream's own).
+#'   [calibrate()] fit; or a [griddy_stream()].
+#' @param ... Further arguments of the methods: for a library, `field` and
+#'   those below; for a fit or a stream, `joint` only (the others are the
+#'   fit's or the stream's own).
 #' @param joint Logical: keep the runs x grid points table of joint
 #'   probabilities? It is as large as the misfit table C (8 GB at 10^6 runs x
 #'   1,000 grid points); `FALSE` leaves it out (`joint` is then `NULL`) and
@@ -40,7 +49,7 @@
 #'     (`NA` when `prior$rate` is 0, an improper prior). With the default
 #'     vague prior it is meaningful for comparing libraries or correlation
 #'     structures on the same data, not as an absolute number.
-#' @seealso [calibrate()]
+#' @seealso [calibrate()], [griddy_stream()]
 #' @examples
 #' ex <- griddy_example()
 #' exact <- posterior_exact(ex$library, ex$field)
@@ -49,16 +58,54 @@
 #' # the margins only, without the table as large as C
 #' margins <- posterior_exact(ex$library, ex$field, rho_t = c(0, 0.5), joint = FALSE)
 #' margins$grid
+#' # a stream's exact posterior is the batch one
+#' s <- update(griddy_stream(ex$library, rho_t = c(0, 0.5)), y = ex$field)
+#' all.equal(posterior_exact(s, joint = FALSE), margins)
 #' @export
-posterior_exact <- function(library, field, rho_x = 0, rho_t = 0,
-                            prior = NULL,
-                            x_power = 2, run_weights = NULL, noise_groups = NULL,
-                            joint = TRUE, discrepancy = NULL) {
-  if (inherits(library, "griddy_stream")) return(stream_posterior(library, joint))
+posterior_exact <- function(library, ...) UseMethod("posterior_exact")
+
+#' @rdname posterior_exact
+#' @export
+posterior_exact.default <- function(library, field, rho_x = 0, rho_t = 0, prior = NULL,
+                                    x_power = 2, run_weights = NULL, noise_groups = NULL,
+                                    joint = TRUE, discrepancy = NULL, ...) {
+  check_no_dots(...)
   joint <- assert_flag(joint, "joint")
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
                                  noise_groups, discrepancy = discrepancy)
   exact_from_problem(problem, joint)
+}
+
+#' @rdname posterior_exact
+#' @export
+posterior_exact.griddy_fit <- function(library, joint = TRUE, ...) {
+  check_no_dots(joint, ..., owner = "a fit")
+  exact_from_problem(library, assert_flag(joint, "joint"))
+}
+
+#' @rdname posterior_exact
+#' @export
+posterior_exact.griddy_stream <- function(library, joint = TRUE, ...) {
+  check_no_dots(joint, ..., owner = "a stream")
+  stream_posterior(library, joint)
+}
+
+# An argument that no method takes (a misspelt one, or data given to a fit
+# or a stream, which hold their own) is an error, not silently dropped. For
+# a fit or a stream, `joint` comes first: data given in its place are named.
+check_no_dots <- function(joint = TRUE, ..., owner = NULL) {
+  own <- if (!is.null(owner)) paste0(" (", owner, " holds its own data, grid and priors)")
+  if (!is.logical(joint)) {
+    griddy_abort("posterior_exact() of ", owner, " takes `joint` (TRUE or FALSE) after it; ",
+                 "received ", class(joint)[1], own, ".")
+  }
+  if (...length() == 0L) return(invisible())
+  dots <- names(list(...))
+  dots <- if (is.null(dots)) character() else dots[dots != ""]
+  griddy_abort("posterior_exact()", if (!is.null(owner)) paste0(" of ", owner),
+               " takes no further argument; received ",
+               if (length(dots) > 0L) paste0("`", dots, "`", collapse = ", ") else
+                 paste(...length(), "unnamed"), own, ".")
 }
 
 # The exact posterior of a calibration problem, or of a fit (which holds its

@@ -29,7 +29,17 @@
 #'
 #' The streams are updated in place (see [griddy_stream()]): give each
 #' `stream_models()` streams of its own, or a stream shared by two of them
-#' takes every measurement twice.
+#' takes every measurement twice. The same stream given for two models is
+#' refused (an error of class `griddy_error_duplicate_stream`), and so is an
+#' update after a stream was updated outside the model choice (class
+#' `griddy_error_stream_changed`). [plot()][plot.griddy_stream_models] draws
+#' the probabilities as the data arrived.
+#'
+#' **An update reaches every model or none.** The measurements of one
+#' `update()` are first matched to every model's library; if a stream then
+#' refuses one (an AR(1) replicate, a misfit that overflows), every stream
+#' and the probabilities are put back as they were before the call and the
+#' error is raised, so the models always hold the same data.
 #'
 #' @param ... For `stream_models()`: named [griddy_stream()]s (at least two), one per model, each
 #'   holding the same measurements so far (usually none).
@@ -61,6 +71,7 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
     griddy_abort("`...` must be two or more streams with distinct names, one per model.")
   }
   for (m in names(streams)) assert_stream(streams[[m]], m)
+  assert_distinct_streams(streams)
   n <- vapply(streams, nobs, integer(1))
   if (any(n != n[1])) {
     griddy_abort("The streams must hold the same measurements so far; they hold ",
@@ -73,6 +84,7 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
                               upper = 1)
   state <- new.env(parent = emptyenv())
   state$streams <- streams
+  state$n_taken <- n[[1]]  # what every stream holds, unless updated behind our back
   state$forgetting <- forgetting
   state$log_evidence <- vapply(streams, function(s) as.numeric(logLik(s)), numeric(1))
   if (anyNA(state$log_evidence)) {
@@ -81,6 +93,7 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
   }
   state$log_prob <- normalise_log_prob(log(prior / sum(prior)) +
                                          if (n[1] > 0L) state$log_evidence else 0)
+  state$initial_prob <- exp(state$log_prob)  # where plot()'s history starts
   state$history <- list()
   structure(list(state = state), class = "griddy_stream_models")
 }
@@ -94,17 +107,77 @@ stream_models <- function(..., prior = NULL, forgetting = 1) {
 #' @export
 update.griddy_stream_models <- function(object, y, x = NULL, t = NULL, ...) {
   state <- object$state
-  first <- state$streams[[1]]$state$library
-  cells <- if (inherits(y, "griddy_field")) field_cells(first, y) else
-    measurement_cells(first, y, x, t)
-  n_t <- lib_n_t(first)
-  for (m in seq_along(cells$column)) {
-    column <- cells$column[m]
-    x_m <- if (lib_n_x(first) > 1L) lib_x(first)[(column - 1L) %/% n_t + 1L, , drop = FALSE]
-    t_m <- lib_t(first)[(column - 1L) %% n_t + 1L]
-    models_add(state, cells$y[m], x_m, t_m)
-  }
+  assert_streams_in_step(state)
+  libraries <- lapply(state$streams, function(s) s$state$library)
+  cells <- lapply(libraries, stream_cells, y = y, x = x, t = t)
+  first <- libraries[[1]]
+  saved <- models_snapshot(state)
+  withCallingHandlers({
+    n_t <- lib_n_t(first)
+    for (m in seq_along(cells[[1]]$column)) {
+      column <- cells[[1]]$column[m]
+      x_m <- if (lib_n_x(first) > 1L) lib_x(first)[(column - 1L) %/% n_t + 1L, , drop = FALSE]
+      t_m <- lib_t(first)[(column - 1L) %% n_t + 1L]
+      models_add(state, cells[[1]]$y[m], x_m, t_m)
+    }
+  }, error = function(e) models_restore(state, saved))
   object
+}
+
+# The same stream (one environment) under two names would take every
+# measurement twice, and the models would compare evidences of different data.
+assert_distinct_streams <- function(streams) {
+  envs <- lapply(streams, function(s) s$state)
+  for (i in seq_along(envs)[-1L]) {
+    same <- which(vapply(envs[seq_len(i - 1L)], identical, logical(1), envs[[i]]))
+    if (length(same) > 0L) {
+      griddy_abort("Models `", names(streams)[same[1]], "` and `", names(streams)[i],
+                   "` are the same stream: it would take every measurement twice. Give ",
+                   "each model a griddy_stream() of its own.", class = "duplicate_stream")
+    }
+  }
+  invisible(streams)
+}
+
+# A stream updated outside this model choice (directly, or by another
+# stream_models() that holds it too) no longer holds the models' data: its
+# evidence would be compared with the others' on different data.
+assert_streams_in_step <- function(state) {
+  n <- vapply(state$streams, nobs, integer(1))
+  off <- n != state$n_taken
+  if (any(off)) {
+    griddy_abort("Stream(s) ", show_some(paste0("`", names(n)[off], "`")), " hold ",
+                 show_some(n[off]), " measurement(s) where the models have taken ",
+                 state$n_taken, ": they were updated outside this stream_models() (directly ",
+                 "or by another one holding them), so the evidences would compare different ",
+                 "data. Give each stream_models() streams of its own, updated only through it.",
+                 class = "stream_changed")
+  }
+  invisible(state)
+}
+
+# The models' state and every stream's, to put back when an update fails
+# part-way: an update reaches every model or none. The forms C are changed
+# in place by stream_add_cpp(), so they are copied; everything else is
+# replaced, not changed, by an update, and a reference to it is enough.
+models_snapshot <- function(state) {
+  list(models = as.list(state, all.names = TRUE),
+       streams = lapply(state$streams, function(s) {
+         saved <- as.list(s$state, all.names = TRUE)
+         saved$C <- rlang::duplicate(saved$C, shallow = FALSE)
+         saved
+       }))
+}
+
+models_restore <- function(state, saved) {
+  restore_env(state, saved$models)
+  for (m in seq_along(saved$streams)) restore_env(state$streams[[m]]$state, saved$streams[[m]])
+  invisible(state)
+}
+
+restore_env <- function(env, values) {
+  rm(list = setdiff(ls(env, all.names = TRUE), names(values)), envir = env)
+  list2env(values, envir = env)
 }
 
 # One measurement: every stream updated, the one-step predictive densities
@@ -112,6 +185,7 @@ update.griddy_stream_models <- function(object, y, x = NULL, t = NULL, ...) {
 models_add <- function(state, y, x, t) {
   before <- state$log_evidence
   for (s in state$streams) update(s, y = y, x = x, t = t)
+  state$n_taken <- state$n_taken + 1L
   state$log_evidence <- vapply(state$streams, function(s) as.numeric(logLik(s)), numeric(1))
   log_pred <- state$log_evidence - before
   state$log_prob <- normalise_log_prob(normalise_log_prob(state$forgetting * state$log_prob) +

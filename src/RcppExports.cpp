@@ -29,6 +29,23 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// log_mass_cpp
+double log_mass_cpp(const arma::mat& C, double shape_post, double rate, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid, int threads);
+RcppExport SEXP _griddy_log_mass_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP, SEXP threadsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type C(CSEXP);
+    Rcpp::traits::input_parameter< double >::type shape_post(shape_postSEXP);
+    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type logdet(logdetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_grid(log_prior_gridSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(log_mass_cpp(C, shape_post, rate, logdet, log_prior_run, log_prior_grid, threads));
+    return rcpp_result_gen;
+END_RCPP
+}
 // run_order_cpp
 Rcpp::IntegerMatrix run_order_cpp(const arma::mat& C, int threads);
 RcppExport SEXP _griddy_run_order_cpp(SEXP CSEXP, SEXP threadsSEXP) {
@@ -208,21 +225,6 @@ BEGIN_RCPP
     return R_NilValue;
 END_RCPP
 }
-// stream_log_sum_cpp
-double stream_log_sum_cpp(const Rcpp::NumericMatrix& C, const Rcpp::NumericVector& shape_post, double rate, const Rcpp::NumericVector& grid_term, const Rcpp::NumericVector& log_prior_run);
-RcppExport SEXP _griddy_stream_log_sum_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP grid_termSEXP, SEXP log_prior_runSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type C(CSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type shape_post(shape_postSEXP);
-    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type grid_term(grid_termSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
-    rcpp_result_gen = Rcpp::wrap(stream_log_sum_cpp(C, shape_post, rate, grid_term, log_prior_run));
-    return rcpp_result_gen;
-END_RCPP
-}
 // omp_limits_cpp
 Rcpp::IntegerVector omp_limits_cpp();
 RcppExport SEXP _griddy_omp_limits_cpp() {
@@ -284,6 +286,7 @@ END_RCPP
 
 static const R_CallMethodDef CallEntries[] = {
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
+    {"_griddy_log_mass_cpp", (DL_FUNC) &_griddy_log_mass_cpp, 7},
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 2},
     {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 6},
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
@@ -296,7 +299,6 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
     {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
     {"_griddy_stream_add_cpp", (DL_FUNC) &_griddy_stream_add_cpp, 9},
-    {"_griddy_stream_log_sum_cpp", (DL_FUNC) &_griddy_stream_log_sum_cpp, 5},
     {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},

@@ -242,3 +242,20 @@ test_that("a scaled discrepancy runs through calibrate(), its evidence and poste
   post <- discrepancy_posterior(fit)
   expect_true(all(is.finite(post$mean)))
 })
+
+test_that("gp_discrepancy() refuses length scales whose squares underflow or overflow (issue 32)", {
+  # before: accepted, then "infinite or missing values" deep in the fit
+  expect_error(gp_discrepancy(length_t = 1e-300), "length_t.*1e-300",
+               class = "griddy_error_input")
+  expect_error(gp_discrepancy(length_x = c(0.3, 1e-160)), "1e-160",
+               class = "griddy_error_input")
+  expect_error(gp_discrepancy(length_t = 1e200), class = "griddy_error_input")
+  expect_error(gp_discrepancy(length_t = Inf), class = "griddy_error_input")
+  # small but ordinary length scales stay: a kernel near the identity
+  expect_s3_class(gp_discrepancy(length_t = 1e-100), "griddy_discrepancy")
+  toy <- gap_toy()
+  exact <- posterior_exact(toy$library, toy$field,
+                           discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1e-100,
+                                                        length_t = 1e-100))
+  expect_true(is.finite(exact$log_evidence))
+})

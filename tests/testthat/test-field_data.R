@@ -222,3 +222,26 @@ test_that("print.griddy_field() shows the measurements, their layout and range",
   expect_snapshot(print(toy_missing()$field))
   expect_snapshot(print(toy_replicates()$field))
 })
+
+test_that("field_cells() is the one mapping of field entries to library cells (issue 32)", {
+  lib <- sim_library(data.frame(k = 1:2), matrix(1:12, 2),
+                     x = data.frame(h = c(10, 20, 30)), t = c(0, 1))
+  y <- rbind(c(1, 2), c(3, NA), c(1.2, 1.9))
+  f <- field_data(y, x = data.frame(h = c(20, 10, 20) * (1 + 1e-13)), t = c(0, 1) + 1e-14)
+  cells <- field_cells(lib, f)
+  # y[k, j] at setting h (library row 2, 1, 2), coordinate t (column 1, 2):
+  # cell (row - 1) * 2 + column
+  expect_identical(cells$cell, c(3L, 1L, 3L, 4L, 2L, 4L))
+  expect_identical(cells$value, as.vector(y))
+  expect_null(cells$sd)
+  # field_layout() summarises exactly these cells
+  lay <- field_layout(lib, f)
+  expect_identical(lay$n_rep, tabulate(cells$cell[!is.na(cells$value)], 6))
+  expect_equal(lay$y, c(3, NA, mean(c(1, 1.2)), mean(c(2, 1.9)), NA, NA))
+  # a vector in the library's order, and a matrix of its shape
+  expect_identical(field_cells(lib, field_data(1:6))$cell, 1:6)
+  expect_identical(field_cells(lib, field_data(matrix(1:6, 3, byrow = TRUE)))$value, as.numeric(1:6))
+  expect_error(field_cells(lib, field_data(c(NA, NA), x = data.frame(h = 10), t = c(0, 1))),
+               "no measurement")
+  expect_error(field_cells(lib, list(y = 1)), "must be a griddy_field")
+})

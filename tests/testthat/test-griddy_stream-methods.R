@@ -79,3 +79,33 @@ test_that("the evidence of a larger library is the batch one", {
   expect_equal(as.numeric(logLik(s)), batch$log_evidence, tolerance = 1e-12)
   expect_equal(posterior_exact(s, joint = FALSE)$run, batch$run, tolerance = 1e-12)
 })
+
+test_that("the stream's evidence is the exact posterior's log mass, pruned path included (issue 32)", {
+  # a concentrated posterior (small noise, many measurements): most
+  # (run, grid point) entries lie beyond the cut and are never summed
+  set.seed(6)
+  n <- 5000
+  theta <- data.frame(a = runif(n), b = runif(n))
+  tt <- seq(0, 1, length.out = 40)
+  lib <- sim_library(theta, outer(theta$a, tt) + outer(theta$b, tt^2), t = tt)
+  y <- 0.4 * tt + 0.7 * tt^2 + rnorm(40, sd = 0.01)
+  s <- update(griddy_stream(lib, rho_t = c(0, 0.3)), y = y, t = tt)
+  batch <- suppressWarnings(posterior_exact(lib, field_data(y, t = tt), rho_t = c(0, 0.3),
+                                            joint = FALSE))
+  # the full sum in R, every entry included
+  p <- stream_problem(s$state)
+  lj <- collapsed_log_joint(p$C, s$state$n, s$state$logdet, s$state$prior,
+                            s$state$log_prior_run, s$state$log_prior_grid)
+  expect_gt(mean(lj < max(lj) - log(length(lj)) - 37), 0.5)
+  expect_equal(as.numeric(logLik(s)), log_sum_exp(lj), tolerance = 1e-13)
+  expect_equal(as.numeric(logLik(s)), batch$log_evidence, tolerance = 1e-12)
+  # one routine: the stream's evidence is posterior_exact()'s of the stream, bit for bit
+  expect_identical(as.numeric(logLik(s)), posterior_exact(s, joint = FALSE)$log_evidence)
+  # and it does not depend on the number of threads
+  evidence <- function(threads) {
+    withr::local_options(griddy.threads = threads)
+    s$state$cache <- NULL
+    as.numeric(logLik(s))
+  }
+  expect_identical(evidence(2L), evidence(1L))
+})

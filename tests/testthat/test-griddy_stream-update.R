@@ -101,3 +101,41 @@ test_that("a field_data with missing cells is taken setting by setting", {
                tolerance = 1e-10)
   expect_error(update(s, y = field, t = 1), class = "griddy_error_input")
 })
+
+test_that("a field_data reaches the stream's cells as it reaches calibrate()'s (issue 32)", {
+  ex <- griddy_example()
+  y <- ex$field$y
+  x <- ex$field$x
+  # settings given with floating noise, missing cells, a replicated setting
+  noisy <- x
+  noisy[[1]] <- noisy[[1]] * (1 + 1e-12)
+  yy <- rbind(y, y[2, ] + 0.05)
+  yy[1, c(3, 9)] <- NA
+  yy[4, 1:10] <- NA
+  field <- field_data(yy, x = noisy[c(1, 2, 3, 2), , drop = FALSE], t = ex$library$t)
+  s <- update(griddy_stream(ex$library), y = field)
+  expect_identical(nobs(s), sum(!is.na(yy)))
+  expect_equal(posterior_exact(s), posterior_exact(ex$library, field), tolerance = 1e-10)
+  # the stream now checks what calibrate() checks; it used to read these
+  # fields silently (every row at the first setting; rows by position)
+  one <- field_data(data.frame(t = ex$library$t[c(1, 1)], y = c(1, 2)))
+  expect_error(posterior_exact(ex$library, one), "give the x columns")
+  expect_error(update(griddy_stream(ex$library), y = one), "give the x columns")
+  wrong <- field_data(y[1:2, ])
+  expect_error(update(griddy_stream(ex$library), y = wrong), class = "griddy_error_shape")
+})
+
+test_that("a measurement that would overflow the forms is refused before it changes them", {
+  ex <- griddy_example()
+  x1 <- ex$field$x[1, , drop = FALSE]
+  s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
+  update(s, y = ex$field$y[1, 1:3], x = x1, t = ex$library$t[1:3])
+  # before: the forms took the infinite term, then the error; the stream
+  # went on with infinite forms
+  expect_error(update(s, y = 1e200, x = x1, t = ex$library$t[4]), class = "griddy_error_numeric")
+  expect_identical(nobs(s), 3L)
+  update(s, y = ex$field$y[1, 4:30], x = x1, t = ex$library$t[4:30])
+  field <- field_data(ex$field$y[1, , drop = FALSE], x = x1, t = ex$library$t)
+  expect_equal(posterior_exact(s), posterior_exact(ex$library, field, rho_t = c(0, 0.5)),
+               tolerance = 1e-10)
+})

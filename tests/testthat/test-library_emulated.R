@@ -167,3 +167,22 @@ test_that("emulated_library(t_out =) builds the library at other output coordina
   expect_error(emulated_library(design["k"], y, x = design["x"], t = t, n_runs = 50,
                                 t_out = c(0.5, 1.5)), "lie outside")
 })
+
+test_that("settings outside the design's range of x are named in a warning (issue 32)", {
+  skip_if_not_installed("RobustGaSP")
+  d <- emulated_toy_design()
+  # before: x = 5 for a design over [0, 1] was predicted without a word
+  expect_warning(
+    lib <- emulated_library(d$theta, d$y, x = data.frame(x = d$x), t = d$t,
+                            settings = data.frame(x = c(0.5, 5)), n_runs = 200, seed = 1),
+    "x = 5 \\(1 setting\\(s\\); 4.* beyond the design's \\[0.0.*, 0.9.*\\]",
+    class = "griddy_warning_extrapolation")
+  expect_s3_class(lib, "emulated_library")
+  # the warning is an emulation warning too, and settings inside stay quiet
+  expect_warning(emulated_library(d$theta, d$y, x = data.frame(x = d$x), t = d$t,
+                                  settings = data.frame(x = -1), n_runs = 200, seed = 1),
+                 class = "griddy_warning_emulation")
+  expect_no_warning(emulated_library(d$theta, d$y, x = data.frame(x = d$x), t = d$t,
+                                     settings = data.frame(x = c(0.2, 0.8)), n_runs = 200,
+                                     seed = 1))
+})

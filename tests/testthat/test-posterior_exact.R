@@ -61,3 +61,28 @@ test_that("print.griddy_exact() shows the runs, the grid, the most probable runs
   toy <- toy_ar1(n_runs = 60, n_t = 10)
   expect_snapshot(print(posterior_exact(toy$library, toy$field, rho_t = c(0, 0.5))))
 })
+
+test_that("posterior_exact() is a generic: a library and data, a fit, a stream (issue 32)", {
+  toy <- toy_ar1(n_runs = 60, n_t = 20)
+  batch <- posterior_exact(toy$library, toy$field, rho_t = c(0, 0.5))
+  expect_true(is.function(getS3method("posterior_exact", "griddy_stream")))
+  # a fit: the exact posterior of its own problem
+  fit <- calibrate(toy$library, toy$field, rho_t = c(0, 0.5), n_iter = 200, burn_in = 50,
+                   chains = 1, seed = 1)
+  expect_equal(posterior_exact(fit), batch, tolerance = 1e-12)
+  expect_null(posterior_exact(fit, joint = FALSE)$joint)
+  # a stream: the exact posterior of the data so far
+  s <- update(griddy_stream(toy$library, rho_t = c(0, 0.5)), y = toy$field)
+  expect_equal(posterior_exact(s), batch, tolerance = 1e-10)
+  expect_equal(posterior_exact(s, FALSE)$run, batch$run, tolerance = 1e-10)
+  # the library form keeps its positional arguments
+  expect_equal(posterior_exact(toy$library, toy$field, 0, c(0, 0.5)), batch)
+  # arguments no method takes are errors, not silently dropped
+  expect_error(posterior_exact(s, toy$field), "received griddy_field \\(a stream holds",
+               class = "griddy_error_input")
+  expect_error(posterior_exact(s, TRUE, toy$field), "of a stream takes no further argument",
+               class = "griddy_error_input")
+  expect_error(posterior_exact(fit, rho_t = 0.3), "`rho_t`", class = "griddy_error_input")
+  expect_error(posterior_exact(toy$library, toy$field, rho_z = 0.5), "`rho_z`",
+               class = "griddy_error_input")
+})
