@@ -214,7 +214,7 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
 # The runs the emulator is trained on: the library's, or an emulated
 # library's design runs.
 koh_training_runs <- function(library) {
-  if (inherits(library, "emulated_library")) nrow(library$design$theta) else lib_n_runs(library)
+  if (inherits(library, "emulated_library")) emulated_design_runs(library) else lib_n_runs(library)
 }
 
 # An emulator of p parameters estimates p range parameters, a mean and a

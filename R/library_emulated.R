@@ -247,6 +247,12 @@ build_emulated_library <- function(theta, y, x, t, settings, n_runs) {
   )
 }
 
+# What other files may read of an emulated library (its fields stay in
+# this file): the number of design runs it was emulated from, and the
+# emulator's leave-one-out error (RMS).
+emulated_design_runs <- function(library) nrow(library$design$theta)
+emulated_loo_rms <- function(library) library$loo_rms
+
 assert_distinct_design <- function(m) {
   key <- do.call(paste, c(lapply(seq_len(ncol(m)), function(j) sprintf("%.12g", m[, j])),
                           sep = "|"))

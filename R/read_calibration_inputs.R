@@ -168,7 +168,7 @@ emulate_design <- function(design, sim, n_x, settings, t, n_runs, seed) {
   library <- emulated_library(theta, sim, x = x, t = t, settings = settings,
                               n_runs = n_runs, seed = seed)
   form <- if (lib_design_emulator(library)$mode == "joint") "(x, theta) -> outputs" else "theta -> outputs"
-  loo <- format(library$loo_rms, digits = 3)
+  loo <- format(emulated_loo_rms(library), digits = 3)
   n_design <- nrow(design)
   cli::cli_inform(c(
     i = paste0("The {n_design} design runs do not form a library at the x settings of ",
