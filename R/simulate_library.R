@@ -5,7 +5,9 @@
 #' chunk, to the HDF5 library `file` (the format of [write_library()], with
 #' its safe appends and lock), with a progress bar. Run again on the same
 #' file, it resumes: the design rows already in the file (matched by their
-#' \eqn{\theta} values) are skipped, so a killed R session, a lost node or a
+#' \eqn{\theta} values, to within \eqn{10^{-8}} of each parameter's largest
+#' absolute value, so that a design saved with `write.csv()` or
+#' `data.table::fwrite()` and read back is the same design) are skipped, so a killed R session, a lost node or a
 #' cancelled job costs at most the runs that were in flight.
 #'
 #' **The simulator.** `simulator(theta, ...)` receives a data.frame of
@@ -136,7 +138,9 @@ simulate_library <- function(simulator, design, file, x = NULL, t = NULL, ..., s
   out
 }
 
-# The design rows not yet in `file` (by their exact theta values), the
+# The design rows not yet in `file` (by their theta values, to
+# match_rows()'s tolerance: a design written to CSV and read back is the same
+# design), the
 # design with its columns in the file's order, and the file's outputs per
 # run (NULL for a new file).
 campaign_todo <- function(design, file) {
@@ -149,7 +153,7 @@ campaign_todo <- function(design, file) {
                  show_some(names(held$theta)), ". Give another `file`.", class = "library")
   }
   design <- design[names(held$theta)]
-  list(design = design, todo = which(!run_keys(design) %in% run_keys(held$theta)),
+  list(design = design, todo = which(is.na(match_rows(design, held$theta))),
        n_out = held$n_out)
 }
 
@@ -157,7 +161,7 @@ campaign_todo <- function(design, file) {
 failed_table <- function(failed, theta, todo) {
   rows <- vapply(failed, `[[`, 1L, "row")
   data.frame(row = todo[rows], theta[rows, , drop = FALSE],
-             message = vapply(failed, function(f) trimws(conditionMessage(f$condition)), ""),
+             message = vapply(failed, function(f) condition_text(f$condition), ""),
              row.names = NULL, check.names = FALSE, stringsAsFactors = FALSE)
 }
 
