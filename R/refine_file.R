@@ -57,7 +57,7 @@ read_checked_csv <- function(path, store, what) {
   text <- rawToChar(bytes)
   at <- regexpr("(^|\n)# md5 [0-9a-f]{32}\n$", text)
   body <- if (at > 0L) substr(text, 1L, at + (substr(text, at, at) == "\n") - 1L) else ""
-  stored <- if (at > 0L) regmatches(text, regexpr("[0-9a-f]{32}", substring(text, at))) else ""
+  stored <- if (at > 0L) sub("(?s).*# md5 ([0-9a-f]{32})\n$", "\\1", text, perl = TRUE) else ""
   if (at < 0L || !identical(unname(text_md5(body)), stored)) {
     griddy_abort("refine()'s ", what, " beside `file` (", path, ") is damaged: ",
                  if (at < 0L) "its checksum line is missing" else
