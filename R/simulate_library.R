@@ -23,8 +23,10 @@
 #' process, one after the other; under a plan with more workers (a
 #' `multisession` plan, or cluster jobs through future.batchtools, see
 #' `vignette("simulate-library")`) each chunk is a future, one per worker
-#' at a time, and each is committed as soon as it finishes. Workers need
-#' griddy installed (and the simulator's own packages). For Slurm, griddy
+#' at a time, and each is committed as soon as it finishes. The simulator's
+#' globals (the variables and functions it uses) and packages reach the
+#' workers as [future][future::future] finds them for any future; workers
+#' need those packages installed, not griddy. For Slurm, griddy
 #' ships a batchtools template, `system.file("templates",
 #' "batchtools.slurm.tmpl", package = "griddy")`; its jobs are named
 #' `griddy-simulator`. The library can be opened (with [hdf5_library()])
@@ -35,7 +37,12 @@
 #'
 #' **Failures.** A chunk whose call fails (an error, or a future that cannot
 #' deliver its value: a worker that died, a cancelled job) is run again row
-#' by row, so only the rows that fail on their own are left out. They are
+#' by row, so only the rows that fail on their own are left out. A run whose
+#' worker is lost is run again (alone, twice); one that is lost every time
+#' (it kills its worker) fails. After a lost worker the plan's workers are
+#' restarted, once the runs still in flight are in, so the plan is whole when
+#' `simulate_library()` returns. A condition without a message is reported by
+#' its classes. The failed rows are
 #' named, with the simulator's messages, in one warning of class
 #' `griddy_warning_simulation_failed`; recorded in the file (dataset
 #' `failed`: the design row, \eqn{\theta} and the message, replaced by every
