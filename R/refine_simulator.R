@@ -20,8 +20,8 @@
 # itself, so future finds the simulator's globals (and packages) as it does
 # for any future. A future that cannot deliver its value (a worker that
 # died, a Slurm job cancelled: a FutureError) fails its chunk like an error,
-# and its rows are run again one by one; a row lost again alone is run once
-# more, and lost a third time it is the culprit and fails. After a lost
+# and its rows are run again one by one; a row lost a second time, alone,
+# is the culprit (it kills its worker) and fails. After a lost
 # worker, once the futures still running have finished, the plan's workers
 # are restarted (a dead multisession worker stays dead before future 1.32),
 # so no run is sent to a dead worker and the plan is whole when we return.
@@ -64,8 +64,8 @@ launch_job <- function(call, theta_rows, seed) {
     seed = NULL, label = "griddy-simulator")
 }
 
-# A run whose future is lost alone this many times is the culprit (it kills
-# its worker): it fails; the others lost with it are run again.
+# A run whose future is lost this many times, the last time alone, is the
+# culprit (it kills its worker): it fails; the others lost with it run again.
 lost_tries <- 2L
 
 run_chunks <- function(call, theta, n_out, progress, on_chunk) {
@@ -89,7 +89,9 @@ run_chunks <- function(call, theta, n_out, progress, on_chunk) {
         state$failed[[length(state$failed) + 1L]] <- list(row = r, condition = non_finite(theta, r))
       }
     } else if (length(rows) > 1L) {
-      return(lapply(rows, task))  # only the failing rows are to fail
+      # only the failing rows are to fail: each runs alone
+      lost <- if (inherits(result$error, "FutureError")) done$lost + 1L else 0L
+      return(lapply(rows, task, lost = lost))
     } else if (inherits(result$error, "FutureError") && done$lost + 1L < lost_tries) {
       return(list(task(rows, done$lost + 1L)))
     } else {

@@ -38,8 +38,8 @@
 #' **Failures.** A chunk whose call fails (an error, or a future that cannot
 #' deliver its value: a worker that died, a cancelled job) is run again row
 #' by row, so only the rows that fail on their own are left out. A run whose
-#' worker is lost is run again (alone, twice); one that is lost every time
-#' (it kills its worker) fails. After a lost worker the plan's workers are
+#' worker is lost is run again, alone; one lost again (it kills its worker)
+#' fails. After a lost worker the plan's workers are
 #' restarted, once the runs still in flight are in, so the plan is whole when
 #' `simulate_library()` returns. A condition without a message is reported by
 #' its classes. The failed rows are
