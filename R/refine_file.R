@@ -192,7 +192,7 @@ check_store_layout <- function(store, runs) {
     if (is.null(a) || is.null(b)) return(is.null(a) && is.null(b))
     a <- as.data.frame(a)
     b <- as.data.frame(b)
-    identical(dim(a), dim(b)) && !anyNA(match_rows(a, b)) && all(match_rows(a, b) == seq_len(nrow(a)))
+    identical(dim(a), dim(b)) && identical(match_rows(a, b), seq_len(nrow(a)))
   }
   show <- function(v) show_some(format(unlist(v), digits = 6))
   diff <- if (!identical(names(lib_theta(runs)), store$names)) {

@@ -7,8 +7,9 @@
 #' file, it resumes: the design rows already in the file (matched by their
 #' \eqn{\theta} values, to within \eqn{10^{-8}} of each parameter's largest
 #' absolute value, so that a design saved with `write.csv()` or
-#' `data.table::fwrite()` and read back is the same design) are skipped, so a killed R session, a lost node or a
-#' cancelled job costs at most the runs that were in flight.
+#' `data.table::fwrite()` and read back is the same design) are skipped, so
+#' a killed R session, a lost node or a cancelled job costs at most the runs
+#' that were in flight.
 #'
 #' **The simulator.** `simulator(theta, ...)` receives a data.frame of
 #' \eqn{\theta} rows (the design's columns, several rows per call) and

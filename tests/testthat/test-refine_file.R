@@ -13,7 +13,8 @@ test_that("refine(file =) keeps every finished run on disk and resumes from it i
   expect_equal(lib_outputs(on_disk), refine_sim(lib_theta(on_disk)))
   # side files damaged or lost after a kill: named, nothing resumed or simulated
   table <- paste0(file, ".rounds.csv")
-  damaged <- list(row_lost = function(l) l[-3], value_changed = function(l) replace(l, 2, paste0(l[2], "1")),
+  damaged <- list(row_lost = function(l) l[-3],
+                  value_changed = function(l) replace(l, 2, paste0(l[2], "1")),
                   no_checksum = function(l) l[-length(l)], deleted = function(l) NULL)
   for (how in names(damaged)) {
     copy <- file.path(withr::local_tempdir(), "copy.h5")

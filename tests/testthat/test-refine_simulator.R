@@ -22,7 +22,7 @@ test_that("one run is one chunk", {
   expect_length(simulator_chunks(25L), 10L)
 })
 
-test_that("a round whose simulator fails on some rows keeps the rows that finished, and names the failed", {
+test_that("a round whose simulator fails on some rows keeps the rows that finished, names the rest", {
   toy <- refine_toy()
   calls <- 0L
   simulated <- 0L

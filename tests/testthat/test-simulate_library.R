@@ -146,7 +146,7 @@ test_that("without t, the simulator's first result sets the outputs per run", {
   expect_equal(lib$t, as.double(1:10))
 })
 
-test_that("on two future workers: the simulator's globals found, a lost worker's runs rerun, the culprit failed, the plan whole after", {
+test_that("on two workers: globals found, a lost worker's runs rerun, the culprit failed, plan whole", {
   skip_if_not_installed("hdf5r")
   skip_if_not_installed("future.apply")
   skip_on_cran()
