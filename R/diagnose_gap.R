@@ -481,14 +481,6 @@ strength_levels <- function(strength) {
   match(id, unique(id))
 }
 
-# For each row of table `x` (a list of columns), the first row of `table`
-# with the same values, NA where none has (match() over rows).
-match_rows <- function(x, table) {
-  id <- row_ids(data.table::rbindlist(list(x, table)))
-  n <- length(x[[1]])
-  match(id[seq_len(n)], id[-seq_len(n)])
-}
-
 # One integer per row of a table, the same for equal rows (their rank).
 row_ids <- function(table) {
   data.table::frankv(data.table::as.data.table(table), ties.method = "dense")

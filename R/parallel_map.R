@@ -38,7 +38,10 @@ griddy_map <- function(X, FUN, ..., seeds = NULL, scheduled = TRUE) {
     # here, with the same results (each element has its own seed)
     tryCatch(
       future.apply::future_lapply(X, call, ..., future.seed = NULL, future.packages = "griddy"),
-      FutureError = function(e) lapply(X, call, ...))
+      FutureError = function(e) {
+        restart_workers()  # a dead worker is not left in the plan
+        lapply(X, call, ...)
+      })
   } else {
     lapply(X, call, ...)
   }

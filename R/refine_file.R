@@ -13,6 +13,13 @@
 # file, updated after each append. The runs in the file are in round order;
 # runs beyond the table's count (a session killed between an append and the
 # table's update) belong to its last round.
+#
+# Each side file ends with a line `# md5 <checksum>`, the MD5 sum of the
+# lines before it, written with them and renamed into place in one step: a
+# side file with a row missing, a value changed or no checksum line is named
+# as damaged (class griddy_error_damaged) and never resumed, and a missing one
+# is named too. The file's runs must have the fit's parameters, x settings
+# and outputs (class griddy_error_library).
 
 refine_store <- function(file, library) {
   if (is.null(file)) return(NULL)
@@ -23,14 +30,50 @@ refine_store <- function(file, library) {
 
 read_store_table <- function(store) {
   if (!file.exists(store$table)) return(NULL)
-  utils::read.csv(store$table, stringsAsFactors = FALSE, check.names = FALSE)
+  read_checked_csv(store$table, store, "table of rounds")
 }
 
-# The table written whole under a temporary name, then renamed into place.
-write_store_table <- function(store, table) {
-  tmp <- paste0(store$table, ".tmp")
+write_store_table <- function(store, table) write_checked_csv(table, store$table)
+
+# A table written whole with its checksum line under a temporary name, then
+# renamed into place: a kill leaves the old file or the new one.
+write_checked_csv <- function(table, path) {
+  tmp <- paste0(path, ".tmp")
   utils::write.csv(table, tmp, row.names = FALSE)
-  file.rename(tmp, store$table)
+  cat("# md5 ", unname(tools::md5sum(tmp)), "\n", file = tmp, append = TRUE, sep = "")
+  file.rename(tmp, path)
+}
+
+# A side file read back after its checksum is checked; a damaged or missing
+# one stops with what to do.
+read_checked_csv <- function(path, store, what) {
+  if (!file.exists(path)) {
+    griddy_abort("refine()'s ", what, " beside `file` (", path, ") is missing, so the runs ",
+                 "in ", store$file, " cannot be placed in their rounds. Restore it, or give ",
+                 "another `file` (the runs in ", store$file, " stay readable with ",
+                 "hdf5_library()).", class = "damaged")
+  }
+  bytes <- readBin(path, "raw", file.size(path))
+  text <- rawToChar(bytes)
+  at <- regexpr("(^|\n)# md5 [0-9a-f]{32}\n$", text)
+  body <- if (at > 0L) substr(text, 1L, at + (substr(text, at, at) == "\n") - 1L) else ""
+  stored <- if (at > 0L) sub("(?s).*# md5 ([0-9a-f]{32})\n$", "\\1", text, perl = TRUE) else ""
+  if (at < 0L || !identical(unname(text_md5(body)), stored)) {
+    griddy_abort("refine()'s ", what, " beside `file` (", path, ") is damaged: ",
+                 if (at < 0L) "its checksum line is missing" else
+                   "its checksum does not match its contents",
+                 " (a row lost or changed), so the runs in ", store$file, " cannot be placed ",
+                 "in their rounds safely. Restore it, or give another `file` (the runs in ",
+                 store$file, " stay readable with hdf5_library()).", class = "damaged")
+  }
+  utils::read.csv(text = body, stringsAsFactors = FALSE, check.names = FALSE)
+}
+
+text_md5 <- function(text) {
+  tmp <- tempfile()
+  on.exit(unlink(tmp))
+  writeBin(charToRaw(text), tmp)
+  tools::md5sum(tmp)
 }
 
 # A new round in the table.
@@ -58,15 +101,23 @@ write_store_proposal <- function(store, round, proposal) {
       stats::setNames(cmp$centre, paste0("centre_", seq_along(cmp$centre))),
       stats::setNames(as.vector(cmp$chol), paste0("chol_", seq_along(cmp$chol))))
   }))
-  old <- if (file.exists(store$proposals)) utils::read.csv(store$proposals) else NULL
-  tmp <- paste0(store$proposals, ".tmp")
-  utils::write.csv(rbind(old, rows), tmp, row.names = FALSE)
-  file.rename(tmp, store$proposals)
+  old <- if (file.exists(store$proposals)) {
+    read_checked_csv(store$proposals, store, "table of proposals")
+  }
+  # rows of this round left by a session killed before its table row was
+  # written are replaced
+  old <- old[old$round < round, , drop = FALSE]
+  write_checked_csv(rbind(old, rows), store$proposals)
 }
 
 read_store_proposal <- function(store, round, library) {
-  rows <- utils::read.csv(store$proposals)
+  rows <- read_checked_csv(store$proposals, store, "table of proposals")
   rows <- rows[rows$round == round, , drop = FALSE]
+  if (nrow(rows) == 0L) {
+    griddy_abort("refine()'s table of proposals beside `file` (", store$proposals, ") has no ",
+                 "proposal for round ", round, ": it is damaged. Give another `file`.",
+                 class = "damaged")
+  }
   range0 <- library_box(lib_base(library))
   varies <- range0[2, ] > range0[1, ]
   q <- sum(varies)
@@ -98,14 +149,8 @@ store_keeper <- function(store) {
 store_resume <- function(store, problem) {
   if (is.null(store) || !file.exists(store$file)) return(list(problem = problem, n = 0L))
   runs <- hdf5_library(store$file)
-  table <- read_store_table(store)
-  if (!identical(names(lib_theta(runs)), store$names) || is.null(table)) {
-    griddy_abort("`file` (", store$file, ") does not hold refine()'s runs of this fit's ",
-                 "library", if (is.null(table)) paste0(" (its table of rounds, ", store$table,
-                                                       ", is missing)") else
-                   paste0(": its parameters are ", show_some(names(lib_theta(runs)))),
-                 "; give another `file`.", class = "library")
-  }
+  check_store_layout(store, runs)
+  table <- read_checked_csv(store$table, store, "table of rounds")
   n_file <- lib_n_runs(runs)
   counts <- table$n
   counts[length(counts)] <- counts[length(counts)] + max(0L, n_file - sum(counts))
@@ -116,7 +161,7 @@ store_resume <- function(store, problem) {
     if (length(rows) == 0L) next
     theta <- lib_theta(runs)[rows, , drop = FALSE]
     y <- lib_outputs(runs, rows)
-    held <- match(run_keys(theta), run_keys(lib_theta(problem$library)))
+    held <- match_rows(theta, lib_theta(problem$library))
     if (table$kind[r] == "replace") {
       todo <- which(!is.na(held))
       todo <- todo[lib_predicted(problem$library)[held[todo]]]
@@ -140,7 +185,29 @@ store_resume <- function(store, problem) {
   list(problem = problem, n = taken)
 }
 
-# Exact keys of theta rows (hexadecimal doubles), to find runs again.
-run_keys <- function(theta) {
-  do.call(paste, c(lapply(theta, function(v) sprintf("%a", v)), sep = "|"))
+# The runs in the file must be this fit's kind of runs: its parameters, x
+# settings and output coordinates (to match_rows()'s tolerance).
+check_store_layout <- function(store, runs) {
+  same <- function(a, b) {
+    if (is.null(a) || is.null(b)) return(is.null(a) && is.null(b))
+    a <- as.data.frame(a)
+    b <- as.data.frame(b)
+    identical(dim(a), dim(b)) && identical(match_rows(a, b), seq_len(nrow(a)))
+  }
+  show <- function(v) show_some(format(unlist(v), digits = 6))
+  diff <- if (!identical(names(lib_theta(runs)), store$names)) {
+    paste0("its parameters are ", show_some(names(lib_theta(runs))), ", the fit's ",
+           show_some(store$names))
+  } else if (!same(lib_x(runs), store$x) || !identical(names(lib_x(runs)), names(store$x))) {
+    paste0("its x settings are ", if (is.null(lib_x(runs))) "none" else show(lib_x(runs)),
+           ", the fit's ", if (is.null(store$x)) "none" else show(store$x))
+  } else if (!same(list(lib_t(runs)), list(store$t))) {
+    paste0("its outputs are at t = ", show(lib_t(runs)), " (", length(lib_t(runs)),
+           " per x setting), the fit's at t = ", show(store$t), " (", length(store$t), ")")
+  }
+  if (!is.null(diff)) {
+    griddy_abort("`file` (", store$file, ") does not hold runs of this fit's library: ", diff,
+                 ". Give another `file`.", class = "library")
+  }
+  invisible()
 }

@@ -16,11 +16,16 @@
 # Parallel workers. With a plan of more than one worker (griddy_workers()),
 # each chunk is a future (future::future()) of its own: at most one per
 # worker runs at a time, and a finished one is handed on while the others
-# run, in the order they finish. A future that cannot deliver its value (a
-# worker that died, a Slurm job cancelled: a FutureError) fails its chunk
-# like an error, and its rows are run again one by one (a chunk of one row
-# too, once). Otherwise the chunks run in this
-# process, in order.
+# run, in the order they finish. The future's expression calls the simulator
+# itself, so future finds the simulator's globals (and packages) as it does
+# for any future. A future that cannot deliver its value (a worker that
+# died, a Slurm job cancelled: a FutureError) fails its chunk like an error,
+# and its rows are run again one by one; a row lost a second time, alone,
+# is the culprit (it kills its worker) and fails. After a lost
+# worker, once the futures still running have finished, the plan's workers
+# are restarted (a dead multisession worker stays dead before future 1.32),
+# so no run is sent to a dead worker and the plan is whole when we return.
+# Otherwise the chunks run in this process, in order.
 
 # A function(theta, n_out, progress, on_chunk) that runs the user's simulator
 # over the rows of theta: calls on_chunk(rows, y) for each finished chunk's
@@ -33,90 +38,111 @@
 # simulator gives the same runs under any plan (a stochastic one, under
 # plans with the same number of workers).
 simulator_caller <- function(simulator, dots) {
-  force(simulator)
-  force(dots)
+  call <- list(simulator = simulator, dots = dots)
   function(theta, n_out, progress, on_chunk) {
-    run_chunks(simulator_job(simulator, dots), theta, n_out, progress, on_chunk)
+    run_chunks(call, theta, n_out, progress, on_chunk)
   }
 }
 
-# The work of one chunk as it travels to a worker: a function of the chunk's
-# theta rows and seed, which returns list(y) or list(error = the condition).
-# Built here, so that it carries the simulator and its arguments only.
-simulator_job <- function(simulator, dots) {
-  function(theta_rows, seed) {
-    with_seed(seed, tryCatch(list(y = do.call(simulator, c(list(theta_rows), dots))),
-                             error = function(e) list(error = e)))
-  }
+# One chunk in this process: list(y) or list(error = the condition).
+run_job <- function(call, theta_rows, seed) {
+  with_seed(seed, tryCatch(list(y = do.call(call$simulator, c(list(theta_rows), call$dots))),
+                           error = function(e) list(error = e)))
 }
 
-run_chunks <- function(job, theta, n_out, progress, on_chunk) {
+# One chunk as a future, the same work as run_job(). Its expression names the
+# simulator, its arguments, the rows and the seed, and future finds their
+# globals (a simulator's global variables and functions, its packages) as it
+# does for any future.
+launch_job <- function(call, theta_rows, seed) {
+  simulator <- call$simulator
+  dots <- call$dots
+  # the label names a scheduler's jobs (squeue shows griddy-simulator)
+  future::future(
+    withr::with_seed(seed, tryCatch(list(y = do.call(simulator, c(list(theta_rows), dots))),
+                                    error = function(e) list(error = e))),
+    seed = NULL, label = "griddy-simulator")
+}
+
+# A run whose future is lost this many times, the last time alone, is the
+# culprit (it kills its worker): it fails; the others lost with it run again.
+lost_tries <- 2L
+
+run_chunks <- function(call, theta, n_out, progress, on_chunk) {
   seeds <- sample.int(.Machine$integer.max, nrow(theta))
   state <- new.env(parent = emptyenv())
   state$n_out <- n_out
   state$failed <- list()
   bar <- if (progress) cli::cli_progress_bar("Simulating", total = nrow(theta),
                                              .envir = environment())
-  retry <- list()
-  # A finished task: its runs handed on, or (a chunk) its rows queued to run
-  # alone, or (one row) recorded as failed.
-  finish <- function(rows, result) {
-    y <- result$y
+  task <- function(rows, lost = 0L) list(rows = rows, seed = seeds[rows[1]], lost = lost)
+  # A finished task: its runs handed on, or its rows to run again (returned
+  # as tasks), or (one row) recorded as failed.
+  finish <- function(done, result) {
+    rows <- done$rows
     if (is.null(result$error)) {
-      y <- check_simulated(y, rows, theta, state$n_out)
+      y <- check_simulated(result$y, rows, theta, state$n_out)
       state$n_out <- ncol(y)
       ok <- apply(is.finite(y), 1, all)
       if (any(ok)) on_chunk(rows[ok], y[ok, , drop = FALSE])
       for (r in rows[!ok]) {
         state$failed[[length(state$failed) + 1L]] <- list(row = r, condition = non_finite(theta, r))
       }
-    } else if (length(rows) > 1L || (first_pass && inherits(result$error, "FutureError"))) {
-      # a chunk that failed, or a run whose worker was lost, runs again alone
-      retry <<- c(retry, as.list(rows))
-      return(invisible())
+    } else if (length(rows) > 1L) {
+      # only the failing rows are to fail: each runs alone
+      lost <- if (inherits(result$error, "FutureError")) done$lost + 1L else 0L
+      return(lapply(rows, task, lost = lost))
+    } else if (inherits(result$error, "FutureError") && done$lost + 1L < lost_tries) {
+      return(list(task(rows, done$lost + 1L)))
     } else {
       state$failed[[length(state$failed) + 1L]] <- list(row = rows, condition = result$error)
     }
     if (progress) cli::cli_progress_update(inc = length(rows), id = bar)
+    list()
   }
-  chunks <- simulator_chunks(nrow(theta))
-  first_pass <- TRUE
-  run_tasks(job, theta, chunks, seeds[vapply(chunks, `[`, 1L, 1L)], finish)
-  first_pass <- FALSE
-  if (length(retry) > 0L) {
-    rows <- unlist(retry)
-    run_tasks(job, theta, retry, seeds[rows], finish)
-  }
+  run_tasks(call, theta, lapply(simulator_chunks(nrow(theta)), task), finish)
   state$failed
 }
 
-# Runs job(theta[rows, ], seed) for each element of `chunks` and calls
-# finish(rows, result) as each finishes.
-run_tasks <- function(job, theta, chunks, seeds, finish) {
+# Runs each task (its theta rows and seed) and calls finish(task, result) as
+# each finishes; the tasks finish() returns are run too, after the others.
+run_tasks <- function(call, theta, tasks, finish) {
   workers <- griddy_workers()
   if (workers <= 1L) {
-    for (i in seq_along(chunks)) {
-      finish(chunks[[i]], job(theta[chunks[[i]], , drop = FALSE], seeds[i]))
+    while (length(tasks) > 0L) {
+      t1 <- tasks[[1]]
+      tasks <- c(tasks[-1], finish(t1, run_job(call, theta[t1$rows, , drop = FALSE], t1$seed)))
     }
     return(invisible())
   }
   running <- list()
-  next_i <- 1L
+  lost_worker <- FALSE
+  failed_launches <- 0L
+  on.exit(if (lost_worker) restart_workers())
   idle <- 0L
-  while (next_i <= length(chunks) || length(running) > 0L) {
-    while (length(running) < workers && next_i <= length(chunks)) {
-      rows <- chunks[[next_i]]
-      # a worker that died stays dead under some plans (multisession with
-      # future < 1.32): launching on it fails like the chunk itself
-      launched <- tryCatch(launch_job(job, theta[rows, , drop = FALSE], seeds[next_i]),
-                           FutureError = function(e) e)
-      next_i <- next_i + 1L
-      if (inherits(launched, "FutureError")) {
-        finish(rows, list(error = launched))
-      } else {
-        running[[length(running) + 1L]] <- list(rows = rows, future = launched)
-      }
+  while (length(tasks) > 0L || length(running) > 0L) {
+    if (lost_worker && length(running) == 0L) {
+      restart_workers()
+      lost_worker <- FALSE
     }
+    while (!lost_worker && length(running) < workers && length(tasks) > 0L) {
+      t1 <- tasks[[1]]
+      tasks <- tasks[-1]
+      launched <- tryCatch(launch_job(call, theta[t1$rows, , drop = FALSE], t1$seed),
+                           FutureError = function(e) e)
+      if (!inherits(launched, "FutureError")) {
+        failed_launches <- 0L
+        running[[length(running) + 1L]] <- list(task = t1, future = launched)
+        next
+      }
+      # sent to a dead worker: not the task's fault, it waits for the
+      # restart (unless launches keep failing on fresh workers)
+      lost_worker <- TRUE
+      failed_launches <- failed_launches + 1L
+      tasks <- if (failed_launches <= lost_tries) c(list(t1), tasks) else
+        c(tasks, finish(t1, list(error = launched)))
+    }
+    if (length(running) == 0L) next
     done <- vapply(running, function(r) {
       tryCatch(future::resolved(r$future), error = function(e) TRUE)
     }, logical(1))
@@ -129,18 +155,22 @@ run_tasks <- function(job, theta, chunks, seeds, finish) {
     }
     idle <- 0L
     for (r in running[done]) {
-      finish(r$rows, tryCatch(future::value(r$future), error = function(e) list(error = e)))
+      result <- tryCatch(future::value(r$future), error = function(e) list(error = e))
+      if (inherits(result$error, "FutureError")) lost_worker <- TRUE
+      tasks <- c(tasks, finish(r$task, result))
     }
     running <- running[!done]
   }
   invisible()
 }
 
-launch_job <- function(job, theta_rows, seed) {
-  task <- function() job(theta_rows, seed)
-  # the label names a scheduler's jobs (squeue shows griddy-simulator)
-  future::future(task(), globals = list(task = task), packages = "griddy", seed = NULL,
-                 label = "griddy-simulator")
+# The plan set again, its workers started afresh: a worker that died is
+# replaced (future's own resetWorkers() covers only multicore before 1.32).
+restart_workers <- function() {
+  # (plan() reads its argument unevaluated: a variable, not a call)
+  strategies <- future::plan("list")
+  tryCatch(future::plan(strategies, .skip = FALSE), error = function(e) NULL)
+  invisible()
 }
 
 # Chunks of rows: about four per worker, and at least ten for the progress
@@ -181,8 +211,17 @@ show_theta <- function(theta, row) {
 failed_lines <- function(failed, theta) {
   vapply(failed, function(f) {
     paste0("row ", f$row, " (", show_theta(theta, f$row), "): ",
-           trimws(conditionMessage(f$condition)))
+           condition_text(f$condition))
   }, "")
+}
+
+# A condition's message as one string; a condition without one (a NULL or
+# empty message, as some packages signal) is named by its classes instead.
+condition_text <- function(cnd) {
+  msg <- tryCatch(conditionMessage(cnd), error = function(e) NULL)
+  msg <- if (is.character(msg)) trimws(paste(msg, collapse = " ")) else ""
+  if (nzchar(msg)) return(msg)
+  paste0("a condition of class ", paste(class(cnd), collapse = "/"), " with no message")
 }
 
 # Simulates the rows of theta_new, keeping what finishes: list(rows = the

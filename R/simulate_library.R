@@ -5,8 +5,11 @@
 #' chunk, to the HDF5 library `file` (the format of [write_library()], with
 #' its safe appends and lock), with a progress bar. Run again on the same
 #' file, it resumes: the design rows already in the file (matched by their
-#' \eqn{\theta} values) are skipped, so a killed R session, a lost node or a
-#' cancelled job costs at most the runs that were in flight.
+#' \eqn{\theta} values, to within \eqn{10^{-8}} of each parameter's largest
+#' absolute value, so that a design saved with `write.csv()` or
+#' `data.table::fwrite()` and read back is the same design) are skipped, so
+#' a killed R session, a lost node or a cancelled job costs at most the runs
+#' that were in flight.
 #'
 #' **The simulator.** `simulator(theta, ...)` receives a data.frame of
 #' \eqn{\theta} rows (the design's columns, several rows per call) and
@@ -21,8 +24,10 @@
 #' process, one after the other; under a plan with more workers (a
 #' `multisession` plan, or cluster jobs through future.batchtools, see
 #' `vignette("simulate-library")`) each chunk is a future, one per worker
-#' at a time, and each is committed as soon as it finishes. Workers need
-#' griddy installed (and the simulator's own packages). For Slurm, griddy
+#' at a time, and each is committed as soon as it finishes. The simulator's
+#' globals (the variables and functions it uses) and packages reach the
+#' workers as [future][future::future] finds them for any future; workers
+#' need those packages installed, not griddy. For Slurm, griddy
 #' ships a batchtools template, `system.file("templates",
 #' "batchtools.slurm.tmpl", package = "griddy")`; its jobs are named
 #' `griddy-simulator`. The library can be opened (with [hdf5_library()])
@@ -33,7 +38,12 @@
 #'
 #' **Failures.** A chunk whose call fails (an error, or a future that cannot
 #' deliver its value: a worker that died, a cancelled job) is run again row
-#' by row, so only the rows that fail on their own are left out. They are
+#' by row, so only the rows that fail on their own are left out. A run whose
+#' worker is lost is run again, alone; one lost again (it kills its worker)
+#' fails. After a lost worker the plan's workers are
+#' restarted, once the runs still in flight are in, so the plan is whole when
+#' `simulate_library()` returns. A condition without a message is reported by
+#' its classes. The failed rows are
 #' named, with the simulator's messages, in one warning of class
 #' `griddy_warning_simulation_failed`; recorded in the file (dataset
 #' `failed`: the design row, \eqn{\theta} and the message, replaced by every
@@ -136,7 +146,9 @@ simulate_library <- function(simulator, design, file, x = NULL, t = NULL, ..., s
   out
 }
 
-# The design rows not yet in `file` (by their exact theta values), the
+# The design rows not yet in `file` (by their theta values, to
+# match_rows()'s tolerance: a design written to CSV and read back is the same
+# design), the
 # design with its columns in the file's order, and the file's outputs per
 # run (NULL for a new file).
 campaign_todo <- function(design, file) {
@@ -149,7 +161,7 @@ campaign_todo <- function(design, file) {
                  show_some(names(held$theta)), ". Give another `file`.", class = "library")
   }
   design <- design[names(held$theta)]
-  list(design = design, todo = which(!run_keys(design) %in% run_keys(held$theta)),
+  list(design = design, todo = which(is.na(match_rows(design, held$theta))),
        n_out = held$n_out)
 }
 
@@ -157,7 +169,7 @@ campaign_todo <- function(design, file) {
 failed_table <- function(failed, theta, todo) {
   rows <- vapply(failed, `[[`, 1L, "row")
   data.frame(row = todo[rows], theta[rows, , drop = FALSE],
-             message = vapply(failed, function(f) trimws(conditionMessage(f$condition)), ""),
+             message = vapply(failed, function(f) condition_text(f$condition), ""),
              row.names = NULL, check.names = FALSE, stringsAsFactors = FALSE)
 }
 

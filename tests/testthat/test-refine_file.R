@@ -11,6 +11,23 @@ test_that("refine(file =) keeps every finished run on disk and resumes from it i
   on_disk <- hdf5_library(file)
   expect_equal(lib_theta(on_disk)$k, s$seen$k)
   expect_equal(lib_outputs(on_disk), refine_sim(lib_theta(on_disk)))
+  # side files damaged or lost after a kill: named, nothing resumed or simulated
+  table <- paste0(file, ".rounds.csv")
+  damaged <- list(row_lost = function(l) l[-3],
+                  value_changed = function(l) replace(l, 2, paste0(l[2], "1")),
+                  no_checksum = function(l) l[-length(l)], deleted = function(l) NULL)
+  for (how in names(damaged)) {
+    copy <- file.path(withr::local_tempdir(), "copy.h5")
+    file.copy(file, copy)
+    lines <- damaged[[how]](readLines(table))
+    if (!is.null(lines)) writeLines(lines, paste0(copy, ".rounds.csv"))
+    s_how <- refine_sim_failing()
+    expect_error(refine(toy$fit, s_how$sim, max_runs = 400, runs_per_round = 20, file = copy,
+                        seed = 2),
+                 if (how == "deleted") "is missing" else "is damaged",
+                 class = "griddy_error_damaged", info = how)
+    expect_null(s_how$seen)
+  }
   # a new session has only the fit it started from: the file's runs are taken,
   # not simulated again
   s2 <- refine_sim_failing()
@@ -54,6 +71,26 @@ test_that("refine(file =) refuses a file without a simulator and a file of other
                class = "griddy_error_library")
 })
 
+test_that("refine(file =) refuses a file of other outputs, naming the difference", {
+  skip_if_not_installed("hdf5r")
+  toy <- refine_toy()
+  theta <- data.frame(k = c(1.1, 2.2, 3.3))
+  others <- list(
+    "its outputs are at t = " = sim_library(theta, refine_sim(theta), t = toy$lib$t * 2),
+    "its outputs are at t = .*\\(20 per x setting\\)" =
+      sim_library(theta, refine_sim(theta)[, 1:20], t = toy$lib$t[1:20]),
+    "its x settings are" = sim_library(theta, cbind(refine_sim(theta), refine_sim(theta)),
+                                       x = data.frame(load = 1:2), t = toy$lib$t))
+  for (what in names(others)) {
+    file <- file.path(withr::local_tempdir(), "other.h5")
+    write_library(others[[what]], file)
+    s <- refine_sim_failing()
+    expect_error(refine(toy$fit, s$sim, file = file, max_runs = 20, seed = 1), what,
+                 class = "griddy_error_library")
+    expect_null(s$seen)
+  }
+})
+
 test_that("a proposal round (four parameters) on disk resumes with the same proposal", {
   skip_if_not_installed("hdf5r")
   toy <- linear4_toy()
@@ -70,6 +107,19 @@ test_that("a proposal round (four parameters) on disk resumes with the same prop
   expect_s3_class(e, "griddy_error_simulator")
   kept <- lib_rounds(e$fit$library)
   expect_false(is.null(kept[[2]]$proposal))
+  # its table of proposals garbled or lost: named, not resumed
+  proposals <- paste0(file, ".proposals.csv")
+  for (how in c("garbled", "deleted")) {
+    copy <- file.path(withr::local_tempdir(), "copy.h5")
+    file.copy(c(file, paste0(file, ".rounds.csv")), paste0(copy, c("", ".rounds.csv")))
+    lines <- readLines(proposals)
+    if (how == "garbled") {
+      lines[2] <- sub("^([^,]*,[^,]*,[^,]*,[^,]*,[^,]*,[^,]*,)[^,]*", "\\10.5", lines[2])
+      writeLines(lines, paste0(copy, ".proposals.csv"))
+    }
+    expect_error(refine(toy$fit, linear4_sim, max_runs = 1, file = copy, seed = 2),
+                 class = "griddy_error_damaged", info = how)
+  }
   ref <- suppressWarnings(refine(toy$fit, linear4_sim, max_runs = 1, file = file, seed = 2))
   resumed <- lib_rounds(ref$library)[seq_along(kept)]
   expect_identical(vapply(resumed, `[[`, integer(1), "n"), vapply(kept, `[[`, integer(1), "n"))

@@ -12,9 +12,15 @@ test_that("a campaign commits every design row once and resumes without simulati
   lib <- simulate_library(s2$sim, design, file, t = campaign_t, seed = 1)
   expect_setequal(s2$seen, design$k[21:30])
   expect_complete_campaign(lib, design)
-  # nothing left to do: the simulator is not called
+  # nothing left to do: the simulator is not called, also with the design
+  # written to CSV and read back (15 digits, not the same bits)
   s3 <- campaign_sim()
   lib <- simulate_library(s3$sim, design[c("c", "k")], file, t = campaign_t)
+  csv <- withr::local_tempfile(fileext = ".csv")
+  utils::write.csv(design, csv, row.names = FALSE)
+  lib <- simulate_library(s3$sim, utils::read.csv(csv), file, t = campaign_t)
+  data.table::fwrite(design, csv)
+  lib <- simulate_library(s3$sim, data.table::fread(csv), file, t = campaign_t)
   expect_length(s3$seen, 0L)
   expect_equal(lib$n_runs, 30L)
 })
@@ -57,15 +63,32 @@ test_that("failing rows are retried alone, named in a classed warning, recorded,
   h5$close_all()
 })
 
+test_that("a simulator condition without a message fails its rows like any error", {
+  skip_if_not_installed("hdf5r")
+  design <- design_grid(k = c(1, 2, 3), c = c(0, 1))
+  file <- withr::local_tempfile(fileext = ".h5")
+  sim <- function(theta) {
+    if (any(theta$k == 2)) {
+      stop(structure(class = c("myerr", "error", "condition"), list(message = NULL, call = NULL)))
+    }
+    campaign_outputs(theta)
+  }
+  expect_warning(lib <- simulate_library(sim, design, file, t = campaign_t, progress = FALSE),
+                 "design row 2 .*myerr", class = "griddy_warning_simulation_failed")
+  expect_equal(attr(lib, "failed")$row, c(2L, 5L))
+  expect_match(attr(lib, "failed")$message, "class myerr/error/condition with no message")
+  expect_equal(lib$n_runs, 4L)
+})
+
 test_that("a writer killed midway loses only the runs in flight; the rerun completes the design", {
   skip_if_not_installed("hdf5r")
   skip_on_cran()
-  design <- design_lhs(200, k = c(1, 4), c = c(0, 1), seed = 3)
+  design <- design_lhs(100, k = c(1, 4), c = c(0, 1), seed = 3)
   file <- withr::local_tempfile(fileext = ".h5")
   design_file <- withr::local_tempfile(fileext = ".rds")
   pid_file <- withr::local_tempfile()
   saveRDS(design, design_file)  # the same bits: rows are matched by their values
-  # 10 chunks of 20 runs, 0.02 s a run: the writer is killed after a commit
+  # 10 chunks of 10 runs, 0.02 s a run: the writer is killed after a commit
   run_child(c(
     sprintf("writeLines(as.character(Sys.getpid()), %s)", deparse(pid_file)),
     sprintf("design <- readRDS(%s)", deparse(design_file)),
@@ -82,17 +105,17 @@ test_that("a writer killed midway loses only the runs in flight; the rerun compl
     n
   }
   start <- Sys.time()
-  while (committed() < 40L && difftime(Sys.time(), start, units = "secs") < 60) {
+  while (committed() < 20L && difftime(Sys.time(), start, units = "secs") < 60) {
     Sys.sleep(0.05)
   }
   tools::pskill(pid, tools::SIGKILL)
   Sys.sleep(0.2)
   done_before <- committed()
-  expect_gte(done_before, 40L)
-  expect_lt(done_before, 200L)
+  expect_gte(done_before, 20L)
+  expect_lt(done_before, 100L)
   s <- campaign_sim()
   lib <- simulate_library(s$sim, design, file, t = campaign_t)
-  expect_length(s$seen, 200L - done_before)
+  expect_length(s$seen, 100L - done_before)
   expect_complete_campaign(lib, design)
 })
 
@@ -123,66 +146,55 @@ test_that("without t, the simulator's first result sets the outputs per run", {
   expect_equal(lib$t, as.double(1:10))
 })
 
-test_that("a campaign on two future workers gives the library of a sequential one", {
+test_that("on two workers: globals found, a lost worker's runs rerun, the culprit failed, plan whole", {
   skip_if_not_installed("hdf5r")
   skip_if_not_installed("future.apply")
   skip_on_cran()
-  skip_if_not(installed_griddy_is_current("run_chunks"), "the installed griddy is not this version")
-  design <- design_lhs(24, k = c(1, 4), c = c(0, 1), seed = 4)
-  sim <- function(theta) {
-    t <- seq(0, 1, length.out = 20)
-    if (any(theta$k > 3.9)) stop("too stiff")
-    t(mapply(function(k, c) sin(k * t) + c, theta$k, theta$c))
-  }
-  environment(sim) <- globalenv()
-  seq_file <- withr::local_tempfile(fileext = ".h5")
-  par_file <- withr::local_tempfile(fileext = ".h5")
-  sequential <- suppressWarnings(simulate_library(sim, design, seq_file, t = campaign_t))
-  future::plan("multisession", workers = 2)
-  withr::defer(future::plan("sequential"))
-  parallel <- suppressWarnings(simulate_library(sim, design, par_file, t = campaign_t))
-  keys <- function(lib) order(as.data.frame(lib)$k)
-  expect_equal(as.data.frame(parallel)[keys(parallel), , drop = FALSE],
-               as.data.frame(sequential)[keys(sequential), , drop = FALSE], ignore_attr = TRUE)
-  expect_equal(as.matrix(parallel)[keys(parallel), ], as.matrix(sequential)[keys(sequential), ])
-  expect_equal(attr(parallel, "failed"), attr(sequential, "failed"))
-})
-
-test_that("a run whose worker is lost (a FutureError) runs again, once", {
-  skip_if_not_installed("hdf5r")
-  skip_on_cran()
-  skip_if_not(installed_griddy_is_current("run_chunks"), "the installed griddy is not this version")
-  design <- design_lhs(6, k = c(1, 4), c = c(0, 1), seed = 8)
+  design <- design_lhs(20, k = c(1, 4), c = c(0, 1), seed = 4)
   dir <- withr::local_tempdir()
-  # the run of design row 2 kills its worker the first time (a lost node);
-  # that of row 5 kills it every time
-  sim <- function(theta, marker, victim, doomed) {
-    if (victim %in% theta$k && !file.exists(marker)) {
-      file.create(marker)
+  # a simulator as a user writes it: in the global environment, reading
+  # global variables (which future sends to the workers); on a worker, the
+  # run of design row 5 kills its worker (the culprit), losing the other run
+  # of its chunk (row 6) with it
+  globals <- list(griddy_test_main = Sys.getpid(), griddy_test_amp = 2,
+                  griddy_test_t = campaign_t, griddy_test_culprit = design$k[5])
+  list2env(globals, globalenv())
+  withr::defer(rm(list = names(globals), envir = globalenv()))
+  sim <- function(theta) {
+    if (Sys.getpid() != griddy_test_main && griddy_test_culprit %in% theta$k) {
       tools::pskill(Sys.getpid(), tools::SIGKILL)
     }
-    if (doomed %in% theta$k) tools::pskill(Sys.getpid(), tools::SIGKILL)
-    t <- seq(0, 1, length.out = 20)
-    t(mapply(function(k, c) sin(k * t) + c, theta$k, theta$c))
+    if (any(theta$k > 3.9)) stop("too stiff")
+    t(mapply(function(k, c) griddy_test_amp * sin(k * griddy_test_t) + c, theta$k, theta$c))
   }
   environment(sim) <- globalenv()
+  sequential <- suppressWarnings(simulate_library(sim, design, file.path(dir, "seq.h5"),
+                                                  t = campaign_t, progress = FALSE))
   future::plan("multisession", workers = 2)
   withr::defer(future::plan("sequential"))
-  file <- file.path(dir, "lost.h5")
-  expect_warning(
-    lib <- simulate_library(sim, design, file, t = campaign_t, marker = file.path(dir, "m"),
-                            victim = design$k[2], doomed = design$k[5], progress = FALSE),
-    class = "griddy_warning")
-  expect_true(file.exists(file.path(dir, "m")))
-  expect_true(5L %in% attr(lib, "failed")$row)
-  # a dead multisession worker may not be relaunched (future < 1.32), and the
-  # runs sent to it fail: they are recorded, and run by the next call on
-  # fresh workers
-  future::plan("sequential")
-  future::plan("multisession", workers = 2)
-  lib <- suppressWarnings(simulate_library(
-    sim, design, file, t = campaign_t, marker = file.path(dir, "m"),
-    victim = design$k[2], doomed = Inf, progress = FALSE))
-  expect_equal(nrow(attr(lib, "failed")), 0L)
-  expect_complete_campaign(lib, design)
+  w <- NULL
+  parallel <- withCallingHandlers(
+    simulate_library(sim, design, file.path(dir, "par.h5"), t = campaign_t, progress = FALSE),
+    griddy_warning_simulation_failed = function(cnd) {
+      w <<- cnd
+      invokeRestart("muffleWarning")
+    })
+  expect_true(design$k[6] %in% as.data.frame(parallel)$k)
+  # every run but the culprit's, as the sequential campaign made them
+  failed <- attr(parallel, "failed")
+  stiff <- attr(sequential, "failed")$row
+  expect_setequal(failed$row, c(5L, stiff))
+  expect_match(failed$message[failed$row == 5L], "no longer alive|worker|connection")
+  expect_match(conditionMessage(w), "design row 5 ", fixed = TRUE)
+  keep <- as.data.frame(sequential)$k != design$k[5]
+  key <- function(lib) order(as.data.frame(lib)$k)
+  expect_equal(as.data.frame(parallel)[key(parallel), , drop = FALSE],
+               as.data.frame(sequential)[key(sequential), , drop = FALSE][keep[key(sequential)], ,
+                                                                          drop = FALSE],
+               ignore_attr = TRUE)
+  expect_equal(as.matrix(parallel)[key(parallel), ],
+               as.matrix(sequential)[key(sequential), ][keep[key(sequential)], ])
+  # the plan is whole: both workers take futures
+  pids <- vapply(1:4, function(i) future::value(future::future(Sys.getpid())), numeric(1))
+  expect_false(any(pids == Sys.getpid()))
 })

@@ -1,0 +1,34 @@
+test_that("match_rows() is match() over rows: first hit, NA where none", {
+  table <- data.frame(a = c(1, 2, 3, 2), b = c(0, 5, 6, 5))
+  x <- data.frame(a = c(2, 3, 9, 1), b = c(5, 6, 0, 1))
+  expect_identical(match_rows(x, table), c(2L, 3L, NA, NA))
+  expect_identical(match_rows(as.matrix(x), as.list(table)), c(2L, 3L, NA, NA))
+  expect_identical(match_rows(x[0, ], table), integer(0))
+  expect_identical(match_rows(x, table[0, ]), rep(NA_integer_, 4))
+  expect_identical(match_rows(data.frame(a = c(NA, 1)), data.frame(a = c(1, NA))), c(2L, 1L))
+})
+
+test_that("a design written with write.csv() or fwrite() and read back matches itself", {
+  design <- design_lhs(50, k = c(1, 4), c = c(0, 1e-6), seed = 1)
+  file <- withr::local_tempfile(fileext = ".csv")
+  utils::write.csv(design, file, row.names = FALSE)
+  back <- utils::read.csv(file)
+  expect_false(all(back$k == design$k))  # 15 digits: not the same bits
+  expect_identical(match_rows(back[50:1, ], design), 50:1)
+  data.table::fwrite(design, file)
+  expect_identical(match_rows(data.table::fread(file), design), 1:50)
+})
+
+test_that("the tolerance is relative to each column's scale, and distinct runs stay apart", {
+  table <- data.frame(k = c(1000, 2000), c = c(1e-9, 2e-9))
+  # within 1e-8 of each column's largest value: the same run
+  expect_identical(match_rows(data.frame(k = 2000 + 1e-6, c = 2e-9 + 1e-18), table), 2L)
+  # apart by 1e-7 of the scale in one column: another run
+  expect_identical(match_rows(data.frame(k = 2000, c = 2e-9 + 2e-16), table), NA_integer_)
+  expect_identical(match_rows(data.frame(k = 2000 + 2e-4, c = 2e-9), table), NA_integer_)
+  expect_identical(match_rows(data.frame(k = 2000 + 1e-6, c = 2e-9), table, tolerance = 0),
+                   NA_integer_)
+  # a grid whose lead column repeats: every row found
+  grid <- design_grid(a = 1:20 / 3, b = 1:30 / 7)
+  expect_identical(match_rows(grid * (1 + 1e-12), grid), seq_len(nrow(grid)))
+})
