@@ -77,11 +77,8 @@ complete_design <- function(design, settings) {
     if (anyDuplicated(design$theta)) return(NULL)
     return(list(theta = design$theta, y = design$y))
   }
-  key <- function(m) do.call(paste, c(lapply(seq_len(ncol(m)), function(j) {
-    sprintf("%.10g", m[, j])
-  }), sep = "|"))
-  setting <- match(key(design$x), key(settings))
-  run <- match(key(design$theta), unique(key(design$theta)))
+  setting <- match_rows(design$x, settings)
+  run <- row_groups(design$theta)
   keep <- !is.na(setting)
   pair <- paste(run[keep], setting[keep])
   if (anyDuplicated(pair)) return(NULL)

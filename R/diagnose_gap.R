@@ -449,8 +449,7 @@ check_candidates <- function(candidates, base) {
 # Zero-strength runs that share a base run's theta must reproduce its outputs.
 check_zero_strength <- function(cand, base, zero, what) {
   cols <- names(lib_theta(base))
-  hit <- match_rows(lapply(lib_theta(cand)[zero, cols, drop = FALSE], signif, 10),
-                    lapply(lib_theta(base), signif, 10))
+  hit <- match_rows(lib_theta(cand)[zero, cols, drop = FALSE], lib_theta(base)[cols])
   ok <- !is.na(hit)
   if (!any(ok)) return(invisible())
   yc <- lib_outputs(cand, which(zero)[ok])
@@ -474,17 +473,9 @@ candidate_log_prior <- function(cand, base_cols) {
   -log(max(level)) - log(count[level])
 }
 
-# The level of each run: its distinct strength values (to 12 digits),
-# numbered in order of first appearance.
-strength_levels <- function(strength) {
-  id <- row_ids(as.data.frame(signif(strength, 12)))
-  match(id, unique(id))
-}
-
-# One integer per row of a table, the same for equal rows (their rank).
-row_ids <- function(table) {
-  data.table::frankv(data.table::as.data.table(table), ties.method = "dense")
-}
+# The level of each run: its distinct strength values (equal as
+# match_rows() has it), numbered in order of first appearance.
+strength_levels <- function(strength) row_groups(strength)
 
 model_prior <- function(prior_models, models) {
   if (is.null(prior_models)) return(stats::setNames(rep(-log(length(models)), length(models)),

@@ -27,6 +27,21 @@ match_rows <- function(x, table, tolerance = match_tolerance) {
 
 match_tolerance <- 1e-8
 
+# The group of each row of `x`: rows equal under match_rows() share one,
+# numbered 1, 2, ... in order of first appearance.
+# (match_rows(x, x) would find each row itself, so near rows are looked
+# for among all rows: each row's first near row.)
+row_groups <- function(x, tolerance = match_tolerance) {
+  x <- lapply(as.list(as.data.frame(x)), as.double)
+  first <- exact_row_match(x, x)
+  if (tolerance > 0 && length(x[[1]]) > 1L) {
+    scale <- vapply(x, function(v) max(0, abs(v), na.rm = TRUE) * tolerance, 0)
+    near <- near_row_match(x, x, scale)
+    first <- ifelse(is.na(near), first, pmin(near, first))
+  }
+  match(first, unique(first))
+}
+
 # Rows with the very same bits (NA equal to NA): the common case, by hashing.
 exact_row_match <- function(x, table) {
   key <- function(cols) do.call(paste, c(lapply(cols, function(v) sprintf("%a", v)), sep = "|"))

@@ -127,8 +127,7 @@ read_calibration_inputs <- function(design, simobs, expobs, n_x, t = NULL, t_fie
   setting <- design_settings(design[, x_cols, drop = FALSE], settings)
   used <- !is.na(setting)
   theta <- as.data.frame(design[used, setdiff(seq_len(ncol(design)), x_cols), drop = FALSE])
-  run <- data.table::frankv(data.table::as.data.table(theta), ties.method = "dense")
-  run <- match(run, unique(run))
+  run <- row_groups(theta)
   assert_distinct_pairs(run, setting[used], which(used))
   lib_x <- if (n_x > 0L) settings else NULL
   field <- expobs_field(expobs, exp_x, n_x, n_t, t)
@@ -294,9 +293,7 @@ design_settings <- function(design_x, exp_x) {
   if (ncol(design_x) == 0L) {
     return(rep(1L, nrow(design_x)))
   }
-  key <- function(d) do.call(paste, c(lapply(d, function(v) sprintf("%.10g", v)), sep = "|"))
-  setting <- match(key(design_x), key(exp_x))
-  match(key(design_x), key(exp_x))
+  match_rows(design_x, exp_x)
 }
 
 assert_distinct_pairs <- function(run, setting, rows) {

@@ -32,3 +32,16 @@ test_that("the tolerance is relative to each column's scale, and distinct runs s
   grid <- design_grid(a = 1:20 / 3, b = 1:30 / 7)
   expect_identical(match_rows(grid * (1 + 1e-12), grid), seq_len(nrow(grid)))
 })
+
+test_that("row_groups() numbers equal rows alike, near rows included", {
+  x <- data.frame(a = c(1, 2, 1 + 1e-12, 3, 2), b = c(5, 6, 5, 7, 6 * (1 + 1e-11)))
+  expect_identical(row_groups(x), c(1L, 2L, 1L, 3L, 2L))
+  expect_identical(row_groups(x, tolerance = 0), c(1L, 2L, 3L, 4L, 5L))
+  # a design written to CSV and read back groups as it did
+  path <- withr::local_tempfile(fileext = ".csv")
+  d <- data.frame(k = c(0.1, 0.3, 0.1, 0.7) / 3, c = c(1, 2, 1, 2) / 7)
+  utils::write.csv(d, path, row.names = FALSE)
+  back <- utils::read.csv(path)
+  expect_false(identical(back, d))  # not the same bits
+  expect_identical(row_groups(rbind(d, back)), c(1L, 2L, 1L, 3L, 1L, 2L, 1L, 3L))
+})
