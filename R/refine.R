@@ -268,10 +268,14 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
   out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history",
                              "emulation_error")]
-  if (!is.null(rounds$failure)) stop_refinement(rounds$failure, out, store)
-  if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
-  warn_emulation(rounds$emulation_error)
-  out
+  if (!is.null(rounds$failure)) {
+    stop_refinement(rounds$failure, finish_fit(out, warn = FALSE), store)
+  }
+  # refine()'s own resolution warning says why the rounds stopped short; a
+  # resolved refinement has nothing to warn of
+  finish_fit(out, resolution = function(fit) {
+    if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+  })
 }
 
 # The simulator failed or was interrupted: an error that carries the fit of

@@ -63,7 +63,7 @@ test_that("the folded misfit gives the exact Gamma-normal likelihood of the extr
   prior <- list(shape = 2, rate = 0.5)
   C <- matrix(c(3, 7), 2, 1)
   extra <- matrix(c(0.4, 0), 2, 1)
-  folded <- fold_extra_logdet(structure(C, extra_logdet = extra), prior, 10)
+  folded <- fold_extra_logdet(list(C = C, extra_logdet = extra), prior, 10)
   direct <- -(prior$shape + 5) * log(prior$rate + C / 2) - extra / 2
   via_fold <- -(prior$shape + 5) * log(prior$rate + folded / 2)
   expect_equal(via_fold, direct)
