@@ -302,7 +302,7 @@ noise_var_pooled <- function(problem, s2) {
 # so the field data's roughness bounds them too (roughness_noise_var()).
 reference_noise_var <- function(setup, s2, C, rough = NULL) {
   n <- sum(setup$group_sizes)
-  df <- if (is.null(setup$dense)) 0 else setup$group_sizes - lengths(setup$dense$groups)
+  df <- setup$group_sizes - group_cells(setup)
   if (sum(df) >= 5L) return(sum(setup$pure_ss) / sum(df))
   min(sum(s2 * setup$group_sizes) / n, max(min(C), 0) / n, rough)
 }
@@ -370,8 +370,7 @@ restate_noise_var <- function(state, times = 3L) {
 # run fits (a discrepancy, or a simulator or data in error), the emulator's
 # error is the likelihood's only slack, and shapes the posterior.
 lack_of_fit <- function(setup, best) {
-  if (is.null(setup$dense)) return(NULL)
-  cells <- sum(lengths(setup$dense$groups))
+  cells <- sum(group_cells(setup))
   df <- sum(setup$group_sizes) - cells
   if (df < 5L) return(NULL)
   pure <- sum(setup$pure_ss)

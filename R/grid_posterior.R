@@ -239,6 +239,13 @@ dense_point_factors <- function(dense, g) {
 
 n_grid_points <- function(setup) length(setup$logdet)
 
+# The observed cells of each noise group (group_sizes less the replicates'
+# pure-error degrees of freedom): every cell, one group, for a Kronecker
+# setup.
+group_cells <- function(setup) {
+  if (is.null(setup$dense)) setup$group_sizes else lengths(setup$dense$groups)
+}
+
 # Whiten residual rows (vectors in library order, blocks of n_t by x setting)
 # under grid point `point`, so that squared norms are the quadratic forms in
 # R_g^-1: AR(1) innovations over t (src/grid_posterior.h), then U'^-1 over x.

@@ -78,7 +78,10 @@
 #' symmetry makes it 50%). The warning at `max_runs` names such a mode.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
-#' `refine()` of it carries on where it stopped.
+#' `refine()` of it carries on where it stopped. Otherwise the refined fit
+#' is checked as [calibrate()]'s is: it warns when its chains have not
+#' converged (class `griddy_warning_convergence`) and when the data show a
+#' gap (class `griddy_warning_gap`; the screen is in `$gap_screen`).
 #'
 #' **With a simulator**, new runs are simulated: `simulator(theta, ...)`
 #' receives a data.frame of \eqn{\theta} rows (the library's columns) and

@@ -124,6 +124,7 @@ test_that("a refined library's interface: rounds, predicted runs, replacements, 
   expect_equal(lib_run_quad_forms(rep_lib, 20L, y, setup)$C[1, ],
                plain_quad_forms(sim_y, y, setup)[1, ], ignore_attr = TRUE)
   expect_equal(lib_log_prior(rep_lib), lib_log_prior(lib))
-  expect_equal(run_group_forms(list(library = rep_lib, y_field = y, setup = setup), 20L, 1L),
+  rep_problem <- new_griddy_problem(rep_lib, y, ref$prior, lib_log_prior(rep_lib), setup)
+  expect_equal(run_group_forms(rep_problem, 20L, 1L),
                group_quad_forms(sim_y, y, setup, 1L), ignore_attr = TRUE)
 })
