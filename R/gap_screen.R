@@ -93,13 +93,19 @@ grid_rho <- function(fit, g) {
 }
 
 # Whether the screen found a gap it can vouch for: a factor above the
-# threshold on a fit whose library resolves the posterior. (Between coarse
-# runs the misfit of the nearest run looks like a gap as well, so a fit
-# limited by the library's resolution, which is warned of already, gets no
-# gap warning: refine() it first.)
+# threshold on a fit whose library resolves the posterior and whose
+# predicted runs, if any, are off by less than the noise. (Between coarse
+# runs the misfit of the nearest run looks like a gap as well, and so does
+# the error of an emulator worse than its own estimate; each is warned of
+# already, so such a fit gets no gap warning: refine() it first, with the
+# simulator.)
 screen_shows_gap <- function(fit) {
   screen <- fit$gap_screen
   if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(FALSE)
+  emulation <- emulation_error(fit)
+  if (!is.null(emulation) && is.finite(emulation) && emulation > emulation_error_threshold) {
+    return(FALSE)
+  }
   tab <- resolution_limited(fit)
   !any(tab$limited & !tab$constant)
 }
