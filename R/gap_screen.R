@@ -93,19 +93,13 @@ grid_rho <- function(fit, g) {
 }
 
 # Whether the screen found a gap it can vouch for: a factor above the
-# threshold on a fit whose library resolves the posterior and whose
-# predicted runs, if any, are off by less than the noise. (Between coarse
-# runs the misfit of the nearest run looks like a gap as well, and so does
-# the error of an emulator worse than its own estimate; each is warned of
-# already, so such a fit gets no gap warning: refine() it first, with the
-# simulator.)
+# threshold on a fit whose library resolves the posterior. (Between coarse
+# runs the misfit of the nearest run looks like a gap as well, so a fit
+# limited by the library's resolution, which is warned of already, gets no
+# gap warning: refine() it first.)
 screen_shows_gap <- function(fit) {
   screen <- fit$gap_screen
   if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(FALSE)
-  emulation <- emulation_error(fit)
-  if (!is.null(emulation) && is.finite(emulation) && emulation > emulation_error_threshold) {
-    return(FALSE)
-  }
   tab <- resolution_limited(fit)
   !any(tab$limited & !tab$constant)
 }
@@ -113,14 +107,23 @@ screen_shows_gap <- function(fit) {
 # finish_fit()'s warning when the screen finds a gap.
 warn_gap_screen <- function(fit) {
   if (!screen_shows_gap(fit)) return(invisible(NULL))
-  griddy_warn(gap_screen_message(fit$gap_screen$log_bf), class = "gap")
+  griddy_warn(gap_screen_message(fit$gap_screen$log_bf, emulation_caveat(fit)), class = "gap")
 }
 
-gap_screen_message <- function(log_bf) {
+gap_screen_message <- function(log_bf, caveat = NULL) {
   paste0("The field data show structure the model has no term for: a Gaussian-process ",
          "discrepancy is favoured by a log Bayes factor of at least ", format(log_bf, digits = 3),
          " (", evidence_words(log_bf), "), so the intervals may be narrow and off. It is a gap ",
          "between the simulator and reality, or noise correlated over x or t (try the ",
          "`rho_x` and `rho_t` grids). Fit it with `discrepancy = gp_discrepancy()`, or look for ",
-         "its cause with diagnose_gap().")
+         "its cause with diagnose_gap().", if (!is.null(caveat)) paste0(" ", caveat))
+}
+
+# What a gap found on predicted runs worse than the noise may be instead:
+# the emulator's error beyond its estimate (warned of already).
+emulation_caveat <- function(fit) {
+  ratio <- emulation_error(fit)
+  if (is.null(ratio) || !is.finite(ratio) || ratio <= emulation_error_threshold) return(NULL)
+  paste0("(The runs near the posterior were predicted with an error ", format(ratio, digits = 2),
+         " times the noise: part of the gap may be that error; refine with the simulator.)")
 }
