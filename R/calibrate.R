@@ -217,16 +217,7 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_i
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
                                  noise_groups, update, discrepancy)
   check_update_groups(problem, update)
-  fit <- sample_problem(problem, update, control, seed, call, start)
-  checks_start <- proc.time()[["elapsed"]]
-  fit$gap_screen <- gap_screen(fit, field, rho_x, rho_t, prior, x_power, run_weights,
-                               noise_groups)
-  warn_resolution(fit)
-  warn_convergence(fit)
-  warn_gap(fit)
-  warn_gap_screen(fit)
-  fit$runtime[["checks"]] <- fit$runtime[["checks"]] + proc.time()[["elapsed"]] - checks_start
-  fit
+  finish_fit(sample_problem(problem, update, control, seed, call, start))
 }
 
 # The thesis's update draws theta given one tau: it has no form for several.
@@ -241,8 +232,9 @@ check_update_groups <- function(problem, update) {
 n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 
 # Draw the posterior of a calibration problem (validated inputs, C): the
-# sampler half of calibrate(), shared with refine(). `start` is the elapsed
-# time at which the call began (validation and precompute count from there).
+# sampler half of calibrate(), shared with refine(); the fit it returns is
+# finished by finish_fit(). `start` is the elapsed time at which the call
+# began (validation and precompute count from there).
 sample_problem <- function(problem, update, control, seed, call,
                            start = proc.time()[["elapsed"]]) {
   tables <- sampler_tables(problem, update)

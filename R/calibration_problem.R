@@ -2,6 +2,30 @@
 # correlation setup and the quadratic forms C (runs x correlation grid). A
 # griddy_fit is this problem plus the draws, so every function that takes a
 # problem also takes a fit.
+#
+# A problem (class griddy_problem) is made by new_griddy_problem() only;
+# its fields:
+#
+# * library: the library (any backend), with what its misfit table found
+#   for these field data kept (an emulated library's noise plug-in,
+#   lib_with_plug_in());
+# * y_field: the field data in the library's order (cell means for
+#   replicates), NA where missing;
+# * n_obs: the number of measurements (observed cells plus the replicates'
+#   pure-error degrees of freedom);
+# * prior: the Gamma(shape, rate) prior on tau. The problem holds it; its
+#   setup carries the same object as `fold_prior` (the one copy the
+#   quadratic forms read, to fold noise groups and for an emulated
+#   library's plug-in), set here when the setup has none;
+# * log_prior_run, log_prior_grid: log prior weights of the runs and of the
+#   grid points (grid_log_prior());
+# * setup: the correlation setup (correlation_setup(); its factors are read
+#   through grid_point());
+# * grid: the grid as a table (setup_grid_table());
+# * C: the quadratic forms, runs x grid points, extra log-determinants
+#   folded in (misfit_table());
+# * emulation_error: an emulated library's leave-one-out error near the
+#   posterior over the noise sd (NULL otherwise), for summary().
 
 calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
                                 run_weights, noise_groups = NULL, update = NULL,
@@ -19,34 +43,44 @@ calibration_problem <- function(library, field, rho_x, rho_t, prior, x_power,
   # a discrepancy breaks the Kronecker structure: dense factors throughout
   pattern <- noise_pattern(library, layout, noise_groups, prior,
                            dense = !is.null(discrepancy))
-  setup <- correlation_setup(library, rho_x, rho_t, x_power, pattern, discrepancy)
-  setup$noise_prior <- prior  # an emulated library's noise plug-in (emulation_error.R)
+  setup <- setup_with_prior(correlation_setup(library, rho_x, rho_t, x_power, pattern,
+                                              discrepancy), prior)
   inform_memory(library, n_grid_points(setup), update)
-  problem <- problem_from_parts(library, layout$y, prior, log_prior_run, setup)
+  problem <- new_griddy_problem(library, layout$y, prior, log_prior_run, setup)
   if (default_prior) warn_prior_scale(problem)
   problem
 }
 
-# The problem from validated parts; refine() builds its problems here too.
-problem_from_parts <- function(library, y_field, prior, log_prior_run, setup,
-                               C = misfit_table(library, y_field, setup, prior)) {
+# The one constructor of a problem (fields above), from validated parts; `C`
+# is the misfit table (misfit_table()'s list, or a matrix already folded).
+# refine(), diagnose_gap() and the gap screen build their problems here too.
+new_griddy_problem <- function(library, y_field, prior, log_prior_run, setup,
+                               C = misfit_table(library, y_field, setup_with_prior(setup, prior),
+                                                prior)) {
+  setup <- setup_with_prior(setup, prior)
+  misfit <- misfit_parts(C)
+  C <- misfit$C
   assert_misfit_scale(C, y_field, sum(setup$group_sizes))
   if (prior$rate == 0 && min(C) <= 0) {  # min(): no temporary as large as C
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
-  emulation_error <- attr(C, "emulation_error")
-  if (!is.null(emulation_error)) attr(C, "emulation_error") <- NULL
   # an emulated library's noise plug-in for these data (emulation_error.R),
   # kept with it so that what reads its error later agrees with C
-  library <- lib_with_plug_in(library, C)
-  if (!is.null(attr(C, "library_noise"))) attr(C, "library_noise") <- NULL
-  # every measurement: the observed cells and the replicates' pure-error
-  # degrees of freedom (see noise_pattern())
-  list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes),
-       prior = prior, log_prior_run = log_prior_run, setup = setup,
-       grid = setup_grid_table(library, setup), C = C,
-       log_prior_grid = grid_log_prior(setup), emulation_error = emulation_error)
+  library <- lib_with_plug_in(library, misfit$plug_in)
+  structure(
+    list(library = library, y_field = y_field, n_obs = sum(setup$group_sizes), prior = prior,
+         log_prior_run = log_prior_run, setup = setup, grid = setup_grid_table(library, setup),
+         C = C, log_prior_grid = grid_log_prior(setup),
+         emulation_error = misfit$emulation_error),
+    class = "griddy_problem")
+}
+
+# The setup carrying the problem's prior (see the fields above): a setup
+# built with a noise pattern has it already, the same object.
+setup_with_prior <- function(setup, prior) {
+  if (is.null(setup$fold_prior)) setup$fold_prior <- prior
+  setup
 }
 
 # The prior over correlation grid points: uniform over the distinct

@@ -104,7 +104,7 @@ discrepancy_problem <- function(problem, discrepancy) {
   new$logdet <- new$logdet + (setup$logdet[1] - new$logdet[1])
   new$noise_prior <- setup$noise_prior
   C <- misfit_table(library, problem$y_field, new, problem$prior)
-  problem_from_parts(library, problem$y_field, problem$prior, problem$log_prior_run, new, C)
+  new_griddy_problem(library, problem$y_field, problem$prior, problem$log_prior_run, new, C)
 }
 
 # noise_pattern() of a setup, rebuilt from what the setup keeps (every point

@@ -93,7 +93,7 @@ nonzero_part <- function(cand, rows, base_problem, max_runs) {
   # rows of a checked library: distinct, finite runs (sim_library() would
   # check its 10^5 rows again)
   part <- runs_piece(theta, Y, lib_x(cand), lib_t(cand))
-  problem <- problem_from_parts(part, base_problem$y_field, base_problem$prior,
+  problem <- new_griddy_problem(part, base_problem$y_field, base_problem$prior,
                                 lib_log_prior(part), base_problem$setup)
   problem_part(refine_rounds(problem, NULL, max_runs, default_runs_per_round(lib_theta(part)),
                              settled = settled_in_range)$problem)

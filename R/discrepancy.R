@@ -303,11 +303,12 @@ sensitivity_projector <- function(G) {
 
 # The discrepancy for these data: an orthogonal one learns the outputs'
 # sensitivities to theta here, a scaled one the observed points (every
-# problem with a discrepancy is built through this).
-discrepancy_for_data <- function(discrepancy, library, y, pattern) {
+# problem with a discrepancy is built through this). `best`, when known, is
+# best_fitting_run()'s answer.
+discrepancy_for_data <- function(discrepancy, library, y, pattern, best = NULL) {
   if (isTRUE(discrepancy$scaled)) discrepancy$observed <- which(!is.na(y))
   if (!isTRUE(discrepancy$orthogonal)) return(discrepancy)
-  discrepancy$sensitivity <- discrepancy_sensitivity(library, y, pattern)
+  discrepancy$sensitivity <- discrepancy_sensitivity(library, y, pattern, best)
   discrepancy
 }
 
@@ -316,13 +317,13 @@ discrepancy_for_data <- function(discrepancy, library, y, pattern) {
 # [0, 1]) over the 4p + 2 runs (at least 12) nearest the run that fits the
 # data best (best_fitting_run()). Parameters the library holds constant, or
 # that the nearest runs do not vary, are left out. NULL when none is left.
-discrepancy_sensitivity <- function(library, y, pattern) {
+discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
   theta <- as.matrix(lib_theta(library))
   span <- apply(theta, 2, function(v) diff(range(v)))
   theta <- sweep(sweep(theta, 2, apply(theta, 2, min)), 2, pmax(span, 1e-300), "/")
   theta <- theta[, span > 0, drop = FALSE]
   if (ncol(theta) == 0L) return(NULL)
-  best <- best_fitting_run(library, y, pattern)
+  if (is.null(best)) best <- best_fitting_run(library, y, pattern)
   k <- min(nrow(theta), max(4L * ncol(theta) + 2L, 12L))
   near <- nearest_runs(theta[best, , drop = FALSE], theta, k)$idx[1, ]
   X <- sweep(theta[near, , drop = FALSE], 2, theta[best, ])
@@ -337,5 +338,6 @@ discrepancy_sensitivity <- function(library, y, pattern) {
 # The run that fits the field data best with independent noise (the noise
 # pattern's sd and groups kept): one pass over the library.
 best_fitting_run <- function(library, y, pattern) {
-  which.min(lib_quad_forms(library, y, correlation_setup(library, 0, 0, 2, pattern)))
+  setup <- correlation_setup(library, 0, 0, 2, pattern)
+  which.min(misfit_parts(lib_quad_forms(library, y, setup))$C)
 }

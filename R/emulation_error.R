@@ -203,29 +203,58 @@ run_emulation <- function(emulation, j, obs) {
 # the draws of each group's precision and its posterior mean need.
 run_group_forms <- function(problem, runs, g) {
   library <- problem$library
-  forms <- function(rows, y, err, kappa) {
-    emulated_group_forms(y, problem$y_field, problem$setup, err, kappa, lib_n_x(library),
-                         lib_n_t(library), g)$C
-  }
   Ck <- group_quad_forms(lib_outputs(library, runs), problem$y_field, problem$setup, g)
-  em <- run_errors(library)
-  if (is.null(em)) return(Ck)
-  # a run a simulator replaced keeps its plain forms
-  runs[runs %in% em$replaced] <- NA_integer_
-  in_base <- which(runs <= em$n_base)
-  if (!is.null(em$base) && length(in_base) > 0L) {
-    Ck[in_base, ] <- forms(in_base, lib_outputs(library, runs[in_base]), em$base$error,
-                           rep(em$base$kappa, length(in_base)))
-  }
-  added <- !is.na(runs) & runs > em$n_base
-  for (r in unique(em$round[runs[added] - em$n_base])) {
-    err <- em$errors[[r]]
-    if (is.null(err)) next
-    rows <- which(added)[em$round[runs[added] - em$n_base] == r]
-    Ck[rows, ] <- forms(rows, lib_outputs(library, runs[rows]), err,
-                        em$kappa[runs[rows] - em$n_base])
+  for (part in predicted_parts(library, runs)) {
+    Ck[part$at, ] <- emulated_group_forms(lib_outputs(library, runs[part$at]), problem$y_field,
+                                          problem$setup, part$error, part$kappa,
+                                          lib_n_x(library), lib_n_t(library), g)$C
   }
   Ck
+}
+
+# The quadratic forms of library rows `rows` under any setup (another grid,
+# a discrepancy's), each predicted run under its own covariance as the
+# library keeps it for its field data (run_errors()): list(C = runs x grid
+# points folded over the noise groups, extra_logdet), what
+# fold_extra_logdet() takes. The gap screen weighs a fit's runs this way.
+predicted_forms <- function(library, rows, y_field, setup) {
+  Y <- lib_outputs(library, rows)
+  C <- plain_quad_forms(Y, y_field, setup)
+  extra <- matrix(0, nrow(C), ncol(C))
+  for (part in predicted_parts(library, rows)) {
+    em <- emulated_quad_forms(Y[part$at, , drop = FALSE], y_field, setup, part$error,
+                              part$kappa, lib_n_x(library), lib_n_t(library))
+    C[part$at, ] <- em$C
+    extra[part$at, ] <- em$logdet
+  }
+  list(C = C, extra_logdet = extra)
+}
+
+# Library rows `rows` grouped by the error model that predicted them: a
+# list with, per model, the positions `at` in `rows`, the `error` model and
+# each run's `kappa`. Simulated runs, and predicted ones a simulator
+# replaced, are in none.
+predicted_parts <- function(library, rows) {
+  em <- run_errors(library)
+  if (is.null(em)) return(list())
+  # model 1 the base library's (one shared kappa), model r + 1 round r's
+  errors <- c(list(em$base$error), em$errors)
+  model <- integer(length(rows))
+  kappa <- numeric(length(rows))
+  in_base <- rows <= em$n_base
+  if (!is.null(em$base)) {
+    model[in_base] <- 1L
+    kappa[in_base] <- em$base$kappa
+  }
+  added <- rows[!in_base] - em$n_base
+  model[!in_base] <- em$round[added] + 1L
+  kappa[!in_base] <- em$kappa[added]
+  model[rows %in% em$replaced] <- 0L
+  parts <- lapply(setdiff(unique(model), 0L), function(m) {
+    at <- which(model == m)
+    if (is.null(errors[[m]])) NULL else list(at = at, error = errors[[m]], kappa = kappa[at])
+  })
+  Filter(Negate(is.null), parts)
 }
 
 # ---- the noise plug-in --------------------------------------------------------------
@@ -273,7 +302,7 @@ noise_var_pooled <- function(problem, s2) {
 # so the field data's roughness bounds them too (roughness_noise_var()).
 reference_noise_var <- function(setup, s2, C, rough = NULL) {
   n <- sum(setup$group_sizes)
-  df <- if (is.null(setup$dense)) 0 else setup$group_sizes - lengths(setup$dense$groups)
+  df <- setup$group_sizes - group_cells(setup)
   if (sum(df) >= 5L) return(sum(setup$pure_ss) / sum(df))
   min(sum(s2 * setup$group_sizes) / n, max(min(C), 0) / n, rough)
 }
@@ -341,8 +370,7 @@ restate_noise_var <- function(state, times = 3L) {
 # run fits (a discrepancy, or a simulator or data in error), the emulator's
 # error is the likelihood's only slack, and shapes the posterior.
 lack_of_fit <- function(setup, best) {
-  if (is.null(setup$dense)) return(NULL)
-  cells <- sum(lengths(setup$dense$groups))
+  cells <- sum(group_cells(setup))
   df <- sum(setup$group_sizes) - cells
   if (df < 5L) return(NULL)
   pure <- sum(setup$pure_ss)

@@ -1,5 +1,5 @@
 # The gap screen: does a fit without a discrepancy hide one? After sampling,
-# calibrate() weighs a gp_discrepancy() on the runs and the correlation grid
+# finish_fit() weighs a gp_discrepancy() on the runs and the correlation grid
 # point that carry the posterior, and warns when the data favour it.
 #
 # It is a lower bound, and cheap: the evidence of the model with a
@@ -15,33 +15,59 @@
 gap_screen_runs <- 500L
 gap_screen_cells <- 400L
 
-# The screen's result for calibrate()'s arguments and its fit without a
-# discrepancy: list(log_bf = the lower bound on the log Bayes factor,
-# runs = how many runs it weighed), or NULL when it does not apply (a fit
-# with a discrepancy, too many cells, an improper evidence).
-gap_screen <- function(fit, field, rho_x, rho_t, prior, x_power, run_weights, noise_groups) {
+# The screen's result for a fit without a discrepancy: list(log_bf = the
+# lower bound on the log Bayes factor, runs = how many runs it weighed), or
+# NULL when it does not apply (a fit with a discrepancy, too many cells, an
+# improper evidence). Built from the fit's own problem (finish_fit()), so
+# any route's fit gets it, and each run keeps the covariance it has in the
+# fit (a predicted run its emulation error): the model with a discrepancy
+# differs from the fit's by the discrepancy alone.
+gap_screen <- function(fit) {
   n_cells <- sum(!is.na(fit$y_field))
   if (!is.null(fit$setup$discrepancy) || n_cells > gap_screen_cells) return(NULL)
   log_mass_full <- attr(fit$exact, "log_mass")
   if (is.null(log_mass_full) || !is.finite(log_mass_full)) return(NULL)
   runs <- screen_runs(fit$exact$run)
   g <- which.max(fit$exact$grid$prob)
-  rho <- grid_rho(fit, g)
-  lib <- fit$library
-  weights <- exp(fit$log_prior_run[runs] - max(fit$log_prior_run[runs]))
   # the fit has said what there is to say about its library and prior: the
   # screen's own problem stays quiet
-  problem <- tryCatch(suppressWarnings({
-    sub <- sim_library(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs),
-                       x = lib_x(lib), t = lib_t(lib))
-    calibration_problem(sub, field, rho$x, rho$t, prior, x_power, weights, noise_groups,
-                        discrepancy = gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
-  }, classes = "griddy_warning"), griddy_error = function(e) NULL)
+  problem <- tryCatch(suppressWarnings(screen_problem(fit, runs, g), classes = "griddy_warning"),
+                      griddy_error = function(e) NULL)
   if (is.null(problem)) return(NULL)
   # the subset's and the grid point's prior mass in the full model
   log_prior_mass <- log_sum_exp(fit$log_prior_run[runs]) + fit$log_prior_grid[g]
   log_mass_disc <- grid_posterior(problem, joint = FALSE)$log_mass + log_prior_mass
   list(log_bf = log_mass_disc - log_mass_full, runs = length(runs))
+}
+
+screen_discrepancy <- function() gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])
+
+# The problem of the screen: library rows `runs` of a fit at its grid point
+# g, with `discrepancy` added to the fit's noise pattern (its observed
+# points, sd, groups and replicates), each run under the covariance it has
+# in the fit (predicted_forms()).
+screen_problem <- function(fit, runs, g, discrepancy = screen_discrepancy()) {
+  lib <- fit$library
+  sub <- runs_piece(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs), lib_x(lib),
+                    lib_t(lib))
+  pattern <- setup_noise_pattern(fit$setup, lib_n_out(lib), fit$prior)
+  rho <- grid_rho(fit, g)
+  # the discrepancy learns its sensitivities from the whole library, as the
+  # full model's does (a subset's nearest runs differ, and so would the
+  # model): around the best run under independent noise, which C holds
+  # when the grid has the point rho = 0
+  zero <- which(rowSums(as.matrix(fit$grid) != 0) == 0)[1]
+  best <- if (!is.na(zero)) which.min(fit$C[, zero])
+  disc <- discrepancy_for_data(discrepancy, lib, fit$y_field, pattern, best)
+  setup <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern, disc)
+  # the replicates' constant of the log-determinant, which a setup does not
+  # keep: grid point g of the fit has the same correlation and no
+  # discrepancy
+  base <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern)
+  setup$logdet <- setup$logdet + (fit$setup$logdet[g] - base$logdet[1])
+  C <- fold_extra_logdet(predicted_forms(lib, runs, fit$y_field, setup), fit$prior, fit$n_obs)
+  new_griddy_problem(sub, fit$y_field, fit$prior, normalise_log_prob(fit$log_prior_run[runs]),
+                     setup, C = C)
 }
 
 # The runs that carry all but 1e-6 of the posterior, at most
@@ -78,17 +104,26 @@ screen_shows_gap <- function(fit) {
   !any(tab$limited & !tab$constant)
 }
 
-# calibrate()'s warning when the screen finds a gap.
+# finish_fit()'s warning when the screen finds a gap.
 warn_gap_screen <- function(fit) {
   if (!screen_shows_gap(fit)) return(invisible(NULL))
-  griddy_warn(gap_screen_message(fit$gap_screen$log_bf), class = "gap")
+  griddy_warn(gap_screen_message(fit$gap_screen$log_bf, emulation_caveat(fit)), class = "gap")
 }
 
-gap_screen_message <- function(log_bf) {
+gap_screen_message <- function(log_bf, caveat = NULL) {
   paste0("The field data show structure the model has no term for: a Gaussian-process ",
          "discrepancy is favoured by a log Bayes factor of at least ", format(log_bf, digits = 3),
          " (", evidence_words(log_bf), "), so the intervals may be narrow and off. It is a gap ",
          "between the simulator and reality, or noise correlated over x or t (try the ",
          "`rho_x` and `rho_t` grids). Fit it with `discrepancy = gp_discrepancy()`, or look for ",
-         "its cause with diagnose_gap().")
+         "its cause with diagnose_gap().", if (!is.null(caveat)) paste0(" ", caveat))
+}
+
+# What a gap found on predicted runs worse than the noise may be instead:
+# the emulator's error beyond its estimate (warned of already).
+emulation_caveat <- function(fit) {
+  ratio <- emulation_error(fit)
+  if (is.null(ratio) || !is.finite(ratio) || ratio <= emulation_error_threshold) return(NULL)
+  paste0("(The runs near the posterior were predicted with an error ", format(ratio, digits = 2),
+         " times the noise: part of the gap may be that error; refine with the simulator.)")
 }

@@ -239,6 +239,13 @@ dense_point_factors <- function(dense, g) {
 
 n_grid_points <- function(setup) length(setup$logdet)
 
+# The observed cells of each noise group (group_sizes less the replicates'
+# pure-error degrees of freedom): every cell, one group, for a Kronecker
+# setup.
+group_cells <- function(setup) {
+  if (is.null(setup$dense)) setup$group_sizes else lengths(setup$dense$groups)
+}
+
 # Whiten residual rows (vectors in library order, blocks of n_t by x setting)
 # under grid point `point`, so that squared norms are the quadratic forms in
 # R_g^-1: AR(1) innovations over t (src/grid_posterior.h), then U'^-1 over x.
@@ -300,23 +307,19 @@ colour_rows <- function(Z, point, n_x, n_t) {
 # or NaN. (A backend whose outputs hold NA or Inf says so first, itself.)
 #
 # A run whose likelihood has a covariance of its own (a run predicted by an
-# emulator, see library_refined.R) comes with an extra log-determinant
-# (attribute "extra_logdet"); it is folded into C, exactly for tau
-# integrated out under the Gamma(a, b) prior:
-#   -(a + n/2) log(b + C''/2) = -(a + n/2) log(b + C/2) - extra/2  when
-#   C'' = (2b + C) exp(extra / (2a + n)) - 2b.
+# emulator, see library_refined.R) comes with an extra log-determinant,
+# folded into C exactly for tau integrated out (fold_extra_logdet()).
+# Returns list(C, emulation_error, plug_in): what the backend found beside C
+# (misfit_parts()), for the problem (new_griddy_problem()).
 misfit_table <- function(library, y_field, setup, prior) {
-  C <- withCallingHandlers(lib_quad_forms(library, y_field, setup), error = function(e) {
+  forms <- withCallingHandlers(lib_quad_forms(library, y_field, setup), error = function(e) {
     if (grepl("misfit is not finite", conditionMessage(e), fixed = TRUE)) {
       abort_overflow(y_field)
     }
   })
-  # an emulated library's leave-one-out error against the noise, reported by
-  # summary() (see library_emulated.R)
-  error <- attr(C, "emulation_error")
-  C <- fold_extra_logdet(C, prior, sum(setup$group_sizes))  # every measurement
-  if (!is.null(error)) attr(C, "emulation_error") <- error
-  C
+  forms <- misfit_parts(forms)
+  list(C = fold_extra_logdet(forms, prior, sum(setup$group_sizes)),  # every measurement
+       emulation_error = forms$emulation_error, plug_in = forms$plug_in)
 }
 
 # The quadratic forms of outputs Y (runs in rows) held in memory, each run's
@@ -384,14 +387,25 @@ fold_groups <- function(Ck, setup) {
   2 * exp(log(b + Ck / 2) %*% w)[, 1] - 2 * b
 }
 
-# (Attributes are set or removed only when there are some: C may be most of
-# memory, and changing an attribute of a shared object copies it.)
-fold_extra_logdet <- function(C, prior, n_obs) {
-  extra <- attr(C, "extra_logdet")
-  if (is.null(extra)) return(C)
-  attr(C, "extra_logdet") <- NULL
-  if (all(extra == 0)) return(C)
-  (2 * prior$rate + C) * exp(extra / (2 * prior$shape + n_obs)) - 2 * prior$rate
+# What a library's quadratic forms come with (lib_quad_forms()): a bare
+# matrix C, or a list with C and, as a backend has them, `extra_logdet`
+# (runs x grid points: the log-determinant a predicted run's own covariance
+# adds, see library_refined.R), `emulation_error` (an emulated library's
+# leave-one-out error near the posterior over the noise sd) and `plug_in`
+# (an emulated library's noise plug-in for these data, lib_with_plug_in()).
+# In a list rather than as attributes of C, which rbind() and subsetting
+# drop. As a list, always.
+misfit_parts <- function(forms) if (is.list(forms)) forms else list(C = forms)
+
+# C with the extra log-determinant of `forms` (misfit_parts()) folded in:
+# -(a + n/2) log(b + C''/2) = -(a + n/2) log(b + C/2) - extra/2 when
+# C'' = (2b + C) exp(extra / (2a + n)) - 2b. (C may be most of memory: it is
+# returned as it is when there is nothing to fold, not copied.)
+fold_extra_logdet <- function(forms, prior, n_obs) {
+  forms <- misfit_parts(forms)
+  extra <- forms$extra_logdet
+  if (is.null(extra) || all(extra == 0)) return(forms$C)
+  (2 * prior$rate + forms$C) * exp(extra / (2 * prior$shape + n_obs)) - 2 * prior$rate
 }
 
 abort_overflow <- function(y_field) {

@@ -299,16 +299,16 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 # C with the emulation error at the library's own plug-in noise variance
 # and shared kappa for these field data (emulated_noise_var() in
 # emulation_error.R), its extra log-determinant folded in; warns when the
-# emulator is worse than the noise. The plug-in travels as attribute
-# "library_noise" into the problem's library (problem_from_parts()).
+# emulator is worse than the noise. Returned with the error's size
+# (`emulation_error`) and the plug-in (`plug_in`), which travels into the
+# problem's library (new_griddy_problem(), misfit_parts()).
 #' @exportS3Method
 lib_quad_forms.emulated_library <- function(library, y_field, setup) {
   fixed <- emulated_noise_var(library, y_field, setup)
   warn_design_emulation(fixed$ratio)
   warn_lack_of_fit(fixed$lack_of_fit)
-  structure(fixed$C, emulation_error = fixed$ratio,
-            library_noise = list(y_field = y_field, noise_var = fixed$noise_var,
-                                 kappa = fixed$kappa))
+  list(C = fixed$C, emulation_error = fixed$ratio,
+       plug_in = list(y_field = y_field, noise_var = fixed$noise_var, kappa = fixed$kappa))
 }
 
 warn_design_emulation <- function(ratio) {
@@ -403,9 +403,8 @@ lib_prediction_errors.emulated_library <- function(library) {
 }
 
 #' @exportS3Method
-lib_with_plug_in.emulated_library <- function(library, C) {
-  noise <- attr(C, "library_noise")
-  if (!is.null(noise)) library$noise <- noise
+lib_with_plug_in.emulated_library <- function(library, plug_in) {
+  if (!is.null(plug_in)) library$noise <- plug_in
   library
 }
 
@@ -420,36 +419,35 @@ emulated_kappa <- function(library, p) {
   sum(p * library$rel_var) / sum(p)
 }
 
-# C of an emulated library's runs at plug-in noise variance s2 and shared
-# kappa, with attribute "extra_logdet".
+# The forms of an emulated library's runs at plug-in noise variance s2 and
+# shared kappa: list(C, extra_logdet) (misfit_parts()).
 emulated_library_forms <- function(library, y_field, setup, s2, kappa) {
-  if (is.null(library$error)) return(plain_quad_forms(library$y, y_field, setup))
+  if (is.null(library$error)) return(list(C = plain_quad_forms(library$y, y_field, setup)))
   err <- library$error
   err$noise_var <- s2
   em <- emulated_quad_forms(library$y, y_field, setup, err, rep(kappa, nrow(library$y)),
                             lib_n_x(library), lib_n_t(library))
-  structure(em$C, extra_logdet = em$logdet)
+  list(C = em$C, extra_logdet = em$logdet)
 }
 
 # The noise variance and the shared kappa of an emulated library for these
 # field data: kappa the posterior mean of kappa_i without the error, and the
 # noise variance by a fixed point from the best run's misfit per data point,
 # a few times the posterior mean of 1/tau (posterior_noise_var(), under the
-# problem's prior setup$noise_prior, the runs equally weighted). A value restated by refine() for
+# problem's prior setup$fold_prior, the runs equally weighted). A value restated by refine() for
 # these field data is used as it is. Returns list(C (extra_logdet folded),
 # noise_var, kappa, ratio = the leave-one-out error near the mode over the
 # noise sd, emulation_error_ratio()'s measure).
 emulated_noise_var <- function(library, y_field, setup, times = 6L) {
-  prior <- setup$noise_prior
+  prior <- setup$fold_prior
   if (is.null(prior)) prior <- thesis_prior()
   n <- sum(setup$group_sizes)
-  posterior <- function(C) {
-    problem <- list(C = fold_extra_logdet(C, prior, n), prior = prior, setup = setup,
-                    library = library, y_field = y_field,
-                    log_prior_run = rep(-log(nrow(C)), nrow(C)),
-                    log_prior_grid = grid_log_prior(setup))
+  posterior <- function(forms) {
+    forms <- misfit_parts(forms)
+    problem <- new_griddy_problem(library, y_field, prior, rep(-log(nrow(forms$C)), nrow(forms$C)),
+                                  setup, C = fold_extra_logdet(forms, prior, n))
     post <- grid_posterior(problem)
-    list(problem = problem, joint = post$joint, p = post$run, best = min(C))
+    list(problem = problem, joint = post$joint, p = post$run, best = min(forms$C))
   }
   result <- function(state) {
     mode <- as.matrix(library$theta)[which.max(state$p), ]

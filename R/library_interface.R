@@ -40,7 +40,9 @@ lib_outputs <- function(library, rows = NULL) UseMethod("lib_outputs")
 
 # The quadratic forms C (runs x correlation grid points) of `y_field` under
 # every grid point of `setup`; see correlation_setup() and misfit_table() in
-# grid_posterior.R.
+# grid_posterior.R. A matrix, or, for a backend that finds more beside it
+# (extra log-determinants, an emulated library's error and plug-in), a list
+# with C and those (misfit_parts()): never attributes on C.
 lib_quad_forms <- function(library, y_field, setup) UseMethod("lib_quad_forms")
 
 # Whether the outputs stay on disk (read in chunks when C is computed)
@@ -193,9 +195,9 @@ lib_simulated <- function(library) UseMethod("lib_simulated")
 lib_simulated.default <- function(library) library
 
 # The quadratic forms C of library rows `rows` (runs x grid points), with the
-# emulation error of predicted runs and its extra log-determinant as
-# attribute "extra_logdet" (see lib_quad_forms()); the rows a refinement
-# adds are computed without the rest.
+# emulation error of predicted runs: a matrix, or list(C, extra_logdet) (see
+# lib_quad_forms(), fold_extra_logdet()); the rows a refinement adds are
+# computed without the rest.
 lib_run_quad_forms <- function(library, rows, y_field, setup) {
   UseMethod("lib_run_quad_forms")
 }
@@ -296,14 +298,14 @@ lib_predict <- function(emulator, theta_new, noise_var) {
   list(y = pred$outputs, rel_var = pred$rel_var, error = error)
 }
 
-# The library with what its misfit table `C` (lib_quad_forms()) found for
-# these field data kept with it (an emulated library's noise plug-in and
-# shared kappa, attribute "library_noise"), so that what reads its error
-# later agrees with C; other libraries are returned as they are.
-lib_with_plug_in <- function(library, C) UseMethod("lib_with_plug_in")
+# The library with what its misfit table (lib_quad_forms()) found for these
+# field data kept with it (`plug_in`: an emulated library's noise plug-in
+# and shared kappa), so that what reads its error later agrees with C;
+# other libraries are returned as they are.
+lib_with_plug_in <- function(library, plug_in) UseMethod("lib_with_plug_in")
 
 #' @exportS3Method
-lib_with_plug_in.default <- function(library, C) library
+lib_with_plug_in.default <- function(library, plug_in) library
 
 # The emulator of the design runs an emulated library was built from (NULL
 # for a library of simulated runs): what koh_calibrate() fits instead of its

@@ -121,34 +121,33 @@ lib_outputs.refined_library <- function(library, rows = NULL) {
 #' @exportS3Method
 lib_on_disk.refined_library <- function(library) lib_on_disk(library$base)
 
-# C of the base runs, then of the added ones, with the added runs' extra
-# log-determinant (see emulated_quad_forms()) as attribute "extra_logdet",
-# which misfit_table() folds into C.
+# The forms of the base runs, then of the added ones (misfit_parts()): C
+# with the added runs' extra log-determinant (see emulated_quad_forms()),
+# which misfit_table() folds into C, and what the base library found beside
+# its C (an emulated base's error and plug-in).
 #' @exportS3Method
 lib_quad_forms.refined_library <- function(library, y_field, setup) {
-  base <- lib_quad_forms(library$base, y_field, setup)
+  base <- misfit_parts(lib_quad_forms(library$base, y_field, setup))
   added <- added_quad_forms(library, seq_len(nrow(library$added$y)), y_field, setup)
-  C <- rbind(base, added)
-  base_extra <- attr(base, "extra_logdet")
-  if (is.null(base_extra)) base_extra <- matrix(0, nrow(base), ncol(base))
-  extra <- rbind(base_extra, attr(added, "extra_logdet"))
-  replaced_forms(library, seq_len(nrow(C)), structure(C, extra_logdet = extra), y_field, setup)
+  base_extra <- base$extra_logdet
+  if (is.null(base_extra)) base_extra <- matrix(0, nrow(base$C), ncol(base$C))
+  forms <- list(C = rbind(base$C, added$C), extra_logdet = rbind(base_extra, added$extra_logdet))
+  forms <- replaced_forms(library, seq_len(nrow(forms$C)), forms, y_field, setup)
+  forms$emulation_error <- base$emulation_error
+  forms$plug_in <- base$plug_in
+  forms
 }
 
-# Forms of rows `rows` in `C` (with attribute "extra_logdet") made plain
-# where the run was replaced by a simulated one (an added run's are already:
-# its kappa is 0).
-replaced_forms <- function(library, rows, C, y_field, setup) {
+# The forms of rows `rows` (list(C, extra_logdet)) made plain where the run
+# was replaced by a simulated one (an added run's are already: its kappa is
+# 0).
+replaced_forms <- function(library, rows, forms, y_field, setup) {
   hit <- match(rows, library$replaced$rows)
   at <- which(!is.na(hit) & rows <= lib_n_runs(library$base))
-  if (length(at) == 0L) return(C)
-  C[at, ] <- plain_quad_forms(library$replaced$y[hit[at], , drop = FALSE], y_field, setup)
-  extra <- attr(C, "extra_logdet")
-  if (!is.null(extra)) {
-    extra[at, ] <- 0
-    attr(C, "extra_logdet") <- extra
-  }
-  C
+  if (length(at) == 0L) return(forms)
+  forms$C[at, ] <- plain_quad_forms(library$replaced$y[hit[at], , drop = FALSE], y_field, setup)
+  forms$extra_logdet[at, ] <- 0
+  forms
 }
 
 #' @exportS3Method
@@ -162,18 +161,18 @@ lib_run_quad_forms.refined_library <- function(library, rows, y_field, setup) {
   if (any(from_base)) {
     # a base library's forms may depend on all its runs (an emulated one's
     # plug-in noise variance)
-    base <- lib_quad_forms(library$base, y_field, setup)
-    C[from_base, ] <- base[rows[from_base], , drop = FALSE]
-    if (!is.null(attr(base, "extra_logdet"))) {
-      extra[from_base, ] <- attr(base, "extra_logdet")[rows[from_base], , drop = FALSE]
+    base <- misfit_parts(lib_quad_forms(library$base, y_field, setup))
+    C[from_base, ] <- base$C[rows[from_base], , drop = FALSE]
+    if (!is.null(base$extra_logdet)) {
+      extra[from_base, ] <- base$extra_logdet[rows[from_base], , drop = FALSE]
     }
   }
   if (any(!in_base)) {
     added <- added_quad_forms(library, rows[!in_base] - n0, y_field, setup)
-    C[!in_base, ] <- added
-    extra[!in_base, ] <- attr(added, "extra_logdet")
+    C[!in_base, ] <- added$C
+    extra[!in_base, ] <- added$extra_logdet
   }
-  replaced_forms(library, rows, structure(C, extra_logdet = extra), y_field, setup)
+  replaced_forms(library, rows, list(C = C, extra_logdet = extra), y_field, setup)
 }
 
 #' @exportS3Method
@@ -219,6 +218,13 @@ lib_prediction_errors.refined_library <- function(library) {
        errors = lapply(library$rounds, `[[`, "error"), replaced = library$replaced$rows)
 }
 
+# An emulated base library's plug-in, found by its misfit table.
+#' @exportS3Method
+lib_with_plug_in.refined_library <- function(library, plug_in) {
+  library$base <- lib_with_plug_in(library$base, plug_in)
+  library
+}
+
 #' @exportS3Method
 lib_with_noise_var.refined_library <- function(library, noise_var, y_field) {
   library$base <- lib_with_noise_var(library$base, noise_var, y_field)
@@ -228,9 +234,9 @@ lib_with_noise_var.refined_library <- function(library, noise_var, y_field) {
   library
 }
 
-# C of added runs `which` (positions among the added runs): plain quadratic
-# forms for simulated runs, the emulation-error forms for predicted ones,
-# with attribute "extra_logdet" (0 for simulated runs).
+# The forms of added runs `which` (positions among the added runs): plain
+# quadratic forms for simulated runs, the emulation-error forms for
+# predicted ones, as list(C, extra_logdet) (0 for simulated runs).
 added_quad_forms <- function(library, which, y_field, setup) {
   y <- library$added$y[which, , drop = FALSE]
   C <- plain_quad_forms(y, y_field, setup)
@@ -245,7 +251,7 @@ added_quad_forms <- function(library, which, y_field, setup) {
     C[rows, ] <- em$C
     extra[rows, ] <- em$logdet
   }
-  structure(C, extra_logdet = extra)
+  list(C = C, extra_logdet = extra)
 }
 
 #' @exportS3Method

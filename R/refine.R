@@ -78,7 +78,10 @@
 #' symmetry makes it 50%). The warning at `max_runs` names such a mode.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
-#' `refine()` of it carries on where it stopped.
+#' `refine()` of it carries on where it stopped. Otherwise the refined fit
+#' is checked as [calibrate()]'s is: it warns when its chains have not
+#' converged (class `griddy_warning_convergence`) and when the data show a
+#' gap (class `griddy_warning_gap`; the screen is in `$gap_screen`).
 #'
 #' **With a simulator**, new runs are simulated: `simulator(theta, ...)`
 #' receives a data.frame of \eqn{\theta} rows (the library's columns) and
@@ -268,10 +271,14 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   out <- sample_problem(rounds$problem, fit$update, fit$control, seed = NULL, call = call)
   out$refinement <- rounds[c("runs_added", "rounds", "reason", "source", "history",
                              "emulation_error")]
-  if (!is.null(rounds$failure)) stop_refinement(rounds$failure, out, store)
-  if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
-  warn_emulation(rounds$emulation_error)
-  out
+  if (!is.null(rounds$failure)) {
+    stop_refinement(rounds$failure, finish_fit(out, warn = FALSE), store)
+  }
+  # refine()'s own resolution warning says why the rounds stopped short; a
+  # resolved refinement has nothing to warn of
+  finish_fit(out, resolution = function(fit) {
+    if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+  })
 }
 
 # The simulator failed or was interrupted: an error that carries the fit of

@@ -158,7 +158,7 @@ extend_problem <- function(problem, theta_new, y_new, round, rel_var) {
   rows <- lib_n_runs(problem$library) + seq_len(nrow(theta_new))
   C_new <- fold_extra_logdet(lib_run_quad_forms(library, rows, problem$y_field, problem$setup),
                              problem$prior, problem$n_obs)
-  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
+  new_griddy_problem(library, problem$y_field, problem$prior, lib_log_prior(library),
                      problem$setup, C = rbind(problem$C, C_new))
 }
 
@@ -171,6 +171,6 @@ replace_in_problem <- function(problem, rows, y) {
   C[rows, ] <- fold_extra_logdet(lib_run_quad_forms(library, rows, problem$y_field,
                                                     problem$setup),
                                  problem$prior, problem$n_obs)
-  problem_from_parts(library, problem$y_field, problem$prior, lib_log_prior(library),
+  new_griddy_problem(library, problem$y_field, problem$prior, lib_log_prior(library),
                      problem$setup, C = C)
 }

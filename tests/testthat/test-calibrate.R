@@ -261,8 +261,8 @@ test_that("truncated theta draws equal the full draws for the same seed", {
 
 test_that("the runs a collapsed draw leaves out hold less than the tolerance", {
   toy <- toy_ar1(n_runs = 500, n_t = 60, sd = 0.05)
-  p <- calibration_problem(toy$library, toy$field, 0, c(0, 0.5, 0.9),
-                           list(shape = 1e-9, rate = 1e-9), 2, NULL)
+  p <- local_problem(toy$library, toy$field, rho_t = c(0, 0.5, 0.9),
+                     prior = list(shape = 1e-9, rate = 1e-9))
   shape_post <- 1e-9 + p$n_obs / 2
   for (tol in c(1e-3, 1e-8, 2^-53)) {
     h <- collapsed_heads_cpp(p$C, p$log_prior_run, shape_post, 1e-9, tol)
@@ -337,7 +337,7 @@ test_that("a sim_library edited after construction gets an R error, never reache
 
 test_that("a stop file ends a chain on a worker (what an interrupt writes)", {
   toy <- toy_ar1(n_runs = 30, n_t = 10)
-  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL)
+  problem <- local_problem(toy$library, toy$field)
   control <- sampler_control(1000, 100, 1, 1, FALSE)
   inputs <- list(C = problem$C, tables = sampler_tables(problem, "collapsed"),
                  options = sampler_options(problem, "collapsed", control), tau_start = 1)
@@ -480,16 +480,16 @@ test_that("the run order is the stable order of each column, on any number of th
 
 test_that("the collapsed heads do not depend on the number of threads", {
   toy <- toy_ar1(n_runs = 500, n_t = 60, sd = 0.05)
-  p <- calibration_problem(toy$library, toy$field, 0, seq(0, 0.9, by = 0.1),
-                           list(shape = 1e-9, rate = 1e-9), 2, NULL)
+  p <- local_problem(toy$library, toy$field, rho_t = seq(0, 0.9, by = 0.1),
+                     prior = list(shape = 1e-9, rate = 1e-9))
   one <- collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 1L)
   expect_identical(collapsed_heads_cpp(p$C, p$log_prior_run, 30, 1e-9, 2^-53, 2L), one)
 })
 
 test_that("the grid draws are the same with the runs' rows kept or computed each time", {
   toy <- toy_xt(n_per_dim = 6, n_t = 5)
-  problem <- calibration_problem(toy$library, toy$field, list(load = c(0, 0.4, 0.8), speed = 0.3),
-                                 c(0, 0.3, 0.6), NULL, 2, NULL)
+  problem <- local_problem(toy$library, toy$field, rho_x = list(load = c(0, 0.4, 0.8), speed = 0.3),
+                           rho_t = c(0, 0.3, 0.6))
   control <- sampler_control(3000, 100, 1, 1, FALSE)
   for (update in c("collapsed", "thesis")) {
     tables <- sampler_tables(problem, update)

@@ -35,7 +35,7 @@ test_that("the path from the outputs to the posterior does not copy C", {
   expect_silent(out <- fold_extra_logdet(C, thesis_prior(), 5))
   untracemem(C)
   ex <- griddy_example()
-  problem <- calibration_problem(ex$library, ex$field, 0, 0, NULL, 2, NULL)
+  problem <- local_problem(ex$library, ex$field)
   tracemem(problem$C)
   expect_silent({
     tables <- sampler_tables(problem, "collapsed")

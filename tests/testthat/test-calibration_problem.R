@@ -10,9 +10,9 @@ test_that("run weights are normalised and validated", {
 test_that("an exact reproduction with a zero prior rate is refused", {
   lib <- sim_library(data.frame(k = 1:3), matrix(c(1, 2, 3, 4, 5, 6), 3))
   f <- field_data(c(2, 5))
-  expect_error(calibration_problem(lib, f, 0, 0, list(shape = 1, rate = 0), 2, NULL),
+  expect_error(local_problem(lib, f, prior = list(shape = 1, rate = 0)),
                "reproduces the field data exactly")
-  expect_silent(calibration_problem(lib, f, 0, 0, list(shape = 1, rate = 1e-9), 2, NULL))
+  expect_silent(local_problem(lib, f, prior = list(shape = 1, rate = 1e-9)))
 })
 
 test_that("log_sum_exp is stable", {
@@ -43,7 +43,7 @@ test_that("the grid prior is uniform over distinct correlation structures, not g
   x <- data.frame(a = c(1, 2, 3), b = c(5, 7, 6))
   lib <- sim_library(data.frame(k = 1:2), matrix(rnorm(6), 2), x = x)
   rho <- c(0, 0.2, 0.4, 0.6, 0.8, 0.9)
-  pr <- calibration_problem(lib, field_data(rnorm(3), x = x), rho, 0, NULL, 2, NULL)
+  pr <- local_problem(lib, field_data(rnorm(3), x = x), rho_x = rho)
   indep <- pr$grid$rho_x_a == 0 | pr$grid$rho_x_b == 0
   expect_identical(sum(indep), 11L)
   # a uniform prior over grid points gave independence 11/36; now 1 of the
@@ -53,7 +53,7 @@ test_that("the grid prior is uniform over distinct correlation structures, not g
   expect_equal(exp(pr$log_prior_grid[!indep]), rep(1 / 26, 25))
   # one x column: every grid point its own structure, as before
   lib1 <- sim_library(data.frame(k = 1:2), matrix(rnorm(6), 2), x = x["a"])
-  pr1 <- calibration_problem(lib1, field_data(rnorm(3), x = x["a"]), rho, 0, NULL, 2, NULL)
+  pr1 <- local_problem(lib1, field_data(rnorm(3), x = x["a"]), rho_x = rho)
   expect_equal(pr1$log_prior_grid, rep(-log(6), 6))
 })
 

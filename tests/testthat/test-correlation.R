@@ -53,7 +53,7 @@ test_that("quadratic forms and log-determinants match the dense Kronecker produc
   y <- field_vector(lib, toy$field)
   setup <- correlation_setup(lib, rho_x = list(load = c(0, 0.6), speed = 0.3),
                              rho_t = c(0, 0.5), x_power = 2)
-  C <- misfit_table(lib, y, setup)
+  C <- misfit_table(lib, y, setup, thesis_prior())$C
   expect_identical(dim(C), c(289L, 4L))
   grid <- rho_grid(lib, rho_x = list(load = c(0, 0.6), speed = 0.3), rho_t = c(0, 0.5))
   for (g in seq_len(nrow(grid))) {

@@ -62,7 +62,7 @@ test_that("a model that more runs cannot resolve stops refining after one round"
   rows <- which(strength > 0)
   part <- sim_library(lib_theta(toy$scale)[rows, ], lib_outputs(toy$scale, rows),
                       x = toy$x, t = toy$t)
-  problem <- problem_from_parts(part, toy$fit$y_field, toy$fit$prior, lib_log_prior(part),
+  problem <- new_griddy_problem(part, toy$fit$y_field, toy$fit$prior, lib_log_prior(part),
                                 toy$fit$setup)
   go <- function(settled) {
     withr::with_seed(1, refine_rounds(problem, NULL, 1000, 200, settled = settled))

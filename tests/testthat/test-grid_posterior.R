@@ -3,7 +3,7 @@ test_that("whitening and colouring are inverse and give the quadratic forms", {
   lib <- toy$library
   y <- field_vector(lib, toy$field)
   setup <- correlation_setup(lib, rho_x = list(load = 0.6, speed = 0.3), rho_t = c(0, 0.5))
-  C <- misfit_table(lib, y, setup)
+  C <- misfit_table(lib, y, setup, thesis_prior())$C
   E <- -sweep(lib$y, 2, y, "-")
   for (g in seq_len(n_grid_points(setup))) {
     point <- grid_point(setup, g)
@@ -15,7 +15,7 @@ test_that("whitening and colouring are inverse and give the quadratic forms", {
 
 test_that("the collapsed log joint sums to the log evidence and matches the dense formula", {
   toy <- toy_ar1(n_runs = 30, n_t = 15)
-  problem <- calibration_problem(toy$library, toy$field, 0, c(0, 0.4), NULL, 2, NULL)
+  problem <- local_problem(toy$library, toy$field, rho_t = c(0, 0.4))
   lj <- collapsed_log_joint(problem$C, problem$n_obs, problem$setup$logdet, problem$prior,
                             problem$log_prior_run, problem$log_prior_grid)
   expect_equal(log_sum_exp(lj), posterior_exact(toy$library, toy$field,
@@ -89,7 +89,7 @@ test_that("with missing field data the posterior is that of the observed points 
   }
   # the C of plain_quad_forms() are the dense quadratic forms
   toy <- toy_missing()
-  pr <- calibration_problem(toy$library, toy$field, 0.4, 0.7, prior, 2, NULL)
+  pr <- local_problem(toy$library, toy$field, rho_x = 0.4, rho_t = 0.7, prior = prior)
   obs <- which(!is.na(toy$y))
   R <- kronecker(corr_x(toy$x, 0.4), corr_t(toy$t, 0.7))[obs, obs]
   r <- toy$y[obs] - toy$Y[3, obs]
@@ -99,7 +99,7 @@ test_that("with missing field data the posterior is that of the observed points 
 
 test_that("complete data keep the Kronecker path and its results", {
   toy <- toy_missing(missing = integer(0))
-  pr <- calibration_problem(toy$library, toy$field, c(0, 0.4), c(0.2, 0.7), NULL, 2, NULL)
+  pr <- local_problem(toy$library, toy$field, rho_x = c(0, 0.4), rho_t = c(0.2, 0.7))
   expect_null(pr$setup$dense)
   expect_identical(pr$C, quad_forms_cpp(toy$Y, toy$y, pr$setup$Rx_inv, pr$setup$phi))
 })
@@ -165,7 +165,7 @@ test_that("a correlation that makes the observed block singular is a classed err
   y <- toy$y
   y[1:5] <- toy$Y[1, 1:5]
   expect_error(
-    calibration_problem(lib, field_data(y, x = x, t = toy$t), 0.99, 0, NULL, 2, NULL),
+    local_problem(lib, field_data(y, x = x, t = toy$t), rho_x = 0.99),
     "singular", class = "griddy_error_numeric")
   # R_x is fine but two observed outputs at t 1e-12 apart are not
   lib2 <- sim_library(lib_theta(toy$library), toy$Y, x = toy$x, t = c(0, 1e-13, 0.5, 0.75, 1))
@@ -179,15 +179,14 @@ test_that("misfit_table() folds an extra log-determinant over the measurements, 
   C <- matrix(c(1, 2), 2, 1)
   extra <- matrix(c(0.5, 1), 2, 1)
   registerS3method("lib_quad_forms", "fake_library",
-                   function(library, y_field, setup) structure(C, extra_logdet = extra),
+                   function(library, y_field, setup) list(C = C, extra_logdet = extra),
                    envir = asNamespace("griddy"))
   prior <- list(shape = 1, rate = 0.5)
   got <- misfit_table(structure(list(), class = "fake_library"), c(1, NA, 2),
-                     list(group_sizes = 2), prior)
-  expect_equal(got, fold_extra_logdet(structure(C, extra_logdet = extra), prior, 2),
-               ignore_attr = TRUE)
+                     list(group_sizes = 2), prior)$C
+  expect_equal(got, fold_extra_logdet(list(C = C, extra_logdet = extra), prior, 2))
   expect_false(isTRUE(all.equal(
-    c(got), c(fold_extra_logdet(structure(C, extra_logdet = extra), prior, 3)))))
+    c(got), c(fold_extra_logdet(list(C = C, extra_logdet = extra), prior, 3)))))
 })
 
 test_that("replicates: the posterior and evidence are those of every measurement (independent noise)", {
@@ -199,7 +198,7 @@ test_that("replicates: the posterior and evidence are those of every measurement
     lj <- brute_replicates(toy, prior)
     expect_equal(ex$run, exp(lj - log_sum_exp(lj)), tolerance = 1e-10)
     expect_equal(ex$log_evidence, log_sum_exp(lj), tolerance = 1e-10)
-    pr <- calibration_problem(toy$library, toy$field, 0, 0, prior, 2, NULL)
+    pr <- local_problem(toy$library, toy$field, prior = prior)
     expect_identical(pr$n_obs, 28L)
     # noise groups: the pure error and its degrees of freedom go to each
     # cell's group
@@ -217,7 +216,7 @@ test_that("replicates: the posterior and evidence are those of every measurement
 test_that("replicates with correlation: R_g between the cell means, plus the pure error", {
   prior <- list(shape = 2, rate = 0.5)
   toy <- toy_replicates(matrix(seq(0.6, 1.8, length.out = 30), 6))
-  pr <- calibration_problem(toy$library, toy$field, 0.4, 0.7, prior, 2, NULL)
+  pr <- local_problem(toy$library, toy$field, rho_x = 0.4, rho_t = 0.7, prior = prior)
   w <- 1 / toy$sd^2
   w[is.na(toy$y_rep)] <- 0
   y0 <- toy$y_rep
@@ -309,8 +308,8 @@ test_that("a non-finite output in any block, on any thread, is an error", {
 test_that("the exact posterior from C++ is the R formula's, margins and joint, any threads", {
   toy <- toy_xt(n_per_dim = 6, n_t = 5)
   weights <- c(0, stats::runif(35))  # a run of prior weight 0 (log weight -Inf)
-  problem <- calibration_problem(toy$library, toy$field, list(load = c(0, 0.5), speed = 0.3),
-                                 c(0, 0.6), NULL, 2, weights)
+  problem <- local_problem(toy$library, toy$field, rho_x = list(load = c(0, 0.5), speed = 0.3),
+                           rho_t = c(0, 0.6), run_weights = weights)
   lj <- collapsed_log_joint(problem$C, problem$n_obs, problem$setup$logdet, problem$prior,
                             problem$log_prior_run, problem$log_prior_grid)
   joint <- exp(lj - log_sum_exp(lj))

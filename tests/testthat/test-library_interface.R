@@ -114,16 +114,17 @@ test_that("a refined library's interface: rounds, predicted runs, replacements, 
   all_C <- lib_quad_forms(lib, y, setup)
   rows <- c(3L, 20L, 90L)
   some <- lib_run_quad_forms(lib, rows, y, setup)
-  expect_equal(unclass(some)[, , drop = FALSE], all_C[rows, , drop = FALSE], ignore_attr = TRUE)
-  expect_equal(attr(some, "extra_logdet"), attr(all_C, "extra_logdet")[rows, , drop = FALSE])
+  expect_equal(some$C, all_C$C[rows, , drop = FALSE])
+  expect_equal(some$extra_logdet, all_C$extra_logdet[rows, , drop = FALSE])
   # a replaced run is simulated: its outputs, plain forms, no longer predicted
   sim_y <- refine_sim(lib_theta(lib)[20, , drop = FALSE])
   rep_lib <- replace_runs(lib, 20L, sim_y)
   expect_equal(lib_outputs(rep_lib, 20L), sim_y, ignore_attr = TRUE)
   expect_false(lib_predicted(rep_lib)[20])
-  expect_equal(lib_run_quad_forms(rep_lib, 20L, y, setup)[1, ],
+  expect_equal(lib_run_quad_forms(rep_lib, 20L, y, setup)$C[1, ],
                plain_quad_forms(sim_y, y, setup)[1, ], ignore_attr = TRUE)
   expect_equal(lib_log_prior(rep_lib), lib_log_prior(lib))
-  expect_equal(run_group_forms(list(library = rep_lib, y_field = y, setup = setup), 20L, 1L),
+  rep_problem <- new_griddy_problem(rep_lib, y, ref$prior, lib_log_prior(rep_lib), setup)
+  expect_equal(run_group_forms(rep_problem, 20L, 1L),
                group_quad_forms(sim_y, y, setup, 1L), ignore_attr = TRUE)
 })

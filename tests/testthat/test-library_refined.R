@@ -63,7 +63,7 @@ test_that("the folded misfit gives the exact Gamma-normal likelihood of the extr
   prior <- list(shape = 2, rate = 0.5)
   C <- matrix(c(3, 7), 2, 1)
   extra <- matrix(c(0.4, 0), 2, 1)
-  folded <- fold_extra_logdet(structure(C, extra_logdet = extra), prior, 10)
+  folded <- fold_extra_logdet(list(C = C, extra_logdet = extra), prior, 10)
   direct <- -(prior$shape + 5) * log(prior$rate + C / 2) - extra / 2
   via_fold <- -(prior$shape + 5) * log(prior$rate + folded / 2)
   expect_equal(via_fold, direct)
@@ -74,4 +74,33 @@ test_that("print.refined_library() shows the base, the rounds and the runs added
   refined <- suppressWarnings(refine(toy$fit, refine_sim, max_runs = 40, seed = 1,
                                      progress = FALSE))
   expect_snapshot(print(refined$library))
+})
+
+test_that("a refined library over an emulated one keeps the base's error and plug-in in C's results", {
+  # they travelled as attributes of C, which rbind() of the base's and the
+  # added runs' forms dropped: calibrate() on such a library lost the
+  # emulation error its summary reports
+  lib <- emulated_toy_library(n = 40, n_runs = 300)
+  field <- emulated_toy_field()
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 300, burn_in = 100, seed = 1))
+  refined <- suppressWarnings(refine(fit, max_runs = 100, runs_per_round = 100, seed = 1))
+  forms <- lib_quad_forms(refined$library, refined$y_field, refined$setup)
+  expect_true(is.finite(forms$emulation_error))
+  expect_identical(forms$plug_in$y_field, refined$y_field)
+  again <- suppressWarnings(calibrate(refined$library, field, n_iter = 300, burn_in = 100,
+                                      seed = 1))
+  expect_equal(again$emulation_error, forms$emulation_error)
+  expect_equal(again$C, refined$C)
+})
+
+test_that("a problem is classed, holds its prior once and C bare", {
+  lib <- emulated_toy_library(n = 40, n_runs = 300)
+  problem <- suppressWarnings(local_problem(lib, emulated_toy_field(), rho_t = c(0, 0.5)))
+  expect_s3_class(problem, "griddy_problem")
+  # the setup carries the problem's prior, the same object, once
+  expect_identical(problem$setup$fold_prior, problem$prior)
+  expect_null(problem$setup$noise_prior)
+  expect_named(attributes(problem$C), "dim")
+  expect_true(is.finite(problem$emulation_error))
+  expect_identical(problem$library$noise$y_field, problem$y_field)
 })
