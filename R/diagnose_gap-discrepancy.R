@@ -102,7 +102,6 @@ discrepancy_problem <- function(problem, discrepancy) {
   # point, field_layout()) is not kept in a setup: take it from the old one,
   # whose first grid point has the same R_g and no discrepancy
   new$logdet <- new$logdet + (setup$logdet[1] - new$logdet[1])
-  new$noise_prior <- setup$noise_prior
   C <- misfit_table(library, problem$y_field, new, problem$prior)
   new_griddy_problem(library, problem$y_field, problem$prior, problem$log_prior_run, new, C)
 }
