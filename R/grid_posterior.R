@@ -214,6 +214,24 @@ dense_factors <- function(setup, t, pattern, disc = NULL, kernels = NULL) {
 # The rotation of base grid point g under kernel k (0: no discrepancy).
 rotation_index <- function(g, k, G) k * G + g
 
+# The data a setup's noise model sees, the same at every grid point: the
+# observed library outputs `obs` (library order), their 1/sd `scale` (NULL
+# without relative sd or replicates) and the noise groups `groups`
+# (positions in `obs`, one element per group). NULL for a setup in the
+# Kronecker case (complete data, one group, no sd), where every output is
+# observed.
+noise_layout <- function(setup) {
+  if (is.null(setup$dense)) return(NULL)
+  setup$dense[c("obs", "scale", "groups")]
+}
+
+# The observed library outputs of a setup (library order): every one of the
+# `n` outputs in the Kronecker case.
+observed_outputs <- function(setup, n) {
+  layout <- noise_layout(setup)
+  if (is.null(layout)) seq_len(n) else layout$obs
+}
+
 # One grid point g: its R_x factor (upper Cholesky U, R_x = U'U) and inverse,
 # its AR(1) lag coefficients and log|R_g|; for a noise pattern that breaks
 # the Kronecker structure, also `dense`: the observed points, their 1/sd, the
@@ -243,7 +261,8 @@ n_grid_points <- function(setup) length(setup$logdet)
 # pure-error degrees of freedom): every cell, one group, for a Kronecker
 # setup.
 group_cells <- function(setup) {
-  if (is.null(setup$dense)) setup$group_sizes else lengths(setup$dense$groups)
+  layout <- noise_layout(setup)
+  if (is.null(layout)) setup$group_sizes else lengths(layout$groups)
 }
 
 # Whiten residual rows (vectors in library order, blocks of n_t by x setting)
