@@ -17,7 +17,8 @@
   const root = document.querySelector('main') || document.body;
   const all = sel => Array.from(root.querySelectorAll(sel));
   const clip = s => s.replace(/\s+/g, ' ').trim().slice(0, 80);
-  const column = root.clientWidth;
+  const pad = getComputedStyle(root);
+  const column = root.clientWidth - parseFloat(pad.paddingLeft) - parseFloat(pad.paddingRight);
   const wide_tables = all('table')
     .filter(t => t.getBoundingClientRect().width > column + 1)
     .map(t => Math.round(t.getBoundingClientRect().width) + ' px in ' + column + ' px: ' +
