@@ -14,6 +14,11 @@
 #   before the table; litedown takes a caption from the paragraph after a
 #   table, so each caption would land on the table above it. Pandoc reads
 #   either side: the caption is moved after the table.
+#
+# knitr restores its chunk options after each vignette but not its option
+# hooks: in one R session (R CMD build renders all the vignettes in one) the
+# hooks stay for the vignettes rendered after, where they touch only
+# captioned or sized figures, which they treat the same way.
 knitr::opts_hooks$set(
   fig.cap = function(options) {
     if (any(nzchar(options$fig.cap)) && is.null(options$out.width)) options$out.width <- "100%"
