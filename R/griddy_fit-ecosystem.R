@@ -3,9 +3,11 @@
 #' Converts the kept draws of a [calibrate()] or [refine()] fit into one of
 #' the [posterior][posterior::draws] package's formats, so that
 #' [posterior::summarise_draws()], [posterior::rhat()], the bayesplot
-#' `mcmc_*()` plots and other tools that take draws can be used. These
-#' methods are registered when the posterior package is loaded (it is
-#' suggested, not required).
+#' `mcmc_*()` plots and other tools that take draws can be used. The
+#' posterior package is one of griddy's imports, so it is installed with
+#' griddy, and these methods are registered as soon as it is loaded (calling
+#' `posterior::as_draws_df()` loads it); the bayesplot package is suggested,
+#' needed only for its plots.
 #'
 #' There is one variable per sampled parameter, as in
 #' [summary()][summary.griddy_fit] and [coda::as.mcmc.list()]: each
@@ -22,7 +24,7 @@
 #' @param ... Passed to [posterior::as_draws_df()].
 #' @return A [posterior::draws_df] with one column per sampled parameter and
 #'   the columns `.chain`, `.iteration` and `.draw`.
-#' @examplesIf requireNamespace("posterior", quietly = TRUE)
+#' @examples
 #' ex <- griddy_example()
 #' fit <- calibrate(ex$library, ex$field, n_iter = 600, burn_in = 100,
 #'                  chains = 2, seed = 1)

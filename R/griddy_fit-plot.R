@@ -284,12 +284,20 @@ plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...)
       ggplot2::labs(x = "t")
   }
   p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
-                    # two lines: one does not fit a vignette-width figure
-                    subtitle = paste0("Black: field data (missing cells left out). Blue: ",
-                                      "simulator", if (isTRUE(discrepancy)) " + discrepancy",
-                                      " at the drawn runs\n(mean, ",
-                                      format(100 * level), "% band). Grey: with fitted noise.")) +
+                    subtitle = wrap_subtitle(c(
+                      "Black: field data (missing cells left out).",
+                      paste0("Blue: simulator", if (isTRUE(discrepancy)) " + discrepancy",
+                             " at the drawn runs"),
+                      paste0("(mean, ", format(100 * level), "% band). Grey: with fitted noise.")))) +
     ggplot2::theme_bw()
+}
+
+# ggplot2 does not wrap a subtitle: a line longer than the figure is cut at
+# its edge. Each element of `lines` starts a line (the callers break where
+# the sense does), wrapped at `width` characters, which theme_bw()'s 11-point
+# text draws in about 4.5 inches: a 6-inch figure holds that beside its y axis.
+wrap_subtitle <- function(lines, width = 60L) {
+  paste(unlist(lapply(lines, strwrap, width = width)), collapse = "\n")
 }
 
 # The discrepancy's posterior mean and band against t, one panel per x
@@ -332,12 +340,12 @@ plot_discrepancy <- function(fit, level = 0.95, ...) {
   }
   p + ggplot2::labs(y = "Discrepancy (data minus simulator)",
                     title = "Where the simulator misses the data",
-                    # short lines: one long line does not fit a narrow figure
-                    subtitle = paste0("Red: the discrepancy's posterior mean, ",
-                                      format(100 * level), "% band.\n",
-                                      "Black: data", if (replicated) " (replicates' means)\n" else " ",
-                                      "minus the simulator's posterior mean.\n",
-                                      "Dashed: no gap.")) +
+                    subtitle = wrap_subtitle(c(
+                      paste0("Red: the discrepancy's posterior mean, ", format(100 * level),
+                             "% band."),
+                      paste0("Black: data", if (replicated) " (replicates' means)",
+                             " minus the simulator's"),
+                      "posterior mean. Dashed: no gap."))) +
     posterior_theme()
 }
 

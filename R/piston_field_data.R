@@ -32,7 +32,7 @@
 #'   `discrepancy` (zeros when `discrepancy = FALSE`), `locations` and
 #'   `condition` (the arguments to give [piston_library()]).
 #' @seealso [piston_library()], [calibrate()]
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' f6 <- piston_field_data(6, seed = 1)

@@ -39,7 +39,7 @@
 #'   `n_per_dim^3` x (locations x conditions) matrix of temperatures (deg C),
 #'   `x` the settings described above and `t = NULL`.
 #' @seealso [piston_model()], [piston_locations()], [sim_library()]
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' lib <- piston_library(4, locations = piston_location_ids(2))

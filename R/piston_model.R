@@ -35,7 +35,7 @@ piston_spec <- function() {
 #' @return A data.frame with one row per condition and columns `condition`
 #'   (name), `h_gas` (W/m^2K) and `t_gas` (deg C).
 #' @seealso [piston_model()]
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' piston_conditions()
@@ -51,7 +51,7 @@ piston_conditions <- function() {
 #' @return A data.frame with one row per heat-transfer coefficient and columns
 #'   `parameter`, `min`, `max` and `true` (W/m^2K), as in table 3.1 of
 #'   Stewart (2023).
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' piston_htc_ranges()
@@ -278,7 +278,7 @@ piston_cells <- c(0.25, 0.5, 1)
 #'   settings used by [piston_library()]).
 #'   `piston_location_ids()`: an integer vector of ids.
 #' @seealso [piston_model()], [piston_library()]
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' head(piston_locations())
@@ -375,7 +375,7 @@ piston_location_ids <- function(n_per_surface = 9) {
 #'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
 #'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [piston_locations()], [piston_library()], [piston_heat_balance()]
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' piston_model(c(1000, 3000, 2000))[1, 1:5]
@@ -429,7 +429,7 @@ piston_model <- function(htc, locations = 1:27, condition = "full",
 #'   (W, positive into the piston), `imbalance` (W, sum of all flows) and, if
 #'   `field = TRUE`, `field`, a data.frame with columns `r_mm`, `z_mm` (cell
 #'   centre) and `temperature` (deg C).
-#' @family piston stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' piston_heat_balance(c(1000, 3000, 2000))$flows

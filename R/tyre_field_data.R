@@ -31,7 +31,7 @@
 #'   noise-free signal, an `n_x x n_t` matrix), `noise` (same shape) and
 #'   `noise_sd`.
 #' @seealso [tyre_library()], [calibrate()]
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' f <- tyre_field_data(height = 27.44, seed = 1)

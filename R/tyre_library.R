@@ -19,7 +19,7 @@
 #'   `n_runs` x (length(height) * 500) matrix in blocks by height,
 #'   `x = data.frame(height)` and `t` the sample times.
 #' @seealso [tyre_cleat_model()], [sim_library()]
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' set.seed(1)

@@ -22,7 +22,7 @@
 #'   `"thesis_literal"` (412, 274.4, 121.3 mm).
 #' @return A numeric vector of three cleat heights in mm, in the thesis's order.
 #' @seealso [tyre_cleat_model()]
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' tyre_cleat_heights()
@@ -36,7 +36,7 @@ tyre_cleat_heights <- function(which = c("rescaled", "thesis_literal")) {
 #'
 #' @return A data.frame with columns `parameter` (`"k"`, vertical stiffness in
 #'   N/mm; `"c"`, vertical damping in N s/mm), `min` and `max`.
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' tyre_param_ranges()
@@ -78,7 +78,7 @@ tyre_param_ranges <- function() {
 #'   deflection (see [tyre_patch_length()]).
 #' @return A list of class `tyre_rig` or `tyre_pac2002`.
 #' @seealso [tyre_cleat_model()]
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' tyre_rig(sample = "instant")
@@ -316,7 +316,7 @@ tyre_default_contact <- function(model) if (model == "fiala") "patch" else "disc
 #'   Calibration Method with Griddy Gibbs Sampling. MSc thesis, Clemson
 #'   University. <https://tigerprints.clemson.edu/all_theses/4177/>
 #' @seealso [tyre_library()], [tyre_rig()], [tyre_cleat_heights()]
-#' @family tyre stand-in
+#' @family stand-in simulators
 #' @export
 #' @examples
 #' fz <- tyre_cleat_model(k = c(100, 210, 400), c = 0.5, height = 27.44)

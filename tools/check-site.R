@@ -25,6 +25,11 @@
 #     R error ("Error in ...", "Error: ...") in any output block (<pre>);
 #   - every figure loads: each <img> has naturalWidth > 0;
 #   - its maths is rendered: no \( or \[ left in the text outside code;
+#   - what a reader sees (tools/reader-checks.js, also run on the installed
+#     vignettes by tools/check-vignettes.R): no table wider than the text
+#     column, no raw x^y^ superscript, no figure whose caption is only its
+#     alt text, no "Table: ..." caption left as text, no mailto: link whose
+#     text is no address;
 #   - no link is broken: every internal <a href>, stylesheet and script
 #     resolves to a file of the site, and every #fragment to an element with
 #     that id on the target page. External (http/https/mailto) links are NOT
@@ -299,9 +304,15 @@ page_facts_js <- "(async () => {
     r_errors: all('pre').map(p => p.innerText)
       .filter(t => /(^|\\n)(#>|##)?\\s*Error( in |:)/.test(t)).map(t => t.slice(0, 300)),
     r_warnings: all('pre').flatMap(p => p.innerText.split('\\n'))
-      .filter(l => /^(#>|##)?\\s*Warning/.test(l))
+      .filter(l => /^(#>|##)?\\s*Warning/.test(l)),
+    readers: READER_CHECKS
   });
 })()"
+# what a reader sees wrong (wide tables, raw superscripts, lost captions):
+# the checks tools/check-vignettes.R runs on the installed vignettes
+page_facts_js <- sub("READER_CHECKS", paste(readLines("tools/reader-checks.js", encoding = "UTF-8"),
+                                            collapse = "\n"),
+                     page_facts_js, fixed = TRUE)
 
 open_browser <- function() {
   if (!nzchar(Sys.getenv("CHROMOTE_CHROME")) && file.exists("/usr/bin/chromium")) {
@@ -373,6 +384,12 @@ page_failures <- function(facts, page) {
   }
   for (img in facts$images) {
     if (img$width == 0) failures <- c(failures, sprintf("%s: image does not load: %s", page, img$src))
+  }
+  what <- c(wide_tables = "table wider than the text", raw_superscripts = "raw superscript",
+            alt_only_captions = "figure caption only in alt text",
+            stray_captions = "table caption left as text", odd_mailto = "mailto: link in text")
+  for (k in names(what)) {
+    for (e in unlist(facts$readers[[k]])) failures <- c(failures, sprintf("%s: %s: %s", page, what[[k]], e))
   }
   failures
 }

@@ -152,6 +152,31 @@ test_that("the pairs plot shows every pair of theta columns, the truth marked", 
   expect_error(plot(fit1, "pairs"), "at least two theta columns", class = "griddy_error_input")
 })
 
+# The width, in inches, of each line of a plot's subtitle at its theme's size.
+subtitle_inches <- function(p) {
+  size <- ggplot2::calc_element("plot.subtitle", p$theme)$size
+  grDevices::pdf(NULL)
+  on.exit(grDevices::dev.off())
+  vapply(strsplit(p$labels$subtitle, "\n", fixed = TRUE)[[1]], function(line) {
+    grob <- grid::textGrob(line, gp = grid::gpar(fontsize = size))
+    grid::convertWidth(grid::grobWidth(grob), "inches", valueOnly = TRUE)
+  }, numeric(1))
+}
+
+test_that("the subtitles of a discrepancy fit's plots fit a 6-inch figure", {
+  fit <- bump_fit(bump_sys(reps = 2))
+  # the longest: "+ discrepancy" in the ppc, the replicates' means in the other
+  ppc <- plot(fit, "ppc", ndraws = 50, seed = 1, level = 0.95)
+  disc <- plot(fit, "discrepancy", ndraws = 50, seed = 1)
+  expect_match(ppc$labels$subtitle, "+ discrepancy", fixed = TRUE)
+  expect_match(disc$labels$subtitle, "replicates' means", fixed = TRUE)
+  # a y axis of about 0.6 inches beside the text leaves 5.4 of the 6
+  expect_lt(max(subtitle_inches(ppc)), 5)
+  expect_lt(max(subtitle_inches(disc)), 5)
+  expect_identical(wrap_subtitle(c("One.", "Two words.")), "One.\nTwo words.")
+  expect_identical(wrap_subtitle("a b c", width = 1), "a\nb\nc")
+})
+
 test_that("the discrepancy plot shows delta's posterior and the residuals per setting", {
   sys <- bump_sys()
   fit <- bump_fit(sys)
