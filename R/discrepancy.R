@@ -72,7 +72,7 @@
 #' \eqn{\theta = 0.65}, 11 settings on \[0.2, 4], noise sd 0.01) the 95%
 #' interval of \eqn{\theta} held 0.65 in 10 of 10 noise seeds with
 #' `zero_at = data.frame(x = 0), flat_at = data.frame(x = 0)` and in
-#' COVERAGE_ORTH of 10 with the orthogonal default, which estimates the best-fitting
+#' 0 of 10 with the orthogonal default, which estimates the best-fitting
 #' \eqn{\theta} (see the example and `bench/simple-machine-knowledge.R`).
 #'
 #' **Scaled (S-GaSP).** With `scaled = TRUE` the discrepancy is Gu and
