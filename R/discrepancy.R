@@ -67,7 +67,12 @@
 #' takes from it; asked for, it projects the conditioned process). The
 #' settings need not be among the data's (the simple machine's \eqn{x = 0}
 #' is not). Wrong knowledge costs evidence: compare
-#' [posterior_exact()]'s `log_evidence` with and without it. For the simple
+#' [posterior_exact()]'s `log_evidence` with and without it (on the simple
+#' machine, \eqn{\delta = 0} at \eqn{x = 1} and 4, which no \eqn{\theta}
+#' makes true, lowered it by 6.5 to 9.5 against the same discrepancy without
+#' knowledge, in 10 of 10 seeds). Knowledge that some \eqn{\theta} makes
+#' true cannot be refuted by the data: a single wrong zero moves
+#' \eqn{\theta} to the value that makes it true, at no cost in evidence. For the simple
 #' machine (simulator \eqn{\theta x}, reality \eqn{\theta x / (1 + x/20)},
 #' \eqn{\theta = 0.65}, 11 settings on \[0.2, 4], noise sd 0.01) the 95%
 #' interval of \eqn{\theta} held 0.65 in 10 of 10 noise seeds with
