@@ -72,7 +72,9 @@
 #' makes true, lowered it by 6.5 to 9.5 against the same discrepancy without
 #' knowledge, in 10 of 10 seeds). Knowledge that some \eqn{\theta} makes
 #' true cannot be refuted by the data: a single wrong zero moves
-#' \eqn{\theta} to the value that makes it true, at no cost in evidence. For the simple
+#' \eqn{\theta} to the value that makes it true, at no cost in evidence.
+#' With `noise_groups`, every group's discrepancy is conditioned on all the
+#' knowledge. For the simple
 #' machine (simulator \eqn{\theta x}, reality \eqn{\theta x / (1 + x/20)},
 #' \eqn{\theta = 0.65}, 11 settings on \[0.2, 4], noise sd 0.01) the 95%
 #' interval of \eqn{\theta} held 0.65 in 10 of 10 noise seeds with

@@ -21,7 +21,9 @@
 # 0.65, and the log evidence; for knowledge and orthogonal also calibrate()'s
 # interval from summary() (default sampler settings; rows *_calibrate, no
 # evidence). A resolution check reruns seed 1 with theta on
-# a grid four times finer (by = 0.000625).
+# a grid four times finer (by = 0.000625). Sensitivity rows (step 0.00125):
+# noise sd 0.05 on the 11 settings, and 20 settings seq(0.2, 4, by = 0.2) at
+# sd 0.01, knowledge and the default only.
 # Run from the package root: Rscript bench/simple-machine-knowledge.R
 # (loads the source tree with pkgload). Writes
 # bench/results/simple-machine-knowledge.csv.
@@ -31,6 +33,7 @@ pkgload::load_all(".", quiet = TRUE)
 x <- data.frame(x = seq(0.2, 4, length.out = 11))
 truth <- 0.65
 reality <- truth * x$x / (1 + x$x / 20)
+noise_sd <- 0.01
 
 library_at <- function(step) {
   theta <- data.frame(theta = seq(0.3, 1, by = step))
@@ -58,7 +61,7 @@ one <- function(seed, step = 0.0025) {
   lib <- library_at(step)
   theta <- lib_theta(lib)$theta
   set.seed(seed)
-  field <- field_data(matrix(reality + stats::rnorm(nrow(x), sd = 0.01)), x = x)
+  field <- field_data(matrix(reality + stats::rnorm(nrow(x), sd = noise_sd)), x = x)
   exact <- do.call(rbind, lapply(names(fits), function(nm) {
     t0 <- proc.time()[["elapsed"]]
     ex <- posterior_exact(lib, field, discrepancy = fits[[nm]], joint = FALSE)
@@ -86,10 +89,26 @@ one <- function(seed, step = 0.0025) {
 
 res <- do.call(rbind, lapply(1:10, one))
 res <- rbind(res, one(1, step = 0.000625))
+res$noise_sd <- noise_sd
+res$n_x <- nrow(x)
+# sensitivity (exact posteriors only, knowledge and the default): noisier
+# data, and 20 settings x = 0.2, 0.4, ..., 4
+fits <- fits[c("knowledge", "orthogonal")]
+noise_sd <- 0.05
+noisy <- do.call(rbind, lapply(1:10, one, step = 0.00125))
+noisy$noise_sd <- noise_sd
+noisy$n_x <- nrow(x)
+noise_sd <- 0.01
+x <- data.frame(x = seq(0.2, 4, by = 0.2))
+reality <- truth * x$x / (1 + x$x / 20)
+dense <- do.call(rbind, lapply(1:10, one, step = 0.00125))
+dense$noise_sd <- noise_sd
+dense$n_x <- nrow(x)
+res <- rbind(res, noisy, dense)
 dir.create("bench/results", showWarnings = FALSE)
 utils::write.csv(res, "bench/results/simple-machine-knowledge.csv", row.names = FALSE)
 
-main <- res[res$step == 0.0025, ]
+main <- res[res$step == 0.0025 & res$noise_sd == 0.01 & res$n_x == 11, ]
 ref <- main[main$fit == "orthogonal", c("seed", "log_evidence")]
 main$dlogZ_vs_orthogonal <- main$log_evidence - ref$log_evidence[match(main$seed, ref$seed)]
 # knowledge against the same discrepancy without it (plain: orthogonal = FALSE)
@@ -107,6 +126,10 @@ summ <- do.call(rbind, lapply(split(main, main$fit), function(d) {
 }))
 print(summ[order(match(summ$fit, c(names(fits), paste0(names(fits), "_calibrate")))), ],
       row.names = FALSE, digits = 3)
+cat("\nsensitivity: noise sd 0.05 (11 settings), and 20 settings (sd 0.01):\n")
+sens <- res[res$step == 0.00125, ]
+print(stats::aggregate(cbind(covers, width) ~ fit + noise_sd + n_x, sens,
+                       function(v) c(sum = sum(v), min = min(v), max = max(v))), digits = 3)
 cat("\nresolution check, seed 1 (step 0.0025 against 0.000625):\n")
-print(res[res$seed == 1, c("fit", "step", "lower", "upper", "width", "log_evidence")],
+print(res[res$seed == 1 & res$step %in% c(0.0025, 0.000625), c("fit", "step", "lower", "upper", "width", "log_evidence")],
       row.names = FALSE, digits = 4)
