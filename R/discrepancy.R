@@ -74,7 +74,10 @@
 #' true cannot be refuted by the data: a single wrong zero moves
 #' \eqn{\theta} to the value that makes it true, at no cost in evidence.
 #' With `noise_groups`, every group's discrepancy is conditioned on all the
-#' knowledge. For the simple
+#' knowledge. A scaled discrepancy (`scaled = TRUE`) favours a small
+#' \eqn{\delta}, and so pulls \eqn{\theta} back towards the best fit even
+#' with knowledge: on the simple machine its interval missed 0.65 in 10 of
+#' 10 seeds. For the simple
 #' machine (simulator \eqn{\theta x}, reality \eqn{\theta x / (1 + x/20)},
 #' \eqn{\theta = 0.65}, 11 settings on \[0.2, 4], noise sd 0.01) the 95%
 #' interval of \eqn{\theta} held 0.65 in 10 of 10 noise seeds with
