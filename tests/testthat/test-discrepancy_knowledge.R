@@ -103,6 +103,16 @@ test_that("delta's posterior is 0 where it is known to be, and flat where it is 
   expect_lt(abs(post$mean[at]), 1e-8)
   expect_lt(post$sd[at], 1e-6)
   expect_gt(max(abs(post$mean)), 0.1)  # the bump at amp 3 is still seen
+  # with noise groups, every group's discrepancy is conditioned on the knowledge
+  grouped <- suppressWarnings(
+    calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100, seed = 1, noise_groups = "x",
+              discrepancy = gp_discrepancy(orthogonal = FALSE,
+                                           zero_at = data.frame(amp = 1, t = 0.5))),
+    classes = c("griddy_warning_resolution", "griddy_warning_gap",
+                "griddy_warning_convergence"))
+  post_g <- discrepancy_posterior(grouped, ndraws = 50, seed = 1)
+  expect_lt(abs(post_g$mean[at]), 1e-8)
+  expect_gt(max(abs(post_g$mean)), 0.01)  # not zero everywhere
   # flat: every conditioned covariance, so every posterior mean (a
   # combination of them), has zero slope over x at the flat setting
   lib <- sys$library
