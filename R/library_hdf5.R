@@ -309,7 +309,7 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 # file created (append = FALSE) and the runs of `library` (any number, one
 # is enough) appended and committed.
 commit_runs <- function(library, file, append, chunk_size = NULL) {
-  token <- library_lock(file, "library file")
+  token <- library_lock(file, "library file", recover = function() h5_recover(file))
   on.exit(library_unlock(token), add = TRUE)
   write_hook("locked")
   if (append) {
@@ -322,11 +322,69 @@ commit_runs <- function(library, file, append, chunk_size = NULL) {
       griddy_abort("`file` (", file, ") already exists; use `append = TRUE` to add runs to ",
                    "the library in it, or choose a new file.")
     }
-    h5_create_library(library, file, chunk_size)
+    h5_guard_write(file, h5_create_library(library, file, chunk_size), created = TRUE)
   }
-  n <- h5_append_runs(library, file)
+  n <- h5_guard_write(file, h5_append_runs(library, file))
   write_hook("done")
   invisible(n)
+}
+
+# Runs a write, turning an error of HDF5's (hdf5r's raw stack) into a
+# classed one: `griddy_error_disk` when the device is full or the file over
+# a size limit, `griddy_error_io` for other failures of the write. The
+# committed runs are not touched by a failed append (the count is written
+# last), so the message says how to go on.
+h5_guard_write <- function(file, expr, created = FALSE) {
+  tryCatch(expr, error = function(e) {
+    if (inherits(e, "griddy_error")) stop(e)
+    msg <- conditionMessage(e)
+    disk <- grepl("errno = (27|28|122)\\b|No space left|File too large|quota exceeded", msg,
+                  ignore.case = TRUE)
+    griddy_abort(
+      "Writing ", file, " failed",
+      if (disk) ": the disk is full (or the file reached a size limit)" else "",
+      " (", h5_error_summary(e), if (disk) paste0("; ", h5_errno_text(msg)), "). ",
+      if (created) "The new file was not created." else paste0(
+        "Its committed runs are intact; the rows of this append are not committed. ",
+        "Run repair_library(\"", file, "\") to discard them"),
+      if (!created && disk) ", free some space," else if (!created) "," else "",
+      if (!created) " and write the runs again.",
+      class = if (disk) "disk" else "io")
+  })
+}
+
+h5_errno_text <- function(msg) {
+  hit <- regmatches(msg, regexpr("error message = '[^']*'", msg))
+  if (length(hit) == 0L) "" else sub("error message = '([^']*)'", "the system says: \\1", hit)
+}
+
+# Repairs a file whose writer died (called under its lock, taken over from
+# the dead writer): clears the superblock's mark of a writer at work, which
+# HDF5 leaves on a file in the latest format, and cuts the uncommitted rows.
+# Returns a sentence for the message that reports the recovery.
+h5_recover <- function(file) {
+  unlink(Sys.glob(paste0(file, ".new-*"))) # a new file the dead writer was building
+  if (!file.exists(file)) return("no file was left to repair.")
+  h5 <- h5_open(file, "r+", clear = TRUE)
+  on.exit(h5_close(h5), add = TRUE)
+  meta <- h5_griddy_meta(h5)
+  if (!meta$griddy) return("the file is not griddy's, so it was left as it is.")
+  dropped <- h5_drop_uncommitted(h5, meta$n_runs)
+  paste0("the file keeps its ", meta$n_runs, " committed runs",
+         if (dropped > 0L) paste0(" and the ", dropped, " uncommitted run(s) it left were ",
+                                  "discarded") else "", ".")
+}
+
+# A dead writer's lock is recovered when a writer opens the file, before it
+# does any work (simulate_library() calls this before simulating).
+h5_recover_dead_writer <- function(file) {
+  lock <- lock_path(file)
+  if (dir.exists(lock) && lock_is_stale(lock_owner(lock))) {
+    token <- tryCatch(library_lock(file, "library file", recover = function() h5_recover(file)),
+                      griddy_error_lock = function(e) NULL) # another writer came first
+    if (!is.null(token)) library_unlock(token)
+  }
+  invisible(file)
 }
 
 #' Repair a library left incomplete by an interrupted write
@@ -481,16 +539,31 @@ lib_check_integrity.hdf5_library <- function(library) {
 
 # Opens a file, turning HDF5's error stack into one sentence. HDF5 refuses
 # to open a file that another process has open for writing, and a writer a
-# file that others are reading. A reader is refused at once (a write may
-# take long); a writer ("r+", which holds griddy's lock, so the others are
-# readers, each open for the moment of a read) tries again for up to
-# `wait` seconds, so that someone looking at a campaign's library does not
-# stop the campaign.
-h5_open <- function(file, mode, wait = if (identical(mode, "r+")) 60 else 0) {
+# file that others are reading. Both try again for up to `wait` seconds: a
+# writer ("r+", which holds griddy's lock, so the others are readers, each
+# open for the moment of a read), so that someone looking at a campaign's
+# library does not stop the campaign; a reader, for the moments a writer
+# holds the file alone (see below).
+#
+# Single writer, multiple readers (SWMR). Files written by this version use
+# HDF5's latest format (superblock version 3), and appends open them in SWMR
+# mode (`swmr = TRUE`): readers then open the file while the writer appends
+# (HDF5 keeps the file's structure readable at every moment of the write)
+# and read the committed runs only, so a reader is never kept waiting by a
+# campaign. A plain reader finds such a file marked as open for writing and
+# is opened again as an SWMR reader. Files in the older format (superblock
+# version 0, written by earlier versions) are appended to as before, and
+# their readers are refused for the moment of an append.
+h5_open <- function(file, mode, wait = 60, swmr = FALSE, clear = FALSE) {
   start <- proc.time()[["elapsed"]]
   pause <- 0.02
+  # SWMR readers take no lock of HDF5's, so they never keep a writer waiting
+  if (mode == "r" && !clear) swmr <- h5_swmr_capable(file)
   repeat {
-    h5 <- tryCatch(h5_open_once(file, mode), error = function(e) e)
+    h5 <- tryCatch(h5_open_once(file, mode, swmr, clear), error = function(e) e)
+    if (inherits(h5, "error") && mode == "r" && h5_open_for_write(h5)) {
+      h5 <- tryCatch(h5_open_once(file, mode, swmr = TRUE), error = function(e) e)
+    }
     if (!inherits(h5, "error")) return(h5)
     waited <- proc.time()[["elapsed"]] - start
     if (!grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) || waited >= wait) {
@@ -501,20 +574,63 @@ h5_open <- function(file, mode, wait = if (identical(mode, "r+")) 60 else 0) {
   }
 }
 
-h5_open_once <- function(file, mode) {
+# HDF5's refusal of a file whose superblock says a writer has it open (or
+# had it open and died: see h5_recover()).
+h5_open_for_write <- function(e) {
+  grepl("already open for write", conditionMessage(e), fixed = TRUE)
+}
+
+# `swmr`: an SWMR reader ("r") or writer ("r+"). `clear`: clear the
+# superblock's mark of a writer at work (what the tool h5clear does), for a
+# file whose writer died. "w" creates a file in the latest format.
+h5_open_once <- function(file, mode, swmr = FALSE, clear = FALSE) {
   # closing the file closes every object opened in it (H5F_CLOSE_STRONG):
   # faster than hdf5r's close_all(), which runs the garbage collector
   fapl <- hdf5r::H5P_FILE_ACCESS$new()
-  # hdf5r wraps H5Pset_fclose_degree() without an R method for it: call its
-  # registered routine, found at run time
-  .Call(h5_set_fclose_degree(), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
-  hdf5r::H5File$new(file, mode, file_access_pl = fapl)
+  # hdf5r wraps these HDF5 routines without R methods for them: call its
+  # registered routines, found at run time
+  .Call(h5_routine("R_H5Pset_fclose_degree"), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
+  if (mode == "w" || (swmr && mode == "r+")) {
+    .Call(h5_routine("R_H5Pset_libver_bounds"), fapl$id, hdf5r::h5const$H5F_LIBVER_V110,
+          hdf5r::h5const$H5F_LIBVER_V110)
+  }
+  if (clear) {
+    # a property HDF5 registers for h5clear ("clear_status_flags", a bool)
+    .Call(h5_routine("R_H5Pset"), fapl$id, "clear_status_flags", as.raw(c(1, 0, 0, 0)))
+  }
+  if (!swmr) return(hdf5r::H5File$new(file, mode, file_access_pl = fapl))
+  const <- hdf5r::h5const
+  flags <- if (mode == "r") {
+    bitwOr(const$H5F_ACC_RDONLY, const$H5F_ACC_SWMR_READ)
+  } else {
+    bitwOr(const$H5F_ACC_RDWR, const$H5F_ACC_SWMR_WRITE)
+  }
+  if (mode == "r") {
+    # an SWMR reader needs no lock of HDF5's (the SWMR protocol keeps what it
+    # reads consistent), and holding one would keep the writer waiting
+    withr::local_envvar(HDF5_USE_FILE_LOCKING = "FALSE")
+  }
+  fid <- .Call(h5_routine("R_H5Fopen"), normalizePath(file), flags, fapl$id)$return_val
+  hdf5r::H5File$new(id = fid)
+}
+
+# Whether a file is in the format SWMR needs (superblock version 3 or
+# later; the version is the byte after the 8-byte signature).
+h5_swmr_capable <- function(file) {
+  head <- tryCatch(readBin(file, "raw", 9L), error = function(e) raw(0))
+  length(head) == 9L && as.integer(head[9L]) >= 3L
 }
 
 h5_open_failed <- function(file, mode, e, waited) {
   msg <- conditionMessage(e)
   if (!file.exists(file)) {
     griddy_abort("The HDF5 file ", file, " does not exist.", class = "library")
+  }
+  if (h5_open_for_write(e) && mode != "r") {
+    griddy_abort("The HDF5 file ", file, " is marked as open for writing by a process ",
+                 "other than a griddy writer (none holds its lock), or by one that died ",
+                 "without its lock. If no process is writing it, repair_library(\"", file,
+                 "\") clears the mark and discards any uncommitted runs.", class = "lock")
   }
   if (grepl("unable to lock", msg, ignore.case = TRUE)) {
     if (mode != "r") {
@@ -526,17 +642,19 @@ h5_open_failed <- function(file, mode, e, waited) {
     griddy_abort("The HDF5 file ", file, " is open for writing by another process",
                  if (dir.exists(lock)) paste0(" (the lock ", lock, " is held by ",
                                               lock_who(lock_owner(lock)), ")"),
-                 ", and HDF5 refuses to open it meanwhile; try again when that write ",
-                 "has finished.", class = "lock")
+                 ", and HDF5 refuses to open it meanwhile; it still did after ",
+                 round(waited), " s (a file written by an earlier version of griddy, in ",
+                 "HDF5's older format, is held for a whole append; ",
+                 "write_library(hdf5_library(file), new_file) converts it). Try again ",
+                 "when that write has finished.",
+                 class = "lock")
   }
   griddy_abort("The file ", file, " cannot be opened as an HDF5 file",
                if (mode != "r") " for writing", ": ", h5_error_summary(e), ".",
                class = "library")
 }
 
-h5_set_fclose_degree <- function() {
-  utils::getFromNamespace("R_H5Pset_fclose_degree", "hdf5r")
-}
+h5_routine <- function(name) utils::getFromNamespace(name, "hdf5r")
 
 h5_close <- function(h5) if (h5$is_valid) h5$close()
 
@@ -761,20 +879,18 @@ h5_griddy_meta <- function(h5) {
   list(griddy = TRUE, n_runs = as.integer(n_runs))
 }
 
+# Rows past the committed count: an append at work (a live writer holds the
+# lock; reading the committed runs meanwhile is what readers are meant to
+# do, so nothing is said), or the leftovers of one that died.
 h5_warn_uncommitted <- function(file, n_runs, n_ext) {
   lock <- lock_path(file)
-  if (dir.exists(lock) && !lock_is_stale(lock_owner(lock))) {
-    griddy_warn(file, " holds ", n_ext - n_runs, " run(s) past its ", n_runs,
-                " committed runs: an append is in progress (the lock ", lock,
-                " is held); griddy uses the committed runs.", class = "library")
-  } else {
-    griddy_warn(file, " holds ", n_ext - n_runs, " uncommitted run(s) past its ", n_runs,
-                " committed runs, left by an append that did not finish; griddy uses the ",
-                "committed runs. Run repair_library(\"", file, "\") to discard them",
-                if (dir.exists(lock)) paste0(" (first remove the dead writer's lock: unlink(\"",
-                                             lock, "\", recursive = TRUE))"),
-                "; the next write_library(append = TRUE) also does.", class = "library")
-  }
+  if (dir.exists(lock) && !lock_is_stale(lock_owner(lock))) return(invisible())
+  griddy_warn(file, " holds ", n_ext - n_runs, " uncommitted run(s) past its ", n_runs,
+              " committed runs, left by an append that did not finish; griddy uses the ",
+              "committed runs. Run repair_library(\"", file, "\") to discard them",
+              if (dir.exists(lock)) " (it also takes over the dead writer's lock)",
+              "; the next write_library(append = TRUE) or simulate_library() on it also does.",
+              class = "library")
 }
 
 # ---- writing HDF5 ----------------------------------------------------------
@@ -790,13 +906,14 @@ h5_create_library <- function(library, file, chunk_size) {
   unlink(tmp)
   h5 <- h5_open(tmp, "w")
   ok <- FALSE
+  open <- list()
   on.exit({
-    h5_close(h5)
+    h5_close_all(open, h5)
     if (!ok) unlink(tmp)
   }, add = TRUE)
-  h5_extendable(h5, "theta", p, chunk_size)
-  hdf5r::h5attr(h5[["theta"]], "names") <- names(theta)
-  h5_extendable(h5, "y", n_out, chunk_size)
+  open$theta <- h5_extendable(h5, "theta", p, chunk_size)
+  hdf5r::h5attr(open$theta, "names") <- names(theta)
+  open$y <- h5_extendable(h5, "y", n_out, chunk_size)
   if (!is.null(lib_x(library))) {
     h5[["x"]] <- as.data.frame(lapply(lib_x(library), as.double))
   }
@@ -808,7 +925,7 @@ h5_create_library <- function(library, file, chunk_size) {
     "its attribute 'names') and y (runs x outputs, in blocks by x setting) in R's",
     "column-major order, so h5py shows them transposed; x (settings, compound) and t",
     "(coordinates); only the first griddy_n_runs runs are committed.")
-  h5_close(h5)
+  h5_close_all(open, h5)
   if (!file.rename(tmp, file)) {
     griddy_abort("Cannot create ", file, " (renaming ", tmp, " failed).", class = "library")
   }
@@ -828,31 +945,111 @@ h5_extendable <- function(h5, name, n, chunk_size) {
 }
 
 # Appends the runs of `library` to a file written by write_library(): new
-# rows first, the committed-run count last. The caller holds the lock.
+# rows first, the committed-run count last. The caller holds the lock. The
+# append is made in SWMR mode when the file's format allows it, so readers
+# are not refused meanwhile; rows an earlier append left uncommitted are cut
+# first, outside SWMR mode (HDF5 does not shrink datasets in it).
 h5_append_runs <- function(library, file) {
-  h5 <- h5_open(file, "r+")
-  on.exit(h5_close(h5), add = TRUE)
+  dropped <- h5_drop_before_append(file)
+  h5_reserve_space(file, 8 * nrow(lib_theta(library)) * (ncol(lib_theta(library)) +
+                                                        lib_n_out(library)))
+  h5 <- h5_open(file, "r+", swmr = h5_swmr_capable(file))
+  open <- list()
+  # every handle closed, datasets before the file, even when a write failed
+  # (hdf5r's finalizers of handles left open on a failed file crash R)
+  on.exit(h5_close_all(open, h5), add = TRUE)
+  done <- FALSE
+  # a failed write (a full disk) leaves data HDF5 cannot flush: the new rows
+  # are cut at once, which drops it, so the file can be closed
+  on.exit(if (!done) h5_cut_back(open, n0), add = TRUE, after = FALSE)
+  n0 <- NA
   meta <- h5_griddy_meta(h5)
-  if (!meta$griddy) {
-    griddy_abort("`file` (", file, ") was not written by write_library(): griddy appends ",
-                 "only to its own files (a file from another pipeline is read as it is by ",
-                 "hdf5_library()).")
-  }
-  theta_ds <- h5[["theta"]]
-  y_ds <- h5[["y"]]
-  n0 <- meta$n_runs
-  dropped <- h5_drop_uncommitted(h5, n0)
-  if (dropped > 0L) {
-    griddy_warn("Discarded ", dropped, " uncommitted run(s) that an interrupted append ",
-                "left in ", file, "; appending after its ", n0, " committed runs.",
+  if (dropped$n > 0L) {
+    griddy_warn("Discarded ", dropped$n, " uncommitted run(s) that an interrupted append ",
+                "left in ", file, "; appending after its ", meta$n_runs, " committed runs.",
                 class = "library")
   }
-  theta_names <- h5_names_attr(theta_ds)
+  open <- list(theta_ds = h5[["theta"]], y_ds = h5[["y"]], t_ds = h5[["t"]])
+  if (h5$exists("x")) open$x_ds <- h5[["x"]]
+  n0 <- meta$n_runs
   new_theta <- as.matrix(lib_theta(library))
+  theta_names <- h5_check_same_library(open, library, new_theta)
+  old_theta <- if (n0 > 0L) open$theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))),
+                                                 drop = FALSE)
+  all_theta <- rbind(old_theta, new_theta)
+  colnames(all_theta) <- theta_names
+  assert_distinct_runs(all_theta)
+  k <- nrow(new_theta)
+  n_out <- lib_n_out(library)
+  open$theta_ds$set_extent(c(n0 + k, ncol(new_theta)))
+  open$y_ds$set_extent(c(n0 + k, n_out))
+  h5$flush()
+  write_hook("extended")
+  open$theta_ds$write(args = list(n0 + seq_len(k), seq_len(ncol(new_theta))), new_theta)
+  piece <- max(1L, as.integer(floor(2^23 / n_out)))
+  for (start in seq(1L, k, by = piece)) {
+    rows <- seq.int(start, min(k, start + piece - 1L))
+    open$y_ds$write(args = list(n0 + rows, seq_len(n_out)), lib_outputs(library, rows))
+    write_hook("piece")
+  }
+  h5$flush()
+  write_hook("rows_written")
+  open$count <- h5$attr_open("griddy_n_runs")
+  open$count$write(as.double(n0 + k))
+  h5$flush()
+  done <- TRUE
+  write_hook("committed")
+  invisible(n0 + k)
+}
+
+h5_cut_back <- function(open, n0) {
+  if (is.na(n0)) return(invisible())
+  for (ds in open[c("theta_ds", "y_ds")]) {
+    try(if (ds$dims[1] > n0) ds$set_extent(c(n0, ds$dims[2])), silent = TRUE)
+  }
+}
+
+# A full disk met by HDF5 in the middle of a write is hard to leave cleanly:
+# the file cannot be closed (HDF5 cannot flush what it holds), and HDF5 1.10
+# then crashes R at exit. So the room an append needs (its runs, plus a
+# margin for partly filled chunks and the index) is tried first, outside
+# HDF5: zeros written past the end of the file, which is then cut back. A
+# device that is full, a quota or a file-size limit (ulimit -f) is met
+# there, and the append stops with a `griddy_error_disk` before the file is
+# touched.
+h5_reserve_space <- function(file, bytes) {
+  size <- file.size(file)
+  bytes <- ceiling(1.1 * bytes) + 2^20
+  con <- file(file, "r+b")
+  on.exit(close(con), add = TRUE)
+  block <- raw(min(bytes, 2^22))
+  failed <- tryCatch({
+    seek(con, size, rw = "write")
+    for (i in seq_len(ceiling(bytes / length(block)))) writeBin(block, con)
+    flush(con)
+    NULL
+  }, error = conditionMessage, warning = conditionMessage)
+  seek(con, size, rw = "write")
+  truncate(con)
+  if (!is.null(failed)) {
+    need <- format(structure(bytes, class = "object_size"), units = "auto", standard = "SI")
+    griddy_abort("Writing ", file, " failed: the disk is full (or the file reached a size ",
+                 "limit, such as a quota or ulimit -f): the append needs about ", need,
+                 " more and the system refused them (", failed, "). Nothing was written; ",
+                 "the library keeps its committed runs. Free some space and write the runs ",
+                 "again.", class = "disk")
+  }
+  invisible(file)
+}
+
+# Refuses to append a library whose parameters, x or t differ from the
+# file's (`open`: the file's datasets); returns the file's parameter names.
+h5_check_same_library <- function(open, library, new_theta) {
+  theta_names <- h5_names_attr(open$theta_ds)
   same <- function(a, b) length(a) == length(b) && all(as.double(a) == as.double(b))
-  stored_x <- if (h5$exists("x")) as.data.frame(h5[["x"]]$read()) else NULL
+  stored_x <- if (!is.null(open$x_ds)) as.data.frame(open$x_ds$read()) else NULL
   new_x <- lib_x(library)
-  stored_t <- as.vector(h5[["t"]]$read())
+  stored_t <- as.vector(open$t_ds$read())
   differs <- c(
     parameters = !identical(theta_names, colnames(new_theta)),
     `settings x` = !identical(is.null(stored_x), is.null(new_x)) ||
@@ -871,38 +1068,60 @@ h5_append_runs <- function(library, file) {
                  if (is.null(new_x)) "one setting" else paste0(nrow(new_x), " setting(s)"),
                  " and ", length(lib_t(library)), ".")
   }
-  old_theta <- if (n0 > 0L) theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))),
-                                            drop = FALSE)
-  all_theta <- rbind(old_theta, new_theta)
-  colnames(all_theta) <- theta_names
-  assert_distinct_runs(all_theta)
-  k <- nrow(new_theta)
-  n_out <- lib_n_out(library)
-  theta_ds$set_extent(c(n0 + k, ncol(new_theta)))
-  y_ds$set_extent(c(n0 + k, n_out))
-  h5$flush()
-  write_hook("extended")
-  theta_ds$write(args = list(n0 + seq_len(k), seq_len(ncol(new_theta))), new_theta)
-  piece <- max(1L, as.integer(floor(2^23 / n_out)))
-  for (start in seq(1L, k, by = piece)) {
-    rows <- seq.int(start, min(k, start + piece - 1L))
-    y_ds$write(args = list(n0 + rows, seq_len(n_out)), lib_outputs(library, rows))
-    write_hook("piece")
+  theta_names
+}
+
+# Before an append: checks the file is griddy's and cuts the rows an
+# earlier append left uncommitted (in a plain, short, open).
+h5_drop_before_append <- function(file) {
+  h5 <- h5_open(file, "r")
+  meta <- tryCatch(h5_griddy_meta(h5), error = function(e) {
+    h5_close(h5)
+    stop(e)
+  })
+  n_ext <- if (meta$griddy) max(h5[["theta"]]$dims[1], h5[["y"]]$dims[1])
+  h5_close(h5)
+  if (!meta$griddy) {
+    griddy_abort("`file` (", file, ") was not written by write_library(): griddy appends ",
+                 "only to its own files (a file from another pipeline is read as it is by ",
+                 "hdf5_library()).")
   }
-  h5$flush()
-  write_hook("rows_written")
-  count <- h5$attr_open("griddy_n_runs")
-  count$write(as.double(n0 + k))
-  count$close()
-  h5$flush()
-  write_hook("committed")
-  invisible(n0 + k)
+  if (n_ext <= meta$n_runs) return(list(n = 0L))
+  h5 <- h5_open(file, "r+")
+  on.exit(h5_close(h5), add = TRUE)
+  list(n = h5_drop_uncommitted(h5, meta$n_runs))
+}
+
+# Closes hdf5r handles (datasets, attributes), then the file, each once and
+# whatever the others do; then lets the garbage collector run the handles'
+# finalizers while nothing is left for them to close.
+h5_close_all <- function(handles, h5) {
+  for (obj in c(rev(handles), h5)) {
+    if (!is.null(obj)) tryCatch(if (obj$is_valid) obj$close(), error = function(e) h5_forget(obj))
+  }
+  invisible(gc(verbose = FALSE))
+}
+
+# An hdf5r handle whose close failed (a write that could not be flushed) is
+# still marked open, and its finalizer closes it again, which crashes R in
+# HDF5 (the object is half freed). It is marked closed instead: hdf5r keeps
+# the mark in the handle's private field `pid` (the handle's id is dropped
+# from hdf5r's count, as its close() does).
+h5_forget <- function(obj) {
+  priv <- obj$.__enclos_env__$private
+  id <- tryCatch(priv$pid$id, error = function(e) NULL)
+  if (length(id) == 1L && !is.na(id)) {
+    try(utils::getFromNamespace("decr_count", "hdf5r")(id), silent = TRUE)
+  }
+  priv$pid <- NA
+  invisible(obj)
 }
 
 # The committed runs of a file written by write_library(), read without the
 # checks of a library (it may hold one run, or none): list(theta = a
 # data.frame, n_out). NULL when the file does not exist.
 h5_committed_theta <- function(file) {
+  h5_recover_dead_writer(file)
   if (!file.exists(file)) return(NULL)
   h5 <- h5_open(file, "r")
   on.exit(h5_close(h5), add = TRUE)
@@ -925,9 +1144,11 @@ h5_committed_theta <- function(file) {
 repair_h5_library <- function(file) {
   require_package("hdf5r", "to repair an HDF5 library")
   file <- normalizePath(file)
-  token <- library_lock(file, "library file")
+  token <- library_lock(file, "library file", recover = function() "repairing it.")
   on.exit(library_unlock(token), add = TRUE)
-  h5 <- h5_open(file, "r+")
+  # under the lock no griddy writer is at work: a writer's mark left in the
+  # superblock is one that died, and is cleared
+  h5 <- h5_open(file, "r+", clear = TRUE)
   on.exit(h5_close(h5), add = TRUE, after = FALSE)
   meta <- h5_griddy_meta(h5)
   if (!meta$griddy) {
