@@ -56,11 +56,20 @@
 #'   `griddy_error_library` rather than allocated. A committed-run count that
 #'   is not one whole number is refused the same way.
 #'
+#' @section Text: A string dataset (what h5py writes for text, or hdf5r
+#'   for a character vector) of `theta` (one-dimensional), `t` or `x` is read
+#'   when every entry is a number written as text; other text, outputs stored
+#'   as text, and text fields of a compound `theta` or `x` are refused with
+#'   an error of class `griddy_error_unsupported` naming the dataset (for a
+#'   compound `theta`, `theta_names` selects its numeric fields).
+#'
 #' @section Files written by write_library(): They carry the attribute
 #'   `griddy_format` and a committed-run count `griddy_n_runs`, updated last by
 #'   every append. Readers use only the committed runs: the rows of an append
 #'   that died part-way are ignored (with a warning saying how to discard
-#'   them, see [repair_library()]). For these files the arguments `theta`,
+#'   them, see [repair_library()]). A file another process is appending to
+#'   is opened as an SWMR reader (see [write_library()]): the reader sees the
+#'   runs committed when it opened the file. For these files the arguments `theta`,
 #'   `outputs`, `x`, `t` and `layout` can be left out.
 #'
 #' @param file Path to the HDF5 file.
@@ -150,12 +159,15 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
   }
 
   out_ds <- h5_dataset(h5, outputs, "outputs", file)
+  out_cls <- as.character(out_ds$get_type()$get_class())
+  if (!out_cls %in% c("H5T_FLOAT", "H5T_INTEGER")) {
+    griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " holds ",
+                 h5_class_words(out_cls), ", which griddy does not read as outputs: they ",
+                 "must be stored as numbers (integer or floating point). Write them as ",
+                 "numbers, e.g. with write_library().", class = "unsupported")
+  }
   h5_check_stored(out_ds, "outputs", outputs, file)
   dims <- rev(out_ds$dims)
-  if (!as.character(out_ds$get_type()$get_class()) %in% c("H5T_FLOAT", "H5T_INTEGER")) {
-    griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " must be numeric; it is ",
-                 as.character(out_ds$get_type()$get_class()), ".")
-  }
   n_theta <- attr(theta_tab, "rows_stored")
   n_out_known <- if (!is.null(t)) n_x * length(t) else NULL
   if (length(dims) == 1L) {
@@ -251,19 +263,44 @@ print.hdf5_library <- function(x, ...) {
 #'   attribute `griddy_n_runs`). Readers use only committed runs, so a writer
 #'   that dies part-way leaves the library as it was, plus rows that are
 #'   ignored; [hdf5_library()] warns about them, and [repair_library()] or the
-#'   next append discards them. A new file is built under a temporary name and
-#'   renamed into place, so it either exists whole (with no runs yet) or not
-#'   at all. (The order holds against a writer that is killed or fails; on a
-#'   power cut, what reaches the disk depends on the file system.)
+#'   next append discards them. An append that fails with an error cuts its
+#'   own rows. A new file is built under a temporary name and renamed into
+#'   place, so it either exists whole (with no runs yet) or not at all. (The
+#'   order holds against a writer that is killed or fails; on a power cut,
+#'   what reaches the disk depends on the file system.)
+#'
+#' @section A full disk: Before it writes, an append makes sure the device
+#'   has room for its runs (it writes that many bytes past the end of the
+#'   file and cuts them off again), so a full disk, a quota or a file-size
+#'   limit stops it with an error of class `griddy_error_disk` before the
+#'   file is touched; the library keeps its committed runs. A write that
+#'   fails in HDF5 all the same (the disk filled meanwhile) stops with
+#'   `griddy_error_disk` or `griddy_error_io`, its handles closed.
 #'
 #' @section One writer at a time: A writer holds the lock `<file>.lock` (a
-#'   directory, created atomically, recording the writer's process id, host
-#'   and start time) for the whole write. A second writer is refused with an
-#'   error of class `griddy_error_lock` naming the holder, never mixed in.
-#'   A lock left by a writer that died stays until removed: the error says
-#'   whether its process is still running (on the same host) and how to
-#'   remove it. While a writer has the file open, HDF5 itself refuses readers
-#'   on most file systems; griddy then says so.
+#'   directory, created atomically, recording the writer's process id, host,
+#'   start time, the machine's boot id and the process's start tick) for the
+#'   whole write. A second writer is refused with an error of class
+#'   `griddy_error_lock` naming the holder, never mixed in. A lock left by a
+#'   writer that died (killed, say) is recovered by the next writer on the
+#'   same host when it opens the file, as SQLite recovers a hot journal: it
+#'   finds the owner dead (no such process, another boot, or the process id
+#'   reused), takes the lock over, discards the runs the dead writer left
+#'   uncommitted, and says so in a message of class
+#'   `griddy_message_lock_recovered`; [simulate_library()] does this before
+#'   it simulates anything. A lock held from another host is never broken
+#'   (griddy cannot tell a dead writer there from a slow one): the error says
+#'   how to remove it.
+#'
+#' @section Readers during a write: Files written by this version use
+#'   HDF5's latest file format (HDF5 1.10 or later reads them), and appends
+#'   open them in HDF5's single-writer/multiple-reader (SWMR) mode: a reader
+#'   (such as [hdf5_library()] and a calibration from it) opens the file
+#'   while another process appends and sees the committed runs, never a
+#'   half-written one. Files written by earlier versions are appended to as
+#'   before, and HDF5 refuses their readers for the length of an append (a
+#'   reader waits up to a minute); `write_library(hdf5_library(old), new)`
+#'   converts one.
 #'
 #' @param library A library: a [sim_library()] (all runs, or the next piece
 #'   with `append = TRUE`), an [hdf5_library()] or a [disk_library()].
@@ -398,7 +435,9 @@ h5_recover_dead_writer <- function(file) {
 #' manifest lists and removes chunk files the manifest does not list. Either
 #' way the library is left as it was before the interrupted append. The
 #' repair takes the writer's lock, so it is refused while a writer is at
-#' work (or a dead writer's lock remains: the error says how to remove it).
+#' work; a lock whose writer died (on this host) is taken over, and for an
+#' HDF5 file the mark of a writer at work that such a writer leaves in the
+#' file (what the HDF5 tool `h5clear` clears) is cleared.
 #'
 #' @param path An HDF5 file written by [write_library()] or an old `.rds`
 #'   chunk directory.
@@ -566,7 +605,11 @@ h5_open <- function(file, mode, wait = 60, swmr = FALSE, clear = FALSE) {
     }
     if (!inherits(h5, "error")) return(h5)
     waited <- proc.time()[["elapsed"]] - start
-    if (!grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) || waited >= wait) {
+    # a reader also waits while a plain (not SWMR) writer has the file: for
+    # the moment griddy records failed runs or cuts uncommitted ones
+    busy <- grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) ||
+      (mode == "r" && h5_open_for_write(h5))
+    if (!busy || waited >= wait) {
       h5_open_failed(file, mode, h5, waited)
     }
     Sys.sleep(min(pause, wait - waited))
@@ -625,6 +668,12 @@ h5_open_failed <- function(file, mode, e, waited) {
   msg <- conditionMessage(e)
   if (!file.exists(file)) {
     griddy_abort("The HDF5 file ", file, " does not exist.", class = "library")
+  }
+  if (h5_open_for_write(e) && mode == "r") {
+    griddy_abort("The HDF5 file ", file, " is marked as open for writing (not in SWMR ",
+                 "mode) by another process, and was still after ", round(waited), " s. If ",
+                 "no process is writing it (a writer died), repair_library(\"", file,
+                 "\") clears the mark.", class = "lock")
   }
   if (h5_open_for_write(e) && mode != "r") {
     griddy_abort("The HDF5 file ", file, " is marked as open for writing by a process ",
@@ -748,11 +797,34 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
       }
       tab <- tab[names]
     }
+    text <- names(tab)[vapply(tab, is.character, NA)]
+    if (length(text) > 0L) {
+      griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " has text field(s) ",
+                   show_some(text), ", which griddy does not read as ", arg, " (it reads ",
+                   "numbers only)", if (arg == "theta") paste0(
+                     "; give `theta_names` to select the numeric fields, e.g. theta_names = ",
+                     "c(", paste0("\"", setdiff(names(tab), text), "\"", collapse = ", "), ")"),
+                   ".", class = "unsupported")
+    }
     return(first_rows(tab))
   }
+  if (cls == "H5T_STRING") {
+    v <- h5_strings_as_numbers(ds, arg, name, file)
+    if (is.null(names)) names <- h5_names_attr(ds)
+    if (is.null(names)) names <- one_d_name
+    if (is.null(dim(v)) && length(names) == 1L) {
+      return(first_rows(matrix(v, ncol = 1L, dimnames = list(NULL, names))))
+    }
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds numbers as text; ",
+                 "griddy reads them for a one-dimensional dataset with one name (give ",
+                 "`theta_names`), not for this one (", paste(rev(ds$dims), collapse = " x "),
+                 "). Store the values as numbers.", class = "unsupported")
+  }
   if (!cls %in% c("H5T_FLOAT", "H5T_INTEGER")) {
-    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be numeric or ",
-                 "compound; it is ", cls, ".")
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds ",
+                 h5_class_words(cls), ", which griddy does not read as ", arg, ": it must ",
+                 "be numeric or compound (one numeric field per column).",
+                 class = "unsupported")
   }
   if (is.null(names)) names <- h5_names_attr(ds)
   if (length(dims) == 1L) {
@@ -793,7 +865,14 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
 # explain (deflate's limit is about 1032:1; a bound of 1100 leaves room).
 # Small datasets (under 1 MB) are read as they are.
 h5_check_stored <- function(ds, arg, name, file, max_ratio = 1100) {
-  claimed <- prod(as.double(ds$dims)) * ds$get_type()$get_size()
+  type <- ds$get_type()
+  # variable-length data (strings) have no fixed size to compare: their
+  # readers check what they read
+  if (as.character(type$get_class()) %in% c("H5T_STRING", "H5T_VLEN")) {
+    return(invisible(ds))
+  }
+  claimed <- prod(as.double(ds$dims)) * type$get_size()
+  if (!is.finite(claimed)) return(invisible(ds))
   if (claimed <= 2^20) return(invisible(ds))
   stored <- as.double(ds$get_storage_size())
   if (claimed <= max_ratio * stored) return(invisible(ds))
@@ -824,7 +903,36 @@ h5_read_vector <- function(ds, arg, name, file) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be one-dimensional; ",
                  "it is ", paste(rev(ds$dims), collapse = " x "), ".")
   }
+  if (as.character(ds$get_type()$get_class()) == "H5T_STRING") {
+    return(as.vector(h5_strings_as_numbers(ds, arg, name, file)))
+  }
   as.vector(h5_plain(ds$read()))
+}
+
+# A string dataset (what h5py writes for text, or hdf5r for a character
+# vector) read as numbers when every entry is one (numbers kept as text by
+# a pipeline); otherwise an error of class `griddy_error_unsupported` naming
+# an entry that is not.
+h5_strings_as_numbers <- function(ds, arg, name, file) {
+  v <- ds$read()
+  num <- suppressWarnings(as.numeric(trimws(v)))
+  bad <- which(is.na(num))
+  if (length(bad) > 0L) {
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds text (an HDF5 ",
+                 "string dataset), and not numbers written as text: entry ", bad[1], " is \"",
+                 substr(v[bad[1]], 1L, 40L), "\". griddy reads ", arg, " as numbers only; ",
+                 "store them as numbers", if (arg == "theta") " (or a compound dataset with ",
+                 if (arg == "theta") "one numeric field per parameter)", ".",
+                 class = "unsupported")
+  }
+  dim(num) <- dim(v)
+  num
+}
+
+h5_class_words <- function(cls) {
+  switch(cls, H5T_STRING = "text (an HDF5 string dataset)",
+         H5T_COMPOUND = "records (a compound dataset)",
+         paste0("data of HDF5 class ", cls))
 }
 
 # 64-bit integers (what NumPy writes by default) arrive as bit64's integer64.

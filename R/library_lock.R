@@ -107,6 +107,8 @@ lock_is_stale <- function(owner) {
   if (is.na(owner$pid) || !identical(owner$host, lock_host())) return(FALSE)
   if (!is.na(owner$boot) && !identical(owner$boot, lock_boot_id())) return(TRUE)
   if (!isTRUE(tools::pskill(as.integer(owner$pid), 0L))) return(TRUE)
+  # a killed process not yet reaped by its parent (a zombie) answers signals
+  if (lock_proc_field(owner$pid, 1L) %in% c("Z", "X")) return(TRUE)
   !is.na(owner$start) && !identical(owner$start, lock_proc_start(owner$pid))
 }
 
@@ -117,11 +119,15 @@ lock_boot_id <- function() {
   lock_read_line("/proc/sys/kernel/random/boot_id")
 }
 
-lock_proc_start <- function(pid) {
+lock_proc_start <- function(pid) lock_proc_field(pid, 20L)
+
+# Field `k` of /proc/<pid>/stat counted after the command name (1 is the
+# state, 20 the start time); NA when unknown.
+lock_proc_field <- function(pid, k) {
   stat <- lock_read_line(file.path("/proc", pid, "stat"))
   if (is.na(stat)) return(NA_character_)
   fields <- strsplit(sub("^.*\\) ", "", stat), " ", fixed = TRUE)[[1]]
-  if (length(fields) < 20L) NA_character_ else fields[20L]
+  if (length(fields) < k) NA_character_ else fields[k]
 }
 
 lock_read_line <- function(file) {

@@ -362,3 +362,89 @@ test_that("a writer waits for a reader that holds the file open, and is refused 
   expect_gt(proc.time()[["elapsed"]] - start, 0.5)  # it waited for the reader
   expect_identical(lib_outputs(lib), unname(toy$library$y))
 })
+
+test_that("string datasets: numbers kept as text are read, other text is refused as unsupported, not damaged", {
+  # before, a string dataset's variable size made the stored-size check
+  # claim NA bytes and call the file damaged (griddy_error_library)
+  toy <- toy_ar1(n_runs = 3000, n_t = 100)
+  lib <- toy$library
+  h5_file <- function(fill) {
+    f <- withr::local_tempfile(fileext = ".h5", .local_envir = parent.frame())
+    h5 <- hdf5r::H5File$new(f, "w")
+    fill(h5)
+    h5$close_all()
+    f
+  }
+  f <- h5_file(function(h5) {
+    h5[["params"]] <- format(lib$theta$theta, digits = 17)
+    h5[["out"]] <- lib$y
+    h5[["time"]] <- as.character(lib$t)
+  })
+  h5 <- hdf5_library(f, theta = "params", outputs = "out", theta_names = "theta", t = "time")
+  expect_equal(h5$theta, lib$theta)
+  expect_equal(h5$t, lib$t)
+  f <- h5_file(function(h5) {
+    h5[["params"]] <- paste0("run", seq_len(3000))
+    h5[["out"]] <- lib$y
+  })
+  expect_error(hdf5_library(f, theta = "params", outputs = "out", theta_names = "theta"),
+               "holds text .* entry 1 is \"run1\"", class = "griddy_error_unsupported")
+  f <- h5_file(function(h5) {
+    h5[["params"]] <- lib$theta
+    h5[["out"]] <- matrix(format(lib$y), nrow(lib$y))
+  })
+  expect_error(hdf5_library(f, theta = "params", outputs = "out"),
+               "holds text \\(an HDF5 string dataset\\), which griddy does not read as outputs",
+               class = "griddy_error_unsupported")
+  f <- h5_file(function(h5) {
+    h5[["params"]] <- data.frame(theta = lib$theta$theta, label = paste0("run", 1:3000))
+    h5[["out"]] <- lib$y
+  })
+  expect_error(hdf5_library(f, theta = "params", outputs = "out"),
+               "text field\\(s\\) label.*theta_names = c\\(\"theta\"\\)",
+               class = "griddy_error_unsupported")
+  h5 <- hdf5_library(f, theta = "params", outputs = "out", theta_names = "theta")
+  expect_identical(h5$theta, lib$theta)
+})
+
+test_that("a reader calibrates while another process appends (SWMR): never refused, a committed prefix", {
+  # before, HDF5 refused every reader for the length of an append (39 of 40
+  # reads in a minute during a campaign)
+  skip_on_cran()
+  skip_on_os("windows")
+  toy <- toy_ar1(n_runs = 1200, n_t = 10)
+  lib <- toy$library
+  file <- withr::local_tempfile(fileext = ".h5")
+  write_library(lib_rows(lib, 1:200), file)
+  expect_true(h5_swmr_capable(file))
+  piece <- tempfile(fileext = ".rds")
+  saveRDS(lib, piece)
+  started <- tempfile()
+  done <- tempfile()
+  # ten appends of 100 runs, each holding the file open (extended, not yet
+  # committed) for 0.3 s
+  run_child(c(sprintf("lib <- readRDS(%s)", deparse(piece)),
+              "options(griddy.write_hook = function(s) if (s == 'piece') Sys.sleep(0.3))",
+              sprintf("file.create(%s)", deparse(started)),
+              "for (j in 1:10) {",
+              "  rows <- 200 + (j - 1) * 100 + 1:100",
+              "  part <- sim_library(lib$theta[rows, , drop = FALSE], lib$y[rows, ], t = lib$t)",
+              sprintf("  write_library(part, %s, append = TRUE)", deparse(file)),
+              "}",
+              sprintf("writeLines('ok', %s)", deparse(done))), wait = FALSE)
+  wait_for_file(started, timeout = 120)
+  seen <- integer(0)
+  while (!file.exists(done) || length(seen) < 2L) {
+    h5 <- hdf5_library(file) # no error, no warning: the committed runs
+    n <- h5$n_runs
+    expect_true(n %in% seq(200L, 1200L, by = 100L))
+    expect_identical(lib_outputs(h5), lib$y[seq_len(n), ])
+    fit <- without_resolution_warning(
+      calibrate(h5, toy$field, n_iter = 200, burn_in = 50, seed = 1))
+    expect_identical(nrow(fit$C), n) # one row per run read
+    seen <- c(seen, n)
+  }
+  expect_identical(readLines(done), "ok")
+  expect_identical(hdf5_library(file)$n_runs, 1200L)
+  expect_gt(length(unique(seen)), 1L) # the reads saw the appends land
+})
