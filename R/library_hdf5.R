@@ -633,6 +633,10 @@ h5_open_once <- function(file, mode, swmr = FALSE, clear = FALSE) {
   # hdf5r wraps these HDF5 routines without R methods for them: call its
   # registered routines, found at run time
   .Call(h5_routine("R_H5Pset_fclose_degree"), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
+  if (!h5_has_swmr()) {
+    # HDF5 before 1.10: the older format, no SWMR, no marks to clear
+    return(hdf5r::H5File$new(file, mode, file_access_pl = fapl))
+  }
   if (mode == "w" || (swmr && mode == "r+")) {
     .Call(h5_routine("R_H5Pset_libver_bounds"), fapl$id, hdf5r::h5const$H5F_LIBVER_V110,
           hdf5r::h5const$H5F_LIBVER_V110)
@@ -657,9 +661,15 @@ h5_open_once <- function(file, mode, swmr = FALSE, clear = FALSE) {
   hdf5r::H5File$new(id = fid)
 }
 
+# Whether the HDF5 library under hdf5r has SWMR (1.10 or later).
+h5_has_swmr <- function() {
+  utils::compareVersion(hdf5r::h5version(verbose = FALSE), "1.10.0") >= 0
+}
+
 # Whether a file is in the format SWMR needs (superblock version 3 or
 # later; the version is the byte after the 8-byte signature).
 h5_swmr_capable <- function(file) {
+  if (!h5_has_swmr()) return(FALSE)
   head <- tryCatch(readBin(file, "raw", 9L), error = function(e) raw(0))
   length(head) == 9L && as.integer(head[9L]) >= 3L
 }

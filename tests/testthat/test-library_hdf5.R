@@ -448,3 +448,19 @@ test_that("a reader calibrates while another process appends (SWMR): never refus
   expect_identical(hdf5_library(file)$n_runs, 1200L)
   expect_gt(length(unique(seen)), 1L) # the reads saw the appends land
 })
+
+test_that("HDF5's raw write errors become classed: griddy_error_disk for a full disk, else _io", {
+  file <- "/somewhere/lib.h5"
+  full <- simpleError(paste0("HDF5-API Errors:\n error #001: H5FDsec2.c in H5FD__sec2_write(): ",
+                             "file write failed: errno = 28, error message = 'No space left ",
+                             "on device'\n minor: Write failed"))
+  err <- expect_error(h5_guard_write(file, stop(full)), class = "griddy_error_disk")
+  expect_match(conditionMessage(err), paste0("the disk is full.*No space left on device.*",
+                                             "repair_library\\(\"/somewhere/lib.h5\"\\)"))
+  other <- simpleError("HDF5-API Errors:\n minor: Unable to initialize object")
+  expect_error(h5_guard_write(file, stop(other)), "unable to initialize object",
+               class = "griddy_error_io")
+  # griddy's own errors pass through unchanged
+  expect_error(h5_guard_write(file, griddy_abort("mine", class = "shape")), "^mine$",
+               class = "griddy_error_shape")
+})
