@@ -1069,8 +1069,10 @@ h5_extendable <- function(h5, name, n, chunk_size) {
 # first, outside SWMR mode (HDF5 does not shrink datasets in it).
 h5_append_runs <- function(library, file) {
   dropped <- h5_drop_before_append(file)
+  # the runs, and room for a new chunk of each dataset the last one opens
   h5_reserve_space(file, 8 * nrow(lib_theta(library)) * (ncol(lib_theta(library)) +
-                                                        lib_n_out(library)))
+                                                        lib_n_out(library)) +
+                     2 * dropped$chunk_bytes)
   h5 <- h5_open(file, "r+", swmr = h5_swmr_capable(file))
   open <- list()
   # every handle closed, datasets before the file, even when a write failed
@@ -1137,7 +1139,7 @@ h5_cut_back <- function(open, n0) {
 # touched.
 h5_reserve_space <- function(file, bytes) {
   size <- file.size(file)
-  bytes <- ceiling(1.1 * bytes) + 2^20
+  bytes <- ceiling(1.1 * bytes) + 2^16
   con <- file(file, "r+b")
   on.exit(close(con), add = TRUE)
   block <- raw(min(bytes, 2^22))
@@ -1198,16 +1200,19 @@ h5_drop_before_append <- function(file) {
     stop(e)
   })
   n_ext <- if (meta$griddy) max(h5[["theta"]]$dims[1], h5[["y"]]$dims[1])
+  chunk_bytes <- if (meta$griddy) {
+    8 * (prod(h5[["theta"]]$chunk_dims) + prod(h5[["y"]]$chunk_dims))
+  }
   h5_close(h5)
   if (!meta$griddy) {
     griddy_abort("`file` (", file, ") was not written by write_library(): griddy appends ",
                  "only to its own files (a file from another pipeline is read as it is by ",
                  "hdf5_library()).")
   }
-  if (n_ext <= meta$n_runs) return(list(n = 0L))
+  if (n_ext <= meta$n_runs) return(list(n = 0L, chunk_bytes = chunk_bytes))
   h5 <- h5_open(file, "r+")
   on.exit(h5_close(h5), add = TRUE)
-  list(n = h5_drop_uncommitted(h5, meta$n_runs))
+  list(n = h5_drop_uncommitted(h5, meta$n_runs), chunk_bytes = chunk_bytes)
 }
 
 # Closes hdf5r handles (datasets, attributes), then the file, each once and

@@ -464,3 +464,25 @@ test_that("HDF5's raw write errors become classed: griddy_error_disk for a full 
   expect_error(h5_guard_write(file, griddy_abort("mine", class = "shape")), "^mine$",
                class = "griddy_error_shape")
 })
+
+test_that("simulate_library() on a device that fills up (a small tmpfs): griddy_error_disk, the runs committed so far kept", {
+  skip_on_cran()
+  skip_on_os(c("windows", "mac"))
+  dir <- withr::local_tempfile(pattern = "tmpfs-")
+  dir.create(dir)
+  status <- suppressWarnings(system2("mount", c("-t", "tmpfs", "-o", "size=8m", "tmpfs", dir),
+                                     stdout = FALSE, stderr = FALSE))
+  skip_if(!identical(status, 0L), "cannot mount a tmpfs here (not root, or no mount)")
+  on.exit(system2("umount", dir), add = TRUE)
+  tt <- seq(0, 1, length.out = 50)
+  sim <- function(theta) t(vapply(theta$k, function(k) sin(k * tt), numeric(50)))
+  design <- data.frame(k = seq(1, 4, length.out = 20000)) # 8 MB of outputs
+  file <- file.path(dir, "lib.h5")
+  expect_error(simulate_library(sim, design, file, t = tt, progress = FALSE),
+               "the disk is full", class = "griddy_error_disk")
+  invisible(gc())
+  expect_silent(lib <- hdf5_library(file))
+  expect_gt(lib$n_runs, 0L)
+  expect_identical(lib_outputs(lib, lib$n_runs), sim(lib$theta[lib$n_runs, , drop = FALSE]))
+  expect_message(repair_library(file), "nothing to repair")
+})
