@@ -56,11 +56,20 @@
 #'   `griddy_error_library` rather than allocated. A committed-run count that
 #'   is not one whole number is refused the same way.
 #'
+#' @section Text: A string dataset (what h5py writes for text, or hdf5r
+#'   for a character vector) of `theta` (one-dimensional), `t` or `x` is read
+#'   when every entry is a number written as text; other text, outputs stored
+#'   as text, and text fields of a compound `theta` or `x` are refused with
+#'   an error of class `griddy_error_unsupported` naming the dataset (for a
+#'   compound `theta`, `theta_names` selects its numeric fields).
+#'
 #' @section Files written by write_library(): They carry the attribute
 #'   `griddy_format` and a committed-run count `griddy_n_runs`, updated last by
 #'   every append. Readers use only the committed runs: the rows of an append
 #'   that died part-way are ignored (with a warning saying how to discard
-#'   them, see [repair_library()]). For these files the arguments `theta`,
+#'   them, see [repair_library()]). A file another process is appending to
+#'   is opened as an SWMR reader (see [write_library()]): the reader sees the
+#'   runs committed when it opened the file. For these files the arguments `theta`,
 #'   `outputs`, `x`, `t` and `layout` can be left out.
 #'
 #' @param file Path to the HDF5 file.
@@ -150,12 +159,15 @@ hdf5_library <- function(file, theta = "theta", outputs = "y", x = NULL, t = NUL
   }
 
   out_ds <- h5_dataset(h5, outputs, "outputs", file)
+  out_cls <- as.character(out_ds$get_type()$get_class())
+  if (!out_cls %in% c("H5T_FLOAT", "H5T_INTEGER")) {
+    griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " holds ",
+                 h5_class_words(out_cls), ", which griddy does not read as outputs: they ",
+                 "must be stored as numbers (integer or floating point). Write them as ",
+                 "numbers, e.g. with write_library().", class = "unsupported")
+  }
   h5_check_stored(out_ds, "outputs", outputs, file)
   dims <- rev(out_ds$dims)
-  if (!as.character(out_ds$get_type()$get_class()) %in% c("H5T_FLOAT", "H5T_INTEGER")) {
-    griddy_abort("`outputs`: dataset '", outputs, "' in ", file, " must be numeric; it is ",
-                 as.character(out_ds$get_type()$get_class()), ".")
-  }
   n_theta <- attr(theta_tab, "rows_stored")
   n_out_known <- if (!is.null(t)) n_x * length(t) else NULL
   if (length(dims) == 1L) {
@@ -251,19 +263,44 @@ print.hdf5_library <- function(x, ...) {
 #'   attribute `griddy_n_runs`). Readers use only committed runs, so a writer
 #'   that dies part-way leaves the library as it was, plus rows that are
 #'   ignored; [hdf5_library()] warns about them, and [repair_library()] or the
-#'   next append discards them. A new file is built under a temporary name and
-#'   renamed into place, so it either exists whole (with no runs yet) or not
-#'   at all. (The order holds against a writer that is killed or fails; on a
-#'   power cut, what reaches the disk depends on the file system.)
+#'   next append discards them. An append that fails with an error cuts its
+#'   own rows. A new file is built under a temporary name and renamed into
+#'   place, so it either exists whole (with no runs yet) or not at all. (The
+#'   order holds against a writer that is killed or fails; on a power cut,
+#'   what reaches the disk depends on the file system.)
+#'
+#' @section A full disk: Before it writes, an append makes sure the device
+#'   has room for its runs (it writes that many bytes past the end of the
+#'   file and cuts them off again), so a full disk, a quota or a file-size
+#'   limit stops it with an error of class `griddy_error_disk` before the
+#'   file is touched; the library keeps its committed runs. A write that
+#'   fails in HDF5 all the same (the disk filled meanwhile) stops with
+#'   `griddy_error_disk` or `griddy_error_io`, its handles closed.
 #'
 #' @section One writer at a time: A writer holds the lock `<file>.lock` (a
-#'   directory, created atomically, recording the writer's process id, host
-#'   and start time) for the whole write. A second writer is refused with an
-#'   error of class `griddy_error_lock` naming the holder, never mixed in.
-#'   A lock left by a writer that died stays until removed: the error says
-#'   whether its process is still running (on the same host) and how to
-#'   remove it. While a writer has the file open, HDF5 itself refuses readers
-#'   on most file systems; griddy then says so.
+#'   directory, created atomically, recording the writer's process id, host,
+#'   start time, the machine's boot id and the process's start tick) for the
+#'   whole write. A second writer is refused with an error of class
+#'   `griddy_error_lock` naming the holder, never mixed in. A lock left by a
+#'   writer that died (killed, say) is recovered by the next writer on the
+#'   same host when it opens the file, as SQLite recovers a hot journal: it
+#'   finds the owner dead (no such process, another boot, or the process id
+#'   reused), takes the lock over, discards the runs the dead writer left
+#'   uncommitted, and says so in a message of class
+#'   `griddy_message_lock_recovered`; [simulate_library()] does this before
+#'   it simulates anything. A lock held from another host is never broken
+#'   (griddy cannot tell a dead writer there from a slow one): the error says
+#'   how to remove it.
+#'
+#' @section Readers during a write: Files written by this version use
+#'   HDF5's latest file format (HDF5 1.10 or later reads them), and appends
+#'   open them in HDF5's single-writer/multiple-reader (SWMR) mode: a reader
+#'   (such as [hdf5_library()] and a calibration from it) opens the file
+#'   while another process appends and sees the committed runs, never a
+#'   half-written one. Files written by earlier versions are appended to as
+#'   before, and HDF5 refuses their readers for the length of an append (a
+#'   reader waits up to a minute); `write_library(hdf5_library(old), new)`
+#'   converts one.
 #'
 #' @param library A library: a [sim_library()] (all runs, or the next piece
 #'   with `append = TRUE`), an [hdf5_library()] or a [disk_library()].
@@ -309,7 +346,7 @@ write_library <- function(library, file, append = FALSE, chunk_size = NULL) {
 # file created (append = FALSE) and the runs of `library` (any number, one
 # is enough) appended and committed.
 commit_runs <- function(library, file, append, chunk_size = NULL) {
-  token <- library_lock(file, "library file")
+  token <- library_lock(file, "library file", recover = function() h5_recover(file))
   on.exit(library_unlock(token), add = TRUE)
   write_hook("locked")
   if (append) {
@@ -322,11 +359,69 @@ commit_runs <- function(library, file, append, chunk_size = NULL) {
       griddy_abort("`file` (", file, ") already exists; use `append = TRUE` to add runs to ",
                    "the library in it, or choose a new file.")
     }
-    h5_create_library(library, file, chunk_size)
+    h5_guard_write(file, h5_create_library(library, file, chunk_size), created = TRUE)
   }
-  n <- h5_append_runs(library, file)
+  n <- h5_guard_write(file, h5_append_runs(library, file))
   write_hook("done")
   invisible(n)
+}
+
+# Runs a write, turning an error of HDF5's (hdf5r's raw stack) into a
+# classed one: `griddy_error_disk` when the device is full or the file over
+# a size limit, `griddy_error_io` for other failures of the write. The
+# committed runs are not touched by a failed append (the count is written
+# last), so the message says how to go on.
+h5_guard_write <- function(file, expr, created = FALSE) {
+  tryCatch(expr, error = function(e) {
+    if (inherits(e, "griddy_error")) stop(e)
+    msg <- conditionMessage(e)
+    disk <- grepl("errno = (27|28|122)\\b|No space left|File too large|quota exceeded", msg,
+                  ignore.case = TRUE)
+    griddy_abort(
+      "Writing ", file, " failed",
+      if (disk) ": the disk is full (or the file reached a size limit)" else "",
+      " (", h5_error_summary(e), if (disk) paste0("; ", h5_errno_text(msg)), "). ",
+      if (created) "The new file was not created." else paste0(
+        "Its committed runs are intact; the rows of this append are not committed. ",
+        "Run repair_library(\"", file, "\") to discard them"),
+      if (!created && disk) ", free some space," else if (!created) "," else "",
+      if (!created) " and write the runs again.",
+      class = if (disk) "disk" else "io")
+  })
+}
+
+h5_errno_text <- function(msg) {
+  hit <- regmatches(msg, regexpr("error message = '[^']*'", msg))
+  if (length(hit) == 0L) "" else sub("error message = '([^']*)'", "the system says: \\1", hit)
+}
+
+# Repairs a file whose writer died (called under its lock, taken over from
+# the dead writer): clears the superblock's mark of a writer at work, which
+# HDF5 leaves on a file in the latest format, and cuts the uncommitted rows.
+# Returns a sentence for the message that reports the recovery.
+h5_recover <- function(file) {
+  unlink(Sys.glob(paste0(file, ".new-*"))) # a new file the dead writer was building
+  if (!file.exists(file)) return("no file was left to repair.")
+  h5 <- h5_open(file, "r+", clear = TRUE)
+  on.exit(h5_close(h5), add = TRUE)
+  meta <- h5_griddy_meta(h5)
+  if (!meta$griddy) return("the file is not griddy's, so it was left as it is.")
+  dropped <- h5_drop_uncommitted(h5, meta$n_runs)
+  paste0("the file keeps its ", meta$n_runs, " committed runs",
+         if (dropped > 0L) paste0(" and the ", dropped, " uncommitted run(s) it left were ",
+                                  "discarded") else "", ".")
+}
+
+# A dead writer's lock is recovered when a writer opens the file, before it
+# does any work (simulate_library() calls this before simulating).
+h5_recover_dead_writer <- function(file) {
+  lock <- lock_path(file)
+  if (dir.exists(lock) && lock_is_stale(lock_owner(lock))) {
+    token <- tryCatch(library_lock(file, "library file", recover = function() h5_recover(file)),
+                      griddy_error_lock = function(e) NULL) # another writer came first
+    if (!is.null(token)) library_unlock(token)
+  }
+  invisible(file)
 }
 
 #' Repair a library left incomplete by an interrupted write
@@ -340,7 +435,9 @@ commit_runs <- function(library, file, append, chunk_size = NULL) {
 #' manifest lists and removes chunk files the manifest does not list. Either
 #' way the library is left as it was before the interrupted append. The
 #' repair takes the writer's lock, so it is refused while a writer is at
-#' work (or a dead writer's lock remains: the error says how to remove it).
+#' work; a lock whose writer died (on this host) is taken over, and for an
+#' HDF5 file the mark of a writer at work that such a writer leaves in the
+#' file (what the HDF5 tool `h5clear` clears) is cleared.
 #'
 #' @param path An HDF5 file written by [write_library()] or an old `.rds`
 #'   chunk directory.
@@ -481,19 +578,38 @@ lib_check_integrity.hdf5_library <- function(library) {
 
 # Opens a file, turning HDF5's error stack into one sentence. HDF5 refuses
 # to open a file that another process has open for writing, and a writer a
-# file that others are reading. A reader is refused at once (a write may
-# take long); a writer ("r+", which holds griddy's lock, so the others are
-# readers, each open for the moment of a read) tries again for up to
-# `wait` seconds, so that someone looking at a campaign's library does not
-# stop the campaign.
-h5_open <- function(file, mode, wait = if (identical(mode, "r+")) 60 else 0) {
+# file that others are reading. Both try again for up to `wait` seconds: a
+# writer ("r+", which holds griddy's lock, so the others are readers, each
+# open for the moment of a read), so that someone looking at a campaign's
+# library does not stop the campaign; a reader, for the moments a writer
+# holds the file alone (see below).
+#
+# Single writer, multiple readers (SWMR). Files written by this version use
+# HDF5's latest format (superblock version 3), and appends open them in SWMR
+# mode (`swmr = TRUE`): readers then open the file while the writer appends
+# (HDF5 keeps the file's structure readable at every moment of the write)
+# and read the committed runs only, so a reader is never kept waiting by a
+# campaign. A plain reader finds such a file marked as open for writing and
+# is opened again as an SWMR reader. Files in the older format (superblock
+# version 0, written by earlier versions) are appended to as before, and
+# their readers are refused for the moment of an append.
+h5_open <- function(file, mode, wait = 60, swmr = FALSE, clear = FALSE) {
   start <- proc.time()[["elapsed"]]
   pause <- 0.02
+  # SWMR readers take no lock of HDF5's, so they never keep a writer waiting
+  if (mode == "r" && !clear) swmr <- h5_swmr_capable(file)
   repeat {
-    h5 <- tryCatch(h5_open_once(file, mode), error = function(e) e)
+    h5 <- tryCatch(h5_open_once(file, mode, swmr, clear), error = function(e) e)
+    if (inherits(h5, "error") && mode == "r" && h5_open_for_write(h5)) {
+      h5 <- tryCatch(h5_open_once(file, mode, swmr = TRUE), error = function(e) e)
+    }
     if (!inherits(h5, "error")) return(h5)
     waited <- proc.time()[["elapsed"]] - start
-    if (!grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) || waited >= wait) {
+    # a reader also waits while a plain (not SWMR) writer has the file: for
+    # the moment griddy records failed runs or cuts uncommitted ones
+    busy <- grepl("unable to lock", conditionMessage(h5), ignore.case = TRUE) ||
+      (mode == "r" && h5_open_for_write(h5))
+    if (!busy || waited >= wait) {
       h5_open_failed(file, mode, h5, waited)
     }
     Sys.sleep(min(pause, wait - waited))
@@ -501,20 +617,79 @@ h5_open <- function(file, mode, wait = if (identical(mode, "r+")) 60 else 0) {
   }
 }
 
-h5_open_once <- function(file, mode) {
+# HDF5's refusal of a file whose superblock says a writer has it open (or
+# had it open and died: see h5_recover()).
+h5_open_for_write <- function(e) {
+  grepl("already open for write", conditionMessage(e), fixed = TRUE)
+}
+
+# `swmr`: an SWMR reader ("r") or writer ("r+"). `clear`: clear the
+# superblock's mark of a writer at work (what the tool h5clear does), for a
+# file whose writer died. "w" creates a file in the latest format.
+h5_open_once <- function(file, mode, swmr = FALSE, clear = FALSE) {
   # closing the file closes every object opened in it (H5F_CLOSE_STRONG):
   # faster than hdf5r's close_all(), which runs the garbage collector
   fapl <- hdf5r::H5P_FILE_ACCESS$new()
-  # hdf5r wraps H5Pset_fclose_degree() without an R method for it: call its
-  # registered routine, found at run time
-  .Call(h5_set_fclose_degree(), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
-  hdf5r::H5File$new(file, mode, file_access_pl = fapl)
+  # hdf5r wraps these HDF5 routines without R methods for them: call its
+  # registered routines, found at run time
+  .Call(h5_routine("R_H5Pset_fclose_degree"), fapl$id, hdf5r::h5const$H5F_CLOSE_STRONG)
+  if (!h5_has_swmr()) {
+    # HDF5 before 1.10: the older format, no SWMR, no marks to clear
+    return(hdf5r::H5File$new(file, mode, file_access_pl = fapl))
+  }
+  if (mode == "w" || (swmr && mode == "r+")) {
+    .Call(h5_routine("R_H5Pset_libver_bounds"), fapl$id, hdf5r::h5const$H5F_LIBVER_V110,
+          hdf5r::h5const$H5F_LIBVER_V110)
+  }
+  if (clear) {
+    # a property HDF5 registers for h5clear ("clear_status_flags", a bool)
+    .Call(h5_routine("R_H5Pset"), fapl$id, "clear_status_flags", as.raw(c(1, 0, 0, 0)))
+  }
+  if (!swmr) return(hdf5r::H5File$new(file, mode, file_access_pl = fapl))
+  const <- hdf5r::h5const
+  flags <- if (mode == "r") {
+    bitwOr(const$H5F_ACC_RDONLY, const$H5F_ACC_SWMR_READ)
+  } else {
+    bitwOr(const$H5F_ACC_RDWR, const$H5F_ACC_SWMR_WRITE)
+  }
+  if (mode == "r") {
+    # an SWMR reader needs no lock of HDF5's (the SWMR protocol keeps what it
+    # reads consistent), and holding one would keep the writer waiting
+    withr::local_envvar(HDF5_USE_FILE_LOCKING = "FALSE")
+  }
+  fid <- .Call(h5_routine("R_H5Fopen"), normalizePath(file), flags, fapl$id)$return_val
+  hdf5r::H5File$new(id = fid)
+}
+
+# Whether the HDF5 library under hdf5r has SWMR (1.10 or later).
+h5_has_swmr <- function() {
+  utils::compareVersion(hdf5r::h5version(verbose = FALSE), "1.10.0") >= 0
+}
+
+# Whether a file is in the format SWMR needs (superblock version 3 or
+# later; the version is the byte after the 8-byte signature).
+h5_swmr_capable <- function(file) {
+  if (!h5_has_swmr()) return(FALSE)
+  head <- tryCatch(readBin(file, "raw", 9L), error = function(e) raw(0))
+  length(head) == 9L && as.integer(head[9L]) >= 3L
 }
 
 h5_open_failed <- function(file, mode, e, waited) {
   msg <- conditionMessage(e)
   if (!file.exists(file)) {
     griddy_abort("The HDF5 file ", file, " does not exist.", class = "library")
+  }
+  if (h5_open_for_write(e) && mode == "r") {
+    griddy_abort("The HDF5 file ", file, " is marked as open for writing (not in SWMR ",
+                 "mode) by another process, and was still after ", round(waited), " s. If ",
+                 "no process is writing it (a writer died), repair_library(\"", file,
+                 "\") clears the mark.", class = "lock")
+  }
+  if (h5_open_for_write(e) && mode != "r") {
+    griddy_abort("The HDF5 file ", file, " is marked as open for writing by a process ",
+                 "other than a griddy writer (none holds its lock), or by one that died ",
+                 "without its lock. If no process is writing it, repair_library(\"", file,
+                 "\") clears the mark and discards any uncommitted runs.", class = "lock")
   }
   if (grepl("unable to lock", msg, ignore.case = TRUE)) {
     if (mode != "r") {
@@ -526,17 +701,19 @@ h5_open_failed <- function(file, mode, e, waited) {
     griddy_abort("The HDF5 file ", file, " is open for writing by another process",
                  if (dir.exists(lock)) paste0(" (the lock ", lock, " is held by ",
                                               lock_who(lock_owner(lock)), ")"),
-                 ", and HDF5 refuses to open it meanwhile; try again when that write ",
-                 "has finished.", class = "lock")
+                 ", and HDF5 refuses to open it meanwhile; it still did after ",
+                 round(waited), " s (a file written by an earlier version of griddy, in ",
+                 "HDF5's older format, is held for a whole append; ",
+                 "write_library(hdf5_library(file), new_file) converts it). Try again ",
+                 "when that write has finished.",
+                 class = "lock")
   }
   griddy_abort("The file ", file, " cannot be opened as an HDF5 file",
                if (mode != "r") " for writing", ": ", h5_error_summary(e), ".",
                class = "library")
 }
 
-h5_set_fclose_degree <- function() {
-  utils::getFromNamespace("R_H5Pset_fclose_degree", "hdf5r")
-}
+h5_routine <- function(name) utils::getFromNamespace(name, "hdf5r")
 
 h5_close <- function(h5) if (h5$is_valid) h5$close()
 
@@ -630,11 +807,34 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
       }
       tab <- tab[names]
     }
+    text <- names(tab)[vapply(tab, is.character, NA)]
+    if (length(text) > 0L) {
+      griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " has text field(s) ",
+                   show_some(text), ", which griddy does not read as ", arg, " (it reads ",
+                   "numbers only)", if (arg == "theta") paste0(
+                     "; give `theta_names` to select the numeric fields, e.g. theta_names = ",
+                     "c(", paste0("\"", setdiff(names(tab), text), "\"", collapse = ", "), ")"),
+                   ".", class = "unsupported")
+    }
     return(first_rows(tab))
   }
+  if (cls == "H5T_STRING") {
+    v <- h5_strings_as_numbers(ds, arg, name, file)
+    if (is.null(names)) names <- h5_names_attr(ds)
+    if (is.null(names)) names <- one_d_name
+    if (is.null(dim(v)) && length(names) == 1L) {
+      return(first_rows(matrix(v, ncol = 1L, dimnames = list(NULL, names))))
+    }
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds numbers as text; ",
+                 "griddy reads them for a one-dimensional dataset with one name (give ",
+                 "`theta_names`), not for this one (", paste(rev(ds$dims), collapse = " x "),
+                 "). Store the values as numbers.", class = "unsupported")
+  }
   if (!cls %in% c("H5T_FLOAT", "H5T_INTEGER")) {
-    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be numeric or ",
-                 "compound; it is ", cls, ".")
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds ",
+                 h5_class_words(cls), ", which griddy does not read as ", arg, ": it must ",
+                 "be numeric or compound (one numeric field per column).",
+                 class = "unsupported")
   }
   if (is.null(names)) names <- h5_names_attr(ds)
   if (length(dims) == 1L) {
@@ -675,7 +875,14 @@ h5_read_table <- function(ds, names, layout, arg, name, file, one_d_name = NULL,
 # explain (deflate's limit is about 1032:1; a bound of 1100 leaves room).
 # Small datasets (under 1 MB) are read as they are.
 h5_check_stored <- function(ds, arg, name, file, max_ratio = 1100) {
-  claimed <- prod(as.double(ds$dims)) * ds$get_type()$get_size()
+  type <- ds$get_type()
+  # variable-length data (strings) have no fixed size to compare: their
+  # readers check what they read
+  if (as.character(type$get_class()) %in% c("H5T_STRING", "H5T_VLEN")) {
+    return(invisible(ds))
+  }
+  claimed <- prod(as.double(ds$dims)) * type$get_size()
+  if (!is.finite(claimed)) return(invisible(ds))
   if (claimed <= 2^20) return(invisible(ds))
   stored <- as.double(ds$get_storage_size())
   if (claimed <= max_ratio * stored) return(invisible(ds))
@@ -706,7 +913,36 @@ h5_read_vector <- function(ds, arg, name, file) {
     griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " must be one-dimensional; ",
                  "it is ", paste(rev(ds$dims), collapse = " x "), ".")
   }
+  if (as.character(ds$get_type()$get_class()) == "H5T_STRING") {
+    return(as.vector(h5_strings_as_numbers(ds, arg, name, file)))
+  }
   as.vector(h5_plain(ds$read()))
+}
+
+# A string dataset (what h5py writes for text, or hdf5r for a character
+# vector) read as numbers when every entry is one (numbers kept as text by
+# a pipeline); otherwise an error of class `griddy_error_unsupported` naming
+# an entry that is not.
+h5_strings_as_numbers <- function(ds, arg, name, file) {
+  v <- ds$read()
+  num <- suppressWarnings(as.numeric(trimws(v)))
+  bad <- which(is.na(num))
+  if (length(bad) > 0L) {
+    griddy_abort("`", arg, "`: dataset '", name, "' in ", file, " holds text (an HDF5 ",
+                 "string dataset), and not numbers written as text: entry ", bad[1], " is \"",
+                 substr(v[bad[1]], 1L, 40L), "\". griddy reads ", arg, " as numbers only; ",
+                 "store them as numbers", if (arg == "theta") " (or a compound dataset with ",
+                 if (arg == "theta") "one numeric field per parameter)", ".",
+                 class = "unsupported")
+  }
+  dim(num) <- dim(v)
+  num
+}
+
+h5_class_words <- function(cls) {
+  switch(cls, H5T_STRING = "text (an HDF5 string dataset)",
+         H5T_COMPOUND = "records (a compound dataset)",
+         paste0("data of HDF5 class ", cls))
 }
 
 # 64-bit integers (what NumPy writes by default) arrive as bit64's integer64.
@@ -761,20 +997,18 @@ h5_griddy_meta <- function(h5) {
   list(griddy = TRUE, n_runs = as.integer(n_runs))
 }
 
+# Rows past the committed count: an append at work (a live writer holds the
+# lock; reading the committed runs meanwhile is what readers are meant to
+# do, so nothing is said), or the leftovers of one that died.
 h5_warn_uncommitted <- function(file, n_runs, n_ext) {
   lock <- lock_path(file)
-  if (dir.exists(lock) && !lock_is_stale(lock_owner(lock))) {
-    griddy_warn(file, " holds ", n_ext - n_runs, " run(s) past its ", n_runs,
-                " committed runs: an append is in progress (the lock ", lock,
-                " is held); griddy uses the committed runs.", class = "library")
-  } else {
-    griddy_warn(file, " holds ", n_ext - n_runs, " uncommitted run(s) past its ", n_runs,
-                " committed runs, left by an append that did not finish; griddy uses the ",
-                "committed runs. Run repair_library(\"", file, "\") to discard them",
-                if (dir.exists(lock)) paste0(" (first remove the dead writer's lock: unlink(\"",
-                                             lock, "\", recursive = TRUE))"),
-                "; the next write_library(append = TRUE) also does.", class = "library")
-  }
+  if (dir.exists(lock) && !lock_is_stale(lock_owner(lock))) return(invisible())
+  griddy_warn(file, " holds ", n_ext - n_runs, " uncommitted run(s) past its ", n_runs,
+              " committed runs, left by an append that did not finish; griddy uses the ",
+              "committed runs. Run repair_library(\"", file, "\") to discard them",
+              if (dir.exists(lock)) " (it also takes over the dead writer's lock)",
+              "; the next write_library(append = TRUE) or simulate_library() on it also does.",
+              class = "library")
 }
 
 # ---- writing HDF5 ----------------------------------------------------------
@@ -790,13 +1024,14 @@ h5_create_library <- function(library, file, chunk_size) {
   unlink(tmp)
   h5 <- h5_open(tmp, "w")
   ok <- FALSE
+  open <- list()
   on.exit({
-    h5_close(h5)
+    h5_close_all(open, h5)
     if (!ok) unlink(tmp)
   }, add = TRUE)
-  h5_extendable(h5, "theta", p, chunk_size)
-  hdf5r::h5attr(h5[["theta"]], "names") <- names(theta)
-  h5_extendable(h5, "y", n_out, chunk_size)
+  open$theta <- h5_extendable(h5, "theta", p, chunk_size)
+  hdf5r::h5attr(open$theta, "names") <- names(theta)
+  open$y <- h5_extendable(h5, "y", n_out, chunk_size)
   if (!is.null(lib_x(library))) {
     h5[["x"]] <- as.data.frame(lapply(lib_x(library), as.double))
   }
@@ -808,7 +1043,7 @@ h5_create_library <- function(library, file, chunk_size) {
     "its attribute 'names') and y (runs x outputs, in blocks by x setting) in R's",
     "column-major order, so h5py shows them transposed; x (settings, compound) and t",
     "(coordinates); only the first griddy_n_runs runs are committed.")
-  h5_close(h5)
+  h5_close_all(open, h5)
   if (!file.rename(tmp, file)) {
     griddy_abort("Cannot create ", file, " (renaming ", tmp, " failed).", class = "library")
   }
@@ -828,31 +1063,113 @@ h5_extendable <- function(h5, name, n, chunk_size) {
 }
 
 # Appends the runs of `library` to a file written by write_library(): new
-# rows first, the committed-run count last. The caller holds the lock.
+# rows first, the committed-run count last. The caller holds the lock. The
+# append is made in SWMR mode when the file's format allows it, so readers
+# are not refused meanwhile; rows an earlier append left uncommitted are cut
+# first, outside SWMR mode (HDF5 does not shrink datasets in it).
 h5_append_runs <- function(library, file) {
-  h5 <- h5_open(file, "r+")
-  on.exit(h5_close(h5), add = TRUE)
+  dropped <- h5_drop_before_append(file)
+  # the runs, and room for a new chunk of each dataset the last one opens
+  h5_reserve_space(file, 8 * nrow(lib_theta(library)) * (ncol(lib_theta(library)) +
+                                                        lib_n_out(library)) +
+                     2 * dropped$chunk_bytes)
+  h5 <- h5_open(file, "r+", swmr = h5_swmr_capable(file))
+  open <- list()
+  # every handle closed, datasets before the file, even when a write failed
+  # (hdf5r's finalizers of handles left open on a failed file crash R)
+  on.exit(h5_close_all(open, h5), add = TRUE)
+  done <- FALSE
+  # a failed write (a full disk) leaves data HDF5 cannot flush: the new rows
+  # are cut at once, which drops it, so the file can be closed
+  on.exit(if (!done) h5_cut_back(open, n0), add = TRUE, after = FALSE)
+  n0 <- NA
   meta <- h5_griddy_meta(h5)
-  if (!meta$griddy) {
-    griddy_abort("`file` (", file, ") was not written by write_library(): griddy appends ",
-                 "only to its own files (a file from another pipeline is read as it is by ",
-                 "hdf5_library()).")
-  }
-  theta_ds <- h5[["theta"]]
-  y_ds <- h5[["y"]]
-  n0 <- meta$n_runs
-  dropped <- h5_drop_uncommitted(h5, n0)
-  if (dropped > 0L) {
-    griddy_warn("Discarded ", dropped, " uncommitted run(s) that an interrupted append ",
-                "left in ", file, "; appending after its ", n0, " committed runs.",
+  if (dropped$n > 0L) {
+    griddy_warn("Discarded ", dropped$n, " uncommitted run(s) that an interrupted append ",
+                "left in ", file, "; appending after its ", meta$n_runs, " committed runs.",
                 class = "library")
   }
-  theta_names <- h5_names_attr(theta_ds)
+  open <- list(theta_ds = h5[["theta"]], y_ds = h5[["y"]], t_ds = h5[["t"]])
+  if (h5$exists("x")) open$x_ds <- h5[["x"]]
+  n0 <- meta$n_runs
   new_theta <- as.matrix(lib_theta(library))
+  theta_names <- h5_check_same_library(open, library, new_theta)
+  old_theta <- if (n0 > 0L) open$theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))),
+                                                 drop = FALSE)
+  all_theta <- rbind(old_theta, new_theta)
+  colnames(all_theta) <- theta_names
+  assert_distinct_runs(all_theta)
+  k <- nrow(new_theta)
+  n_out <- lib_n_out(library)
+  open$theta_ds$set_extent(c(n0 + k, ncol(new_theta)))
+  open$y_ds$set_extent(c(n0 + k, n_out))
+  h5$flush()
+  write_hook("extended")
+  open$theta_ds$write(args = list(n0 + seq_len(k), seq_len(ncol(new_theta))), new_theta)
+  piece <- max(1L, as.integer(floor(2^23 / n_out)))
+  for (start in seq(1L, k, by = piece)) {
+    rows <- seq.int(start, min(k, start + piece - 1L))
+    open$y_ds$write(args = list(n0 + rows, seq_len(n_out)), lib_outputs(library, rows))
+    write_hook("piece")
+  }
+  h5$flush()
+  write_hook("rows_written")
+  open$count <- h5$attr_open("griddy_n_runs")
+  open$count$write(as.double(n0 + k))
+  h5$flush()
+  done <- TRUE
+  write_hook("committed")
+  invisible(n0 + k)
+}
+
+h5_cut_back <- function(open, n0) {
+  if (is.na(n0)) return(invisible())
+  for (ds in open[c("theta_ds", "y_ds")]) {
+    try(if (ds$dims[1] > n0) ds$set_extent(c(n0, ds$dims[2])), silent = TRUE)
+  }
+}
+
+# A full disk met by HDF5 in the middle of a write is hard to leave cleanly:
+# the file cannot be closed (HDF5 cannot flush what it holds), and HDF5 1.10
+# then crashes R at exit. So the room an append needs (its runs, plus a
+# margin for partly filled chunks and the index) is tried first, outside
+# HDF5: zeros written past the end of the file, which is then cut back. A
+# device that is full, a quota or a file-size limit (ulimit -f) is met
+# there, and the append stops with a `griddy_error_disk` before the file is
+# touched.
+h5_reserve_space <- function(file, bytes) {
+  size <- file.size(file)
+  bytes <- ceiling(1.1 * bytes) + 2^16
+  con <- file(file, "r+b")
+  on.exit(close(con), add = TRUE)
+  block <- raw(min(bytes, 2^22))
+  failed <- tryCatch({
+    seek(con, size, rw = "write")
+    for (i in seq_len(ceiling(bytes / length(block)))) writeBin(block, con)
+    flush(con)
+    NULL
+  }, error = conditionMessage, warning = conditionMessage)
+  seek(con, size, rw = "write")
+  truncate(con)
+  if (!is.null(failed)) {
+    need <- format(structure(bytes, class = "object_size"), units = "auto", standard = "SI")
+    griddy_abort("Writing ", file, " failed: the disk is full (or the file reached a size ",
+                 "limit, such as a quota or ulimit -f): the append needs about ", need,
+                 " more and the system refused them (", failed, "). Nothing was written; ",
+                 "the library keeps its committed runs. Free some space and write the runs ",
+                 "again.", class = "disk")
+  }
+  invisible(file)
+}
+
+# Refuses to append a library whose parameters, x or t differ from the
+# file's (`open`: the file's datasets); returns the file's parameter names.
+h5_check_same_library <- function(open, library, new_theta) {
+  theta_names <- h5_names_attr(open$theta_ds)
   same <- function(a, b) length(a) == length(b) && all(as.double(a) == as.double(b))
-  stored_x <- if (h5$exists("x")) as.data.frame(h5[["x"]]$read()) else NULL
+  stored_x <- if (!is.null(open$x_ds)) as.data.frame(open$x_ds$read()) else NULL
   new_x <- lib_x(library)
-  stored_t <- as.vector(h5[["t"]]$read())
+  stored_t <- as.vector(open$t_ds$read())
   differs <- c(
     parameters = !identical(theta_names, colnames(new_theta)),
     `settings x` = !identical(is.null(stored_x), is.null(new_x)) ||
@@ -871,38 +1188,63 @@ h5_append_runs <- function(library, file) {
                  if (is.null(new_x)) "one setting" else paste0(nrow(new_x), " setting(s)"),
                  " and ", length(lib_t(library)), ".")
   }
-  old_theta <- if (n0 > 0L) theta_ds$read(args = list(seq_len(n0), seq_len(ncol(new_theta))),
-                                            drop = FALSE)
-  all_theta <- rbind(old_theta, new_theta)
-  colnames(all_theta) <- theta_names
-  assert_distinct_runs(all_theta)
-  k <- nrow(new_theta)
-  n_out <- lib_n_out(library)
-  theta_ds$set_extent(c(n0 + k, ncol(new_theta)))
-  y_ds$set_extent(c(n0 + k, n_out))
-  h5$flush()
-  write_hook("extended")
-  theta_ds$write(args = list(n0 + seq_len(k), seq_len(ncol(new_theta))), new_theta)
-  piece <- max(1L, as.integer(floor(2^23 / n_out)))
-  for (start in seq(1L, k, by = piece)) {
-    rows <- seq.int(start, min(k, start + piece - 1L))
-    y_ds$write(args = list(n0 + rows, seq_len(n_out)), lib_outputs(library, rows))
-    write_hook("piece")
+  theta_names
+}
+
+# Before an append: checks the file is griddy's and cuts the rows an
+# earlier append left uncommitted (in a plain, short, open).
+h5_drop_before_append <- function(file) {
+  h5 <- h5_open(file, "r")
+  meta <- tryCatch(h5_griddy_meta(h5), error = function(e) {
+    h5_close(h5)
+    stop(e)
+  })
+  n_ext <- if (meta$griddy) max(h5[["theta"]]$dims[1], h5[["y"]]$dims[1])
+  chunk_bytes <- if (meta$griddy) {
+    8 * (prod(h5[["theta"]]$chunk_dims) + prod(h5[["y"]]$chunk_dims))
   }
-  h5$flush()
-  write_hook("rows_written")
-  count <- h5$attr_open("griddy_n_runs")
-  count$write(as.double(n0 + k))
-  count$close()
-  h5$flush()
-  write_hook("committed")
-  invisible(n0 + k)
+  h5_close(h5)
+  if (!meta$griddy) {
+    griddy_abort("`file` (", file, ") was not written by write_library(): griddy appends ",
+                 "only to its own files (a file from another pipeline is read as it is by ",
+                 "hdf5_library()).")
+  }
+  if (n_ext <= meta$n_runs) return(list(n = 0L, chunk_bytes = chunk_bytes))
+  h5 <- h5_open(file, "r+")
+  on.exit(h5_close(h5), add = TRUE)
+  list(n = h5_drop_uncommitted(h5, meta$n_runs), chunk_bytes = chunk_bytes)
+}
+
+# Closes hdf5r handles (datasets, attributes), then the file, each once and
+# whatever the others do; then lets the garbage collector run the handles'
+# finalizers while nothing is left for them to close.
+h5_close_all <- function(handles, h5) {
+  for (obj in c(rev(handles), h5)) {
+    if (!is.null(obj)) tryCatch(if (obj$is_valid) obj$close(), error = function(e) h5_forget(obj))
+  }
+  invisible(gc(verbose = FALSE))
+}
+
+# An hdf5r handle whose close failed (a write that could not be flushed) is
+# still marked open, and its finalizer closes it again, which crashes R in
+# HDF5 (the object is half freed). It is marked closed instead: hdf5r keeps
+# the mark in the handle's private field `pid` (the handle's id is dropped
+# from hdf5r's count, as its close() does).
+h5_forget <- function(obj) {
+  priv <- obj$.__enclos_env__$private
+  id <- tryCatch(priv$pid$id, error = function(e) NULL)
+  if (length(id) == 1L && !is.na(id)) {
+    try(utils::getFromNamespace("decr_count", "hdf5r")(id), silent = TRUE)
+  }
+  priv$pid <- NA
+  invisible(obj)
 }
 
 # The committed runs of a file written by write_library(), read without the
 # checks of a library (it may hold one run, or none): list(theta = a
 # data.frame, n_out). NULL when the file does not exist.
 h5_committed_theta <- function(file) {
+  h5_recover_dead_writer(file)
   if (!file.exists(file)) return(NULL)
   h5 <- h5_open(file, "r")
   on.exit(h5_close(h5), add = TRUE)
@@ -925,9 +1267,11 @@ h5_committed_theta <- function(file) {
 repair_h5_library <- function(file) {
   require_package("hdf5r", "to repair an HDF5 library")
   file <- normalizePath(file)
-  token <- library_lock(file, "library file")
+  token <- library_lock(file, "library file", recover = function() "repairing it.")
   on.exit(library_unlock(token), add = TRUE)
-  h5 <- h5_open(file, "r+")
+  # under the lock no griddy writer is at work: a writer's mark left in the
+  # superblock is one that died, and is cleared
+  h5 <- h5_open(file, "r+", clear = TRUE)
   on.exit(h5_close(h5), add = TRUE, after = FALSE)
   meta <- h5_griddy_meta(h5)
   if (!meta$griddy) {

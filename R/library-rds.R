@@ -278,7 +278,7 @@ lib_outputs.disk_library <- function(library, rows = NULL) {
 repair_rds_library <- function(dir, trust) {
   assert_trusted_rds(dir, trust, "repair_library")
   dir <- normalizePath(dir)
-  token <- library_lock(dir, "library directory")
+  token <- library_lock(dir, "library directory", recover = function() "repairing it.")
   on.exit(library_unlock(token), add = TRUE)
   m <- read_rds_checked(file.path(dir, "manifest.rds"), "The manifest")
   theta <- read_rds_checked(file.path(dir, "theta.rds"), "The parameter values")

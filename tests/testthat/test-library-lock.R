@@ -29,12 +29,18 @@ test_that("smoke: a held lock refuses a writer and repair, naming its holder; re
   expect_false(dir.exists(paste0(file, ".lock")))
   h5 <- write_library(lib_rows(lib, 11:30), file, append = TRUE)
   expect_identical(lib_outputs(h5), lib$y)
-  # a dead writer's lock (a process id no longer running) is called stale
+  # a dead writer's lock (a process id no longer running) is taken over by
+  # the next writer, which repairs the file first (before, it was refused)
   dir.create(lock <- paste0(file, ".lock"))
   writeLines(c("pid: 999999999", paste0("host: ", Sys.info()[["nodename"]]), "since: then"),
              file.path(lock, "owner"))
-  expect_error(write_library(lib_rows(lib, 1:2), file, append = TRUE),
-               "no longer running: the lock is stale", class = "griddy_error_lock")
+  extra <- sim_library(data.frame(theta = c(2, 3)), lib$y[1:2, ], t = lib$t)
+  leave_uncommitted(file, extra)
+  expect_message(h5 <- write_library(extra, file, append = TRUE),
+                 "took over the lock of a writer that died.*process 999999999.*keeps its 30 committed runs and the 2 uncommitted",
+                 class = "griddy_message_lock_recovered")
+  expect_identical(h5$n_runs, 32L)
+  expect_false(dir.exists(lock))
   # for an old .rds directory the repair it advises says trust = TRUE
   dir <- withr::local_tempfile(pattern = "griddy-lib-")
   write_rds_chunks(lib, dir, chunk_size = 10)
@@ -42,6 +48,88 @@ test_that("smoke: a held lock refuses a writer and repair, naming its holder; re
   on.exit(library_unlock(token), add = TRUE)
   expect_error(repair_library(dir, trust = TRUE), "repair_library\\(.*, trust = TRUE\\)",
                class = "griddy_error_lock")
+})
+
+test_that("a lock is stale when its owner is dead, rebooted or its pid reused; never from another host", {
+  lock <- withr::local_tempfile()
+  dir.create(lock)
+  me <- lock_write_owner(lock)
+  owner <- lock_owner(lock)
+  expect_identical(owner$pid, as.character(Sys.getpid()))
+  expect_false(lock_is_stale(owner)) # we are alive
+  skip_if(is.na(lock_boot_id()), "no boot id or process start times here (not Linux)")
+  expect_false(is.na(owner$start))
+  expect_true(lock_is_stale(modifyList(owner, list(start = "1")))) # our pid, reused
+  expect_true(lock_is_stale(modifyList(owner, list(boot = "another-boot"))))
+  expect_false(lock_is_stale(modifyList(owner, list(host = "elsewhere", pid = "999999999"))))
+  # a lock written by an earlier version (no boot, no start) still works
+  expect_true(lock_is_stale(list(pid = "999999999", host = lock_host(), since = "then",
+                                 boot = NA_character_, start = NA_character_)))
+})
+
+test_that("two writers finding the same dead lock: one takes it over, the other is refused", {
+  file <- withr::local_tempfile(fileext = ".h5")
+  lock <- paste0(file, ".lock")
+  dir.create(lock)
+  writeLines(c("pid: 999999999", paste0("host: ", lock_host()), "since: then"),
+             file.path(lock, "owner"))
+  # the other writer is taking it over right now (it holds the breaker)
+  dir.create(file.path(lock, "recovering"))
+  expect_error(library_lock(file, recover = function() "repaired."), "stale",
+               class = "griddy_error_lock")
+  unlink(file.path(lock, "recovering"), recursive = TRUE)
+  expect_message(token <- library_lock(file, recover = function() "repaired."),
+                 "took over the lock.*repaired", class = "griddy_message_lock_recovered")
+  expect_identical(lock_owner(lock)$pid, as.character(Sys.getpid()))
+  # a late writer that also saw the dead owner now finds a live one
+  expect_false(lock_take_stale(lock))
+  expect_error(library_lock(file, recover = function() "again."), "Wait for that writer",
+               class = "griddy_error_lock")
+  library_unlock(token)
+  expect_false(dir.exists(lock))
+})
+
+test_that("simulate_library() killed (kill -9) in a commit: the resume recovers the lock before simulating", {
+  skip_on_cran()
+  skip_on_os("windows")
+  tt <- seq(0, 1, length.out = 20)
+  sim <- function(theta) t(vapply(theta$k, function(k) sin(k * tt), numeric(20)))
+  design <- data.frame(k = seq(1, 4, length.out = 60))
+  file <- withr::local_tempfile(fileext = ".h5")
+  suppressMessages(simulate_library(sim, design[1:20, , drop = FALSE], file, t = tt,
+                                    progress = FALSE))
+  marker <- tempfile()
+  # the child resumes with 20 more rows and stops for good inside its commit,
+  # after writing its rows and before the count; then it is killed
+  run_child(c("tt <- seq(0, 1, length.out = 20)", # as here, to the bit
+              sprintf("sim <- %s", paste(deparse(sim), collapse = "\n")),
+              sprintf("design <- %s", paste(deparse(design), collapse = "\n")),
+              sprintf(paste0("options(griddy.write_hook = function(s) if (s == 'rows_written') ",
+                             "{ file.create(%s); Sys.sleep(120) })"), deparse(marker)),
+              sprintf("simulate_library(sim, design[1:40, , drop = FALSE], %s, t = tt, progress = FALSE)",
+                      deparse(file))), wait = FALSE)
+  wait_for_file(marker, timeout = 120)
+  pid <- as.integer(lock_owner(paste0(file, ".lock"))$pid)
+  tools::pskill(pid, tools::SIGKILL)
+  for (i in 1:100) if (!isTRUE(tools::pskill(pid, 0L))) break else Sys.sleep(0.05)
+  expect_true(dir.exists(paste0(file, ".lock"))) # the dead writer's lock stays
+  calls <- 0L
+  calls_at_recovery <- NA_integer_
+  counting <- function(theta) {
+    calls <<- calls + nrow(theta)
+    sim(theta)
+  }
+  withCallingHandlers(
+    lib <- simulate_library(counting, design, file, t = tt, progress = FALSE),
+    griddy_message_lock_recovered = function(m) {
+      calls_at_recovery <<- calls
+      invokeRestart("muffleMessage")
+    })
+  expect_identical(calls_at_recovery, 0L) # recovered at open, before any run
+  expect_identical(calls, 40L) # the 40 rows not committed, no more
+  expect_identical(lib$n_runs, 60L)
+  expect_identical(sort(lib$theta$k), design$k)
+  expect_false(dir.exists(paste0(file, ".lock")))
 })
 
 # R code for a child that appends the sim_library saved in `piece_rds` to
@@ -83,9 +171,10 @@ test_that("a second writer is refused while the first holds the lock, and reader
                       class = "griddy_error_lock")
   expect_match(conditionMessage(err), "is being written by another writer: the lock .*\\.lock is held by process [0-9]+ on host")
   expect_match(conditionMessage(err), "Wait for that writer to finish")
-  # HDF5 refuses readers while the writer has the file open; griddy says why
-  expect_error(hdf5_library(file), "open for writing by another process \\(the lock .* is held by process",
-               class = "griddy_error_lock")
+  # readers are not refused while the writer has the file open (SWMR): they
+  # read the committed runs
+  expect_silent(h5 <- hdf5_library(file))
+  expect_identical(h5$n_runs, 20L)
   wait_for_file(result)
   expect_identical(readLines(result), "ok")
   h5 <- write_library(lib_rows(lib, 41:60), file, append = TRUE)
@@ -143,18 +232,16 @@ test_that("a writer killed part-way leaves the committed library, a stale lock a
     } else {
       expect_warning(h5 <- hdf5_library(file), paste0(
         "holds 20 uncommitted run\\(s\\) past its 20 committed runs, left by an append that ",
-        "did not finish.*repair_library.*first remove the dead writer's lock"),
+        "did not finish.*repair_library.*takes over the dead writer's lock"),
         class = "griddy_warning_library")
     }
     expect_identical(lib_outputs(h5), lib$y[seq_len(committed), ])
     expect_identical(posterior_exact(h5, toy$field)$joint,
                      posterior_exact(lib_rows(lib, seq_len(committed)), toy$field)$joint)
-    err <- expect_error(write_library(lib_rows(lib, 41:60), file, append = TRUE),
-                        class = "griddy_error_lock")
-    expect_match(conditionMessage(err), "no longer running: the lock is stale.*unlink\\(")
-    expect_error(repair_library(file), class = "griddy_error_lock")
-    unlink(paste0(file, ".lock"), recursive = TRUE) # as the message says
-    expect_message(repair_library(file), sprintf("holds %d runs", committed))
+    expect_message(
+      expect_message(repair_library(file), "took over the lock of a writer that died",
+                     class = "griddy_message_lock_recovered"),
+      sprintf("holds %d runs", committed))
     expect_silent(hdf5_library(file))
     rest <- setdiff(21:60, seq_len(committed))
     h5 <- write_library(lib_rows(lib, rest), file, append = TRUE)
@@ -184,7 +271,6 @@ test_that("a writer killed at a random moment of a long append leaves a readable
     expect_true(h5$n_runs %in% c(1000L, n))
     outcomes <- c(outcomes, h5$n_runs)
     expect_identical(lib_outputs(h5, c(1L, h5$n_runs)), lib$y[c(1L, h5$n_runs), ])
-    unlink(paste0(file, ".lock"), recursive = TRUE)
     suppressMessages(repair_library(file))
   }
   if (nzchar(Sys.getenv("GRIDDY_SHOW_KILLS"))) message("committed after kills: ", toString(outcomes))
