@@ -124,9 +124,7 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
     top <- utils::head(fl[order(fl$score, decreasing = TRUE), ], n_worst)
     lab <- gap_x_labels(x)
     named <- !identical(lab, as.character(seq_along(lab)))
-    ends <- matrix(format(c(top$from, top$to), digits = 3), ncol = 2L)
-    spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), ", t ",
-                    ends[, 1], "-", ends[, 2],
+    spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), block_t_part(x$t, top),
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
     # without candidates a block is flagged for its discrepancy, not its misfit
     away <- identical(x$settings$where, "discrepancy")
@@ -391,6 +389,16 @@ evidence_line <- function(x) {
   paste0("Evidence: log Bayes factor for a discrepancy ", format(ev$log_bayes_factor, digits = 3),
          " (", evidence_words(ev$log_bayes_factor), "), at matched resolution (",
          x$settings$runs, " runs).")
+}
+
+# ", t 0.2-0.6" of blocks `blocks` (their `from` and `to`); ", t = 0.2" for
+# a block of one t value; nothing when the library has one output per
+# setting (the block is the setting: "t 1-1" said nothing).
+block_t_part <- function(t, blocks) {
+  if (length(t) == 1L) return(rep("", nrow(blocks)))
+  ends <- matrix(format(c(blocks$from, blocks$to), digits = 3), ncol = 2L)
+  ifelse(blocks$from == blocks$to, paste0(", t = ", ends[, 1]),
+         paste0(", t ", ends[, 1], "-", ends[, 2]))
 }
 
 gap_x_labels <- function(x) {
