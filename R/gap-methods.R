@@ -355,6 +355,7 @@ plot.gap_diagnosis <- function(x, ...) {
              ggplot2::labs(x = "x setting", y = sub("\n", " ", z_name, fixed = TRUE),
                            fill = "Flagged",
                            title = title) +
+             ggplot2::scale_x_discrete(guide = ggplot2::guide_axis(check.overlap = TRUE)) +
              ggplot2::theme_bw() +
              ggplot2::theme(axis.text.x = ggplot2::element_text(angle = 90, hjust = 1)))
   }
@@ -371,11 +372,15 @@ plot.gap_diagnosis <- function(x, ...) {
                                              ymax = as.numeric(.data$setting) + 0.5),
                                 fill = NA, colour = "black", linewidth = 0.8)
   }
-  p + ggplot2::labs(x = "t", y = "x setting", title = title,
-                    subtitle = if (discrepancy) {
-                      "Outlined: blocks where the discrepancy is away from zero"
-                    } else "Outlined: blocks the fitted noise does not explain") +
-    ggplot2::theme_bw()
+  # many settings: the labels that overlap are left out
+  p + ggplot2::scale_y_discrete(guide = ggplot2::guide_axis(check.overlap = TRUE)) +
+    ggplot2::labs(x = "t", y = "x setting", title = title,
+                  subtitle = if (discrepancy) {
+                    "Outlined: blocks where the discrepancy is away from zero"
+                  } else "Outlined: blocks the fitted noise does not explain") +
+    # the titles start at the figure's edge, not the panel's: long setting
+    # labels pushed them past the right edge
+    ggplot2::theme_bw() + ggplot2::theme(plot.title.position = "plot")
 }
 
 # A diagnosis made without candidates (diagnose_gap-discrepancy.R): its
@@ -401,8 +406,11 @@ block_t_part <- function(t, blocks) {
          paste0(", t ", ends[, 1], "-", ends[, 2]))
 }
 
+# Each x setting by its values, "load=6, speed=10", however many there are
+# (a setting's row number told a reader nothing); "1" for the single one.
 gap_x_labels <- function(x) {
   if (is.null(x$x)) return("1")
-  if (nrow(x$x) > 12L) return(as.character(seq_len(nrow(x$x))))
-  apply(x$x, 1, function(r) paste0(names(x$x), "=", format(r, digits = 3), collapse = ", "))
+  # each value formatted alone: together they were padded to one width ("load= 2")
+  apply(x$x, 1, function(r) paste0(names(x$x), "=", vapply(r, format, "", digits = 3),
+                                   collapse = ", "))
 }

@@ -131,6 +131,15 @@ test_that("a flagged block's place drops t with one output per setting", {
   expect_match(where_line(gap), "worst at load=6, t 0.2-0.6\\.$")
 })
 
+test_that("settings are named by their values however many there are", {
+  # beyond 12 settings the map and "where" named them by row ("x 12")
+  many <- list(x = data.frame(load = 1.5 * (1:20), speed = rep(c(2, 20), 10)))
+  lab <- gap_x_labels(many)
+  expect_identical(lab[12], "load=18, speed=20")
+  expect_identical(lab[1], "load=1.5, speed=2")
+  expect_identical(gap_x_labels(list(x = NULL)), "1")
+})
+
 test_that("the verdict label names a gap the blocks flag without a tiny probability", {
   # the plot's title read "answer: other (P = 1.1e-08)"
   expect_identical(verdict_label(list(answer = "other", reason = "blocks", prob = 1.1e-8)),
