@@ -199,6 +199,9 @@ test_that("a library of one output calibrates: its sensitivity is a 1 x 1 slope"
                                       discrepancy = gp_discrepancy()),
                             classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
   expect_true(is.finite(discrepancy_evidence(fit_d)$log_bayes_factor))
+  # diagnose_gap() refits with a discrepancy the same way
+  gap <- diagnose_gap(fit, seed = 1)
+  expect_true(is.finite(gap$evidence$log_bayes_factor))
 })
 
 test_that("a scaled discrepancy (S-GaSP) has Gu and Wang's kernel, one per ratio", {
