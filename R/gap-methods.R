@@ -122,9 +122,7 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
     paste0("Where: no block of ", nrow(wh), " flagged (", fdr, ")")
   } else {
     top <- utils::head(fl[order(fl$score, decreasing = TRUE), ], n_worst)
-    lab <- gap_x_labels(x)
-    named <- !identical(lab, as.character(seq_along(lab)))
-    spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), block_t_part(x$t, top),
+    spots <- paste0(block_place(x, top),
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
     # without candidates a block is flagged for its discrepancy, not its misfit
     away <- identical(x$settings$where, "discrepancy")
@@ -396,14 +394,20 @@ evidence_line <- function(x) {
          x$settings$runs, " runs).")
 }
 
-# ", t 0.2-0.6" of blocks `blocks` (their `from` and `to`); ", t = 0.2" for
-# a block of one t value; nothing when the library has one output per
-# setting (the block is the setting: "t 1-1" said nothing).
-block_t_part <- function(t, blocks) {
-  if (length(t) == 1L) return(rep("", nrow(blocks)))
-  ends <- matrix(format(c(blocks$from, blocks$to), digits = 3), ncol = 2L)
-  ifelse(blocks$from == blocks$to, paste0(", t = ", ends[, 1]),
-         paste0(", t ", ends[, 1], "-", ends[, 2]))
+# Where blocks `blocks` (rows of a diagnosis's `where`) are: "load=6, t
+# 0.2-0.6", "t = 0.2" for a block of one t value; the setting alone when
+# the library has one output per setting ("t 1-1" said nothing), t alone
+# when it has one setting; "the single output" when both.
+block_place <- function(x, blocks) {
+  setting <- if (!is.null(x$x)) gap_x_labels(x)[blocks$x]
+  t_part <- if (length(x$t) > 1L) {
+    ends <- matrix(format(c(blocks$from, blocks$to), digits = 3), ncol = 2L)
+    ifelse(blocks$from == blocks$to, paste0("t = ", ends[, 1]),
+           paste0("t ", ends[, 1], "-", ends[, 2]))
+  }
+  if (is.null(setting) && is.null(t_part)) return(rep("the single output", nrow(blocks)))
+  if (is.null(setting)) return(t_part)
+  if (is.null(t_part)) setting else paste0(setting, ", ", t_part)
 }
 
 # Each x setting by its values, "load=6, speed=10", however many there are

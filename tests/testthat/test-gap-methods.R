@@ -129,6 +129,10 @@ test_that("a flagged block's place drops t with one output per setting", {
   expect_match(where_line(gap), "worst at load=2, t = 1\\.$")
   gap$where$flagged <- c(FALSE, TRUE)
   expect_match(where_line(gap), "worst at load=6, t 0.2-0.6\\.$")
+  gap$x <- NULL
+  expect_match(where_line(gap), "worst at t 0.2-0.6\\.$")
+  gap$t <- 1
+  expect_match(where_line(gap), "worst at the single output\\.$")
 })
 
 test_that("settings are named by their values however many there are", {
