@@ -32,7 +32,8 @@
 #' @param seed `NULL`, or a seed for the draws of this call only; either way
 #'   [set.seed()] reproduces them.
 #' @return A data.frame with one row per library output: `x` (the row of the
-#'   library's x settings), the x columns, `t`, `observed` (the field data,
+#'   library's x settings; named `setting` when an x column is itself named
+#'   `x`), the x columns, `t`, `observed` (the field data,
 #'   a cell's replicates' mean, `NA` where missing), `residual` (`observed`
 #'   minus the posterior mean of the simulator's outputs), and the posterior
 #'   of \eqn{\delta}: `mean`, `sd`, `lower`, `upper` (pointwise quantiles of
@@ -64,16 +65,9 @@ discrepancy_posterior <- function(fit, level = 0.95, ndraws = 1000, seed = NULL)
   structure(out, draws = draws, draw_rows = pick, level = level)
 }
 
-# One row per library output (library order): `x` (the setting's row), the
-# x columns and `t`.
-library_cells <- function(lib) {
-  n_t <- lib_n_t(lib)
-  out <- data.frame(x = rep(seq_len(lib_n_x(lib)), each = n_t))
-  if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[out$x, , drop = FALSE])
-  out$t <- rep(lib_t(lib), lib_n_x(lib))
-  rownames(out) <- NULL
-  out
-}
+# One row per library output (library order): `x` (the setting's row, or
+# `setting`, see setting_column()), the x columns and `t`.
+library_cells <- function(lib) setting_cells(lib, seq_len(lib_n_x(lib)))
 
 # Does the fit model a discrepancy (a gp_discrepancy() with a ratio > 0)?
 has_discrepancy <- function(fit) {
@@ -218,7 +212,8 @@ discrepancy_regions <- function(post, lib, level = 0.95) {
 # none is clear, where |mean| / sd peaks.
 discrepancy_where_text <- function(fit, level = 0.95, top = 3L) {
   lib <- fit$library
-  post <- cbind(library_cells(lib), as.data.frame(discrepancy_moments(fit)))
+  post <- data.frame(x = rep(seq_len(lib_n_x(lib)), each = lib_n_t(lib)),
+                     t = rep(lib_t(lib), lib_n_x(lib)), discrepancy_moments(fit))
   z <- clearness(post)
   clear <- is_clear(z, level)
   band <- paste0("The discrepancy's ", format(100 * level), "% band ")

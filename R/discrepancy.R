@@ -414,7 +414,9 @@ discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
   X <- X[, apply(X, 2, function(v) diff(range(v)) > 0), drop = FALSE]
   if (ncol(X) == 0L) return(NULL)
   fit <- stats::lm.fit(cbind(1, X), lib_outputs(library, near))
-  G <- t(matrix(fit$coefficients[-1, , drop = FALSE], ncol(X)))
+  # lm.fit() drops a one-column response: a library of one output has a
+  # vector of coefficients
+  G <- t(matrix(as.matrix(fit$coefficients)[-1, , drop = FALSE], ncol(X)))
   G <- G[, colSums(!is.finite(G)) == 0L, drop = FALSE]
   if (ncol(G) == 0L) NULL else G
 }

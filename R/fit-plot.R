@@ -18,7 +18,10 @@
 #'   the runs with mass are.
 #' * `"ppc"`: posterior predictive check: the field data against the
 #'   simulator outputs at the drawn runs (mean and band) and the predictive
-#'   band with the fitted noise, per x setting.
+#'   band with the fitted noise, against t, one panel per x setting
+#'   (titled by its values, "load = 6"); with one output per setting, against
+#'   the setting: its value when the library has one x column, its label
+#'   when several.
 #' * `"pairs"`: the joint posterior of every pair of \eqn{\theta} columns,
 #'   the draws binned in two dimensions, so that ridges (parameters that
 #'   trade off) show; the truth is marked when given. With one pair the axes
@@ -27,9 +30,10 @@
 #' * `"discrepancy"`: for a fit with a [gp_discrepancy()], where the
 #'   simulator misses the data: the posterior of the discrepancy
 #'   \eqn{\delta} ([discrepancy_posterior()]: mean and pointwise band)
-#'   against t, one panel per x setting, with the field data's residuals from
-#'   the simulator's posterior mean outputs as points. Where the band leaves
-#'   0 (the dashed line), the data show a gap there.
+#'   against t, one panel per x setting (placed as in `"ppc"`), with the
+#'   field data's residuals from the simulator's posterior mean outputs as
+#'   points. Where the band leaves 0 (the dashed line), the data show a gap
+#'   there.
 #'
 #' @param x A `griddy_fit` from [calibrate()].
 #' @param type `"trace"`, `"posterior"`, `"ppc"`, `"pairs"` or
@@ -259,19 +263,19 @@ library_ticks <- function(theta, bars) {
 
 plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...) {
   pred <- predict(fit, level = level, discrepancy = discrepancy, ...)
-  single_t <- lib_n_t(fit$library) == 1L
-  pred$position <- if (single_t) pred$x else pred$t
-  pred$setting <- factor(setting_labels(fit$library)[pred$x], levels = setting_labels(fit$library))
+  lib <- fit$library
+  place <- cell_places(lib, pred[[setting_column(lib)]])
+  pred <- cbind(place$cells, pred[c("observed", "mean", "lower", "upper", "pred_lower",
+                                    "pred_upper")])
   p <- ggplot2::ggplot(pred, ggplot2::aes(x = .data$position))
-  if (single_t) {
+  if (lib_n_t(lib) == 1L) {
     p <- p +
       ggplot2::geom_linerange(ggplot2::aes(ymin = .data$pred_lower, ymax = .data$pred_upper),
                               colour = "grey60", linewidth = 2) +
       ggplot2::geom_pointrange(ggplot2::aes(y = .data$mean, ymin = .data$lower,
                                             ymax = .data$upper), colour = "steelblue") +
       ggplot2::geom_point(ggplot2::aes(y = .data$observed), colour = "black", shape = 4,
-                          size = 2.5, na.rm = TRUE) +
-      ggplot2::labs(x = "x setting (row of the library's x)")
+                          size = 2.5, na.rm = TRUE)
   } else {
     p <- p +
       ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$pred_lower, ymax = .data$pred_upper),
@@ -280,16 +284,52 @@ plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...)
                            fill = "steelblue", alpha = 0.5) +
       ggplot2::geom_line(ggplot2::aes(y = .data$mean), colour = "steelblue") +
       ggplot2::geom_point(ggplot2::aes(y = .data$observed), size = 0.6, na.rm = TRUE) +
-      ggplot2::facet_wrap(ggplot2::vars(.data$setting), scales = "free_y") +
-      ggplot2::labs(x = "t")
+      ggplot2::facet_wrap(ggplot2::vars(.data$setting), scales = "free_y")
   }
-  p + ggplot2::labs(y = "Output", title = "Posterior predictive check",
-                    subtitle = wrap_subtitle(c(
-                      "Black: field data (missing cells left out).",
-                      paste0("Blue: simulator", if (isTRUE(discrepancy)) " + discrepancy",
-                             " at the drawn runs"),
-                      paste0("(mean, ", format(100 * level), "% band). Grey: with fitted noise.")))) +
+  p + place$axis +
+    ggplot2::labs(x = place$title, y = "Output", title = "Posterior predictive check",
+                  subtitle = wrap_subtitle(c(
+                    "Black: field data (missing cells left out).",
+                    paste0("Blue: simulator", if (isTRUE(discrepancy)) " + discrepancy",
+                           " at the drawn runs"),
+                    paste0("(mean, ", format(100 * level), "% band). Grey: with fitted noise.")))) +
     ggplot2::theme_bw()
+}
+
+# Where the outputs of a table of library cells (predict(),
+# discrepancy_posterior(); `setting` their settings' rows) go on a plot:
+# `cells`, a data.frame of `setting` (the setting's label, "load = 6", the
+# panel) and `position` on the horizontal axis: t when the library has
+# several outputs per setting; with one, the setting itself, at its x
+# column's value (one x column) or its label (several; a discrete axis).
+# `title` is the axis's title and `axis` its scale.
+cell_places <- function(lib, setting) {
+  labels <- setting_labels(lib)
+  label <- factor(labels[setting], levels = labels)
+  x <- lib_x(lib)
+  if (lib_n_t(lib) > 1L) {
+    t <- rep(lib_t(lib), length.out = length(setting))
+    return(list(cells = data.frame(setting = label, position = t), title = "t",
+                # few breaks: several panels side by side leave each little width
+                axis = ggplot2::scale_x_continuous(
+                  n.breaks = 4, guide = ggplot2::guide_axis(check.overlap = TRUE))))
+  }
+  if (!is.null(x) && ncol(x) == 1L) {
+    return(list(cells = data.frame(setting = label, position = x[[1]][setting]),
+                title = names(x), axis = NULL))
+  }
+  list(cells = data.frame(setting = label, position = label),
+       title = if (is.null(x)) NULL else "x setting", axis = setting_axis(length(labels)))
+}
+
+# A discrete axis of settings' labels ("load = 2, speed = 10"): a few side
+# by side, one column a line ("load = 2" over "speed = 10"), which a 6-inch
+# figure holds; more, each label on one line turned upright.
+setting_axis <- function(n_settings) {
+  if (n_settings <= 8L) {
+    return(ggplot2::scale_x_discrete(labels = function(l) gsub(", ", "\n", l, fixed = TRUE)))
+  }
+  ggplot2::scale_x_discrete(guide = ggplot2::guide_axis(angle = 90))
 }
 
 # ggplot2 does not wrap a subtitle: a line longer than the figure is cut at
@@ -301,29 +341,25 @@ wrap_subtitle <- function(lines, width = 60L) {
 }
 
 # The discrepancy's posterior mean and band against t, one panel per x
-# setting (against the x column, or the setting's row, for one output per
-# setting), with the residuals of the field data from the simulator's
-# posterior mean outputs. One noise group: the panels share the y axis, so
-# the gap's size compares across settings; several (maybe other units):
-# each panel its own.
+# setting (for one output per setting, against the setting: its x column's
+# value or its label, cell_places()), with the residuals of the field data
+# from the simulator's posterior mean outputs. One noise group: the panels
+# share the y axis, so the gap's size compares across settings; several
+# (maybe other units): each panel its own.
 plot_discrepancy <- function(fit, level = 0.95, ...) {
   post <- discrepancy_posterior(fit, level = level, ...)
   lib <- fit$library
   replicated <- fit$n_obs > sum(!is.na(fit$y_field))
-  single_t <- lib_n_t(lib) == 1L
-  one_x_col <- !is.null(lib_x(lib)) && ncol(lib_x(lib)) == 1L
-  post$position <- if (!single_t) post$t else if (one_x_col) lib_x(lib)[[1]][post$x] else post$x
-  labels <- setting_labels(lib)
-  post$setting <- factor(labels[post$x], levels = labels)
+  place <- cell_places(lib, post[[setting_column(lib)]])
+  post <- cbind(place$cells, post[c("residual", "mean", "lower", "upper")])
   p <- ggplot2::ggplot(post, ggplot2::aes(x = .data$position)) +
     ggplot2::geom_hline(yintercept = 0, linetype = "dashed", colour = "grey40")
-  if (single_t) {
+  if (lib_n_t(lib) == 1L) {
     p <- p +
       ggplot2::geom_pointrange(ggplot2::aes(y = .data$mean, ymin = .data$lower,
                                             ymax = .data$upper), colour = "firebrick") +
       ggplot2::geom_point(ggplot2::aes(y = .data$residual), colour = "black", shape = 4,
-                          size = 2.5, na.rm = TRUE) +
-      ggplot2::labs(x = if (one_x_col) names(lib_x(lib)) else "x setting (row of the library's x)")
+                          size = 2.5, na.rm = TRUE)
   } else {
     several_groups <- length(fit$setup$pattern$labels) > 1L
     p <- p +
@@ -332,20 +368,17 @@ plot_discrepancy <- function(fit, level = 0.95, ...) {
       ggplot2::geom_line(ggplot2::aes(y = .data$mean), colour = "firebrick") +
       ggplot2::geom_point(ggplot2::aes(y = .data$residual), size = 0.8, na.rm = TRUE) +
       ggplot2::facet_wrap(ggplot2::vars(.data$setting),
-                          scales = if (several_groups) "free_y" else "fixed") +
-      # few breaks: several panels side by side leave each little width
-      ggplot2::scale_x_continuous(n.breaks = 4,
-                                  guide = ggplot2::guide_axis(check.overlap = TRUE)) +
-      ggplot2::labs(x = "t")
+                          scales = if (several_groups) "free_y" else "fixed")
   }
-  p + ggplot2::labs(y = "Discrepancy (data minus simulator)",
-                    title = "Where the simulator misses the data",
-                    subtitle = wrap_subtitle(c(
-                      paste0("Red: the discrepancy's posterior mean, ", format(100 * level),
-                             "% band."),
-                      paste0("Black: data", if (replicated) " (replicates' means)",
-                             " minus the simulator's"),
-                      "posterior mean. Dashed: no gap."))) +
+  p + place$axis +
+    ggplot2::labs(x = place$title, y = "Discrepancy (data minus simulator)",
+                  title = "Where the simulator misses the data",
+                  subtitle = wrap_subtitle(c(
+                    paste0("Red: the discrepancy's posterior mean, ", format(100 * level),
+                           "% band."),
+                    paste0("Black: data", if (replicated) " (replicates' means)",
+                           " minus the simulator's"),
+                    "posterior mean. Dashed: no gap."))) +
     posterior_theme()
 }
 

@@ -23,7 +23,8 @@
 #' @param ... Ignored.
 #' @return A data.frame with one row per library output at the settings
 #'   predicted (the library's order, or `newdata`'s), measured or not: `x`
-#'   (the row of the library's x settings), the x columns, `t`,
+#'   (the row of the library's x settings; named `setting` when an x column
+#'   is itself named `x`), the x columns, `t`,
 #'   `observed` (the field data, the mean of a cell's replicates, `NA`
 #'   where missing), `mean`, `lower` and
 #'   `upper` (the simulator outputs at the drawn runs, plus the discrepancy
@@ -77,14 +78,28 @@ predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 10
     noisy <- with_seed(seed, noisy_outputs(object, pick))[, cols, drop = FALSE]
   }
   pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE, na.rm = TRUE)
-  out <- data.frame(x = rep(settings, each = lib_n_t(lib)))
-  if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[out$x, , drop = FALSE])
-  out <- cbind(out, t = rep(lib_t(lib), length(settings)), observed = object$y_field[cols],
-               mean = mean, lower = bounds[1, ], upper = bounds[2, ],
-               pred_lower = pred[1, ], pred_upper = pred[2, ])
+  cbind(setting_cells(lib, settings), observed = object$y_field[cols],
+        mean = mean, lower = bounds[1, ], upper = bounds[2, ],
+        pred_lower = pred[1, ], pred_upper = pred[2, ])
+}
+
+# One row per output at x settings `settings` (rows of the library's x), in
+# that order: the setting's row, the x columns and `t`; the first columns
+# of predict()'s and discrepancy_posterior()'s tables.
+setting_cells <- function(lib, settings) {
+  n_t <- lib_n_t(lib)
+  rows <- rep(settings, each = n_t)
+  out <- stats::setNames(data.frame(rows), setting_column(lib))
+  if (!is.null(lib_x(lib))) out <- cbind(out, lib_x(lib)[rows, , drop = FALSE])
+  out$t <- rep(lib_t(lib), length(settings))
   rownames(out) <- NULL
   out
 }
+
+# The name of the column that holds a setting's row: `x`, unless an x
+# column is itself named `x` (its values then keep the name, and two
+# columns of one name broke every table and plot built from them).
+setting_column <- function(lib) if ("x" %in% names(lib_x(lib))) "setting" else "x"
 
 # The library x settings (row numbers) that `newdata` names.
 predict_settings <- function(lib, newdata) {

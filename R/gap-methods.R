@@ -122,11 +122,7 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
     paste0("Where: no block of ", nrow(wh), " flagged (", fdr, ")")
   } else {
     top <- utils::head(fl[order(fl$score, decreasing = TRUE), ], n_worst)
-    lab <- gap_x_labels(x)
-    named <- !identical(lab, as.character(seq_along(lab)))
-    ends <- matrix(format(c(top$from, top$to), digits = 3), ncol = 2L)
-    spots <- paste0(if (named) lab[top$x] else paste0("x ", top$x), ", t ",
-                    ends[, 1], "-", ends[, 2],
+    spots <- paste0(block_place(x, top),
                     if (scores) paste0(" (score ", format(top$score, digits = 3), ")"))
     # without candidates a block is flagged for its discrepancy, not its misfit
     away <- identical(x$settings$where, "discrepancy")
@@ -357,6 +353,7 @@ plot.gap_diagnosis <- function(x, ...) {
              ggplot2::labs(x = "x setting", y = sub("\n", " ", z_name, fixed = TRUE),
                            fill = "Flagged",
                            title = title) +
+             ggplot2::scale_x_discrete(guide = ggplot2::guide_axis(check.overlap = TRUE)) +
              ggplot2::theme_bw() +
              ggplot2::theme(axis.text.x = ggplot2::element_text(angle = 90, hjust = 1)))
   }
@@ -373,11 +370,15 @@ plot.gap_diagnosis <- function(x, ...) {
                                              ymax = as.numeric(.data$setting) + 0.5),
                                 fill = NA, colour = "black", linewidth = 0.8)
   }
-  p + ggplot2::labs(x = "t", y = "x setting", title = title,
-                    subtitle = if (discrepancy) {
-                      "Outlined: blocks where the discrepancy is away from zero"
-                    } else "Outlined: blocks the fitted noise does not explain") +
-    ggplot2::theme_bw()
+  # many settings: the labels that overlap are left out
+  p + ggplot2::scale_y_discrete(guide = ggplot2::guide_axis(check.overlap = TRUE)) +
+    ggplot2::labs(x = "t", y = "x setting", title = title,
+                  subtitle = if (discrepancy) {
+                    "Outlined: blocks where the discrepancy is away from zero"
+                  } else "Outlined: blocks the fitted noise does not explain") +
+    # the titles start at the figure's edge, not the panel's: long setting
+    # labels pushed them past the right edge
+    ggplot2::theme_bw() + ggplot2::theme(plot.title.position = "plot")
 }
 
 # A diagnosis made without candidates (diagnose_gap-discrepancy.R): its
@@ -393,8 +394,27 @@ evidence_line <- function(x) {
          x$settings$runs, " runs).")
 }
 
+# Where blocks `blocks` (rows of a diagnosis's `where`) are: "load=6, t
+# 0.2-0.6", "t = 0.2" for a block of one t value; the setting alone when
+# the library has one output per setting ("t 1-1" said nothing), t alone
+# when it has one setting; "the single output" when both.
+block_place <- function(x, blocks) {
+  setting <- if (!is.null(x$x)) gap_x_labels(x)[blocks$x]
+  t_part <- if (length(x$t) > 1L) {
+    ends <- matrix(format(c(blocks$from, blocks$to), digits = 3), ncol = 2L)
+    ifelse(blocks$from == blocks$to, paste0("t = ", ends[, 1]),
+           paste0("t ", ends[, 1], "-", ends[, 2]))
+  }
+  if (is.null(setting) && is.null(t_part)) return(rep("the single output", nrow(blocks)))
+  if (is.null(setting)) return(t_part)
+  if (is.null(t_part)) setting else paste0(setting, ", ", t_part)
+}
+
+# Each x setting by its values, "load=6, speed=10", however many there are
+# (a setting's row number told a reader nothing); "1" for the single one.
 gap_x_labels <- function(x) {
   if (is.null(x$x)) return("1")
-  if (nrow(x$x) > 12L) return(as.character(seq_len(nrow(x$x))))
-  apply(x$x, 1, function(r) paste0(names(x$x), "=", format(r, digits = 3), collapse = ", "))
+  # each value formatted alone: together they were padded to one width ("load= 2")
+  apply(x$x, 1, function(r) paste0(names(x$x), "=", vapply(r, format, "", digits = 3),
+                                   collapse = ", "))
 }

@@ -183,6 +183,27 @@ test_that("an orthogonal discrepancy cannot imitate a change of theta", {
   expect_null(attr(attr(plain$setup$discrepancy, "kernels"), "sensitivity"))
 })
 
+test_that("a library of one output calibrates: its sensitivity is a 1 x 1 slope", {
+  # lm.fit() drops a one-column response to a vector: the gap screen's
+  # orthogonal discrepancy failed with "incorrect number of dimensions"
+  k <- seq(0.5, 1.5, length.out = 11)
+  lib <- sim_library(data.frame(k = k), matrix(2 * k, ncol = 1))
+  G <- discrepancy_sensitivity(lib, 2.04, NULL)
+  expect_equal(G, matrix(2 * diff(range(k))), tolerance = 1e-10)
+  fit <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50, seed = 1),
+                          classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
+  expect_s3_class(fit, "griddy_fit")
+  # one output cannot tell a gap from noise: the screen finds nothing to warn of
+  expect_false(screen_shows_gap(fit))
+  fit_d <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50, seed = 1,
+                                      discrepancy = gp_discrepancy()),
+                            classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
+  expect_true(is.finite(discrepancy_evidence(fit_d)$log_bayes_factor))
+  # diagnose_gap() refits with a discrepancy the same way
+  gap <- diagnose_gap(fit, seed = 1)
+  expect_true(is.finite(gap$evidence$log_bayes_factor))
+})
+
 test_that("a scaled discrepancy (S-GaSP) has Gu and Wang's kernel, one per ratio", {
   toy <- gap_toy(bump = 0.1)
   y <- toy$field$y

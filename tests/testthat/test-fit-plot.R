@@ -36,7 +36,8 @@ test_that("the ppc plot handles one output per setting", {
   fit <- suppressWarnings(calibrate(lib, field_data(c(2.1, 3.9, 6.2, 7.8)), n_iter = 300,
                                    burn_in = 50, seed = 1))
   pp <- plot(fit, "ppc", ndraws = 50, seed = 1)
-  expect_identical(pp$data$position, 1:4)
+  expect_identical(pp$data$position, as.numeric(lib$x$pos))
+  expect_identical(pp$labels$x, "pos")
   expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
 })
 
@@ -185,7 +186,8 @@ test_that("the discrepancy plot shows delta's posterior and the residuals per se
   expect_equal(p$data$mean, discrepancy_posterior(fit, ndraws = 200, seed = 1)$mean)
   expect_equal(p$data$residual, fit$y_field - posterior_mean_outputs(fit))
   expect_identical(levels(p$data$setting), c("amp = 1", "amp = 2", "amp = 3"))
-  expect_identical(p$data$position, p$data$t)
+  expect_identical(p$data$position, discrepancy_posterior(fit, ndraws = 10)$t)
+  expect_identical(p$labels$x, "t")
   expect_match(p$labels$subtitle, "\n", fixed = TRUE)
   expect_match(p$labels$title, "misses the data", fixed = TRUE)
   expect_match(p$labels$subtitle, "discrepancy's posterior mean", fixed = TRUE)
@@ -210,4 +212,55 @@ test_that("the discrepancy plot handles one output per setting", {
   expect_identical(p$data$position, as.numeric(1:6))
   expect_identical(p$labels$x, "pos")
   expect_no_warning(ggplot2::ggplotGrob(p))
+})
+
+test_that("an x column named `x` plots: ppc and discrepancy panels titled by its values", {
+  # predict() and discrepancy_posterior() gave two columns named `x`, which
+  # ggplot refused ("`data` must be uniquely named")
+  lib <- x_named_x_library()
+  fit <- suppressWarnings(calibrate(lib$library, lib$field, n_iter = 400, burn_in = 50, seed = 1,
+                                    discrepancy = gp_discrepancy()),
+                          classes = c("griddy_warning_resolution", "griddy_warning_convergence"))
+  for (p in list(plot(fit, "ppc", ndraws = 50, seed = 1),
+                 plot(fit, "discrepancy", ndraws = 50, seed = 1))) {
+    expect_identical(levels(p$data$setting), c("x = 2", "x = 4", "x = 6"))
+    expect_identical(p$labels$x, "t")
+    expect_no_error(ggplot2::ggplotGrob(p))
+  }
+  post <- discrepancy_posterior(fit, ndraws = 50, seed = 1)
+  expect_identical(names(post)[1:3], c("setting", "x", "t"))
+})
+
+test_that("one output per setting: ppc and discrepancy plots place settings by their values", {
+  # the x axis was the setting's row ("x setting (row of the library's x)")
+  k <- seq(0.5, 1.5, by = 0.05)
+  x2 <- data.frame(load = c(2, 4, 6, 2, 4, 6), speed = rep(c(10, 20), each = 3))
+  lib <- sim_library(data.frame(k = k), outer(k, x2$load) + rep(0.1 * x2$speed, each = length(k)),
+                     x = x2)
+  fit <- suppressWarnings(calibrate(lib, field_data(1.02 * x2$load + 0.1 * x2$speed +
+                                                      c(0, 0, 0.8, 0, 0, 0)),
+                                    n_iter = 200, burn_in = 50, seed = 1,
+                                    discrepancy = gp_discrepancy()))
+  labels <- paste0("load = ", x2$load, ", speed = ", x2$speed)
+  for (p in list(plot(fit, "ppc", ndraws = 50, seed = 1),
+                 plot(fit, "discrepancy", ndraws = 50, seed = 1))) {
+    expect_identical(as.character(p$data$position), labels)
+    expect_identical(p$labels$x, "x setting")
+    built <- ggplot2::ggplot_build(p)
+    expect_identical(as.character(built$layout$panel_params[[1]]$x$get_labels()),
+                     paste0("load = ", x2$load, "\nspeed = ", x2$speed))
+  }
+  one_col <- sim_library(data.frame(k = k), outer(k, c(2, 4, 6)), x = data.frame(load = c(2, 4, 6)))
+  fit1 <- suppressWarnings(calibrate(one_col, field_data(c(2.1, 4, 6.3)), n_iter = 200,
+                                     burn_in = 50, seed = 1))
+  pp <- plot(fit1, "ppc", ndraws = 50, seed = 1)
+  expect_identical(pp$data$position, c(2, 4, 6))
+  expect_identical(pp$labels$x, "load")
+  # a library of one output: one point, no axis title
+  single <- sim_library(data.frame(k = k), matrix(k, ncol = 1))
+  fit0 <- suppressWarnings(calibrate(single, field_data(1.02), n_iter = 200, burn_in = 50,
+                                     seed = 1))
+  p0 <- plot(fit0, "ppc", ndraws = 50, seed = 1)
+  expect_identical(as.character(p0$data$position), "single setting")
+  expect_no_error(ggplot2::ggplotGrob(p0))
 })

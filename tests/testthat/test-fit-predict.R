@@ -59,6 +59,21 @@ test_that("predict(newdata =) predicts at the given library settings or stops", 
   expect_error(predict(fit1, newdata = data.frame(x = 1)), "single x setting")
 })
 
+test_that("an x column named `x` keeps its name; the setting's row is then `setting`", {
+  # the row column `x` and the x column `x` made two columns of one name
+  lib <- x_named_x_library()
+  fit <- suppressWarnings(calibrate(lib$library, lib$field, n_iter = 200, burn_in = 50, seed = 1),
+                          classes = "griddy_warning_resolution")
+  pred <- predict(fit, ndraws = 50, seed = 1)
+  expect_identical(names(pred)[1:3], c("setting", "x", "t"))
+  expect_false(anyDuplicated(names(pred)) > 0L)
+  expect_identical(pred$setting, rep(1:3, each = 5))
+  expect_identical(pred$x, rep(c(2, 4, 6), each = 5))
+  at <- predict(fit, newdata = data.frame(x = 6), ndraws = 50, seed = 1)
+  expect_identical(at$setting, rep(3L, 5))
+  expect_identical(setting_column(toy_xt(n_per_dim = 3, n_t = 2)$library), "x")
+})
+
 test_that("predict() with missing data predicts every cell, and each noise group at its tau", {
   toy <- toy_missing()
   prior <- list(shape = 2, rate = 0.5)

@@ -119,6 +119,31 @@ test_that("a gap the base model's block check flags is 'other' even when evidenc
   expect_false(gap$verdict$answer %in% c("none", "quadratic"))
 })
 
+test_that("a flagged block's place drops t with one output per setting", {
+  # "worst at load=6, t 1-1": the t part said nothing
+  blocks <- data.frame(x = c(1L, 2L), from = c(1, 0.2), to = c(1, 0.6), n = 1L,
+                       score = c(3, 1), flagged = c(TRUE, FALSE))
+  gap <- list(where = blocks, settings = list(fdr = 0.05), x = data.frame(load = c(2, 6)), t = 1)
+  expect_match(where_line(gap), "worst at load=2\\.$")
+  gap$t <- c(0.2, 0.6, 1)
+  expect_match(where_line(gap), "worst at load=2, t = 1\\.$")
+  gap$where$flagged <- c(FALSE, TRUE)
+  expect_match(where_line(gap), "worst at load=6, t 0.2-0.6\\.$")
+  gap$x <- NULL
+  expect_match(where_line(gap), "worst at t 0.2-0.6\\.$")
+  gap$t <- 1
+  expect_match(where_line(gap), "worst at the single output\\.$")
+})
+
+test_that("settings are named by their values however many there are", {
+  # beyond 12 settings the map and "where" named them by row ("x 12")
+  many <- list(x = data.frame(load = 1.5 * (1:20), speed = rep(c(2, 20), 10)))
+  lab <- gap_x_labels(many)
+  expect_identical(lab[12], "load=18, speed=20")
+  expect_identical(lab[1], "load=1.5, speed=2")
+  expect_identical(gap_x_labels(list(x = NULL)), "1")
+})
+
 test_that("the verdict label names a gap the blocks flag without a tiny probability", {
   # the plot's title read "answer: other (P = 1.1e-08)"
   expect_identical(verdict_label(list(answer = "other", reason = "blocks", prob = 1.1e-8)),
