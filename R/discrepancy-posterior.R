@@ -1,7 +1,7 @@
 # Where the gap lies: the posterior of the discrepancy delta at every library
 # output (observed or not), from a fit with a gp_discrepancy(): the mixture
 # of delta's conditional law given (run, grid point, tau) (delta_law(),
-# discrepancy_law.R) over the fit's kept draws.
+# discrepancy-law.R) over the fit's kept draws.
 
 #' The posterior of the model discrepancy
 #'

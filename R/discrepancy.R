@@ -1,6 +1,6 @@
 # A model discrepancy delta(x, t) in the likelihood: its specification, its
 # prior over a grid of hyperparameters and its kernel. How it enters the
-# quadratic forms is in grid_posterior.R (dense_factors()).
+# quadratic forms is in engine.R (dense_factors()).
 #
 # Model: y = g_i + delta + e, delta ~ N(0, tau^-1 lambda K_l), e ~ N(0,
 # tau^-1 S R_g S), so Cov(y | i, g, lambda, l, tau) = tau^-1 (S R_g S +
@@ -299,7 +299,7 @@ discrepancy_points <- function(discrepancy, library) {
   attr(kernels, "sensitivity") <- discrepancy$sensitivity
   # the observed points, over which a scaled discrepancy's mean square is kept small
   attr(kernels, "observed") <- discrepancy$observed
-  # where delta and its slope are known to be zero (discrepancy_knowledge.R)
+  # where delta and its slope are known to be zero (discrepancy-knowledge.R)
   attr(kernels, "zero_at") <- discrepancy$zero_at
   attr(kernels, "flat_at") <- discrepancy$flat_at
   attr(points, "kernels") <- kernels

@@ -1,5 +1,5 @@
 # The correlation functions R = R_x (x) R_t of thesis Appendix B and the grid
-# of their parameters; what one grid point holds is in grid_posterior.R.
+# of their parameters; what one grid point holds is in engine.R.
 #
 # R_x[k, l] = prod_j rho_j ^ (4^(p - 1) |x_kj - x_lj|^p), x scaled to [0, 1] per
 #   column: p = 2 gives eq. 3.14 (rho^(4 d^2)), p = 1 Appendix A's eq. 5 (rho^|d|).

@@ -326,7 +326,7 @@ colour_rows <- function(Z, point, n_x, n_t) {
 # or NaN. (A backend whose outputs hold NA or Inf says so first, itself.)
 #
 # A run whose likelihood has a covariance of its own (a run predicted by an
-# emulator, see library_refined.R) comes with an extra log-determinant,
+# emulator, see library-refined.R) comes with an extra log-determinant,
 # folded into C exactly for tau integrated out (fold_extra_logdet()).
 # Returns list(C, emulation_error, plug_in): what the backend found beside C
 # (misfit_parts()), for the problem (new_griddy_problem()).
@@ -409,7 +409,7 @@ fold_groups <- function(Ck, setup) {
 # What a library's quadratic forms come with (lib_quad_forms()): a bare
 # matrix C, or a list with C and, as a backend has them, `extra_logdet`
 # (runs x grid points: the log-determinant a predicted run's own covariance
-# adds, see library_refined.R), `emulation_error` (an emulated library's
+# adds, see library-refined.R), `emulation_error` (an emulated library's
 # leave-one-out error near the posterior over the noise sd) and `plug_in`
 # (an emulated library's noise plug-in for these data, lib_with_plug_in()).
 # In a list rather than as attributes of C, which rbind() and subsetting

@@ -131,7 +131,7 @@ predict_settings <- function(lib, newdata) {
 }
 
 # The smallest value whose cumulative weight reaches each probability (also
-# the interval of resolution_table(), library_resolution.R).
+# the interval of resolution_table(), resolution.R).
 weighted_quantile <- function(v, w, probs) {
   o <- order(v)
   cw <- cumsum(w[o])
@@ -140,7 +140,7 @@ weighted_quantile <- function(v, w, probs) {
 
 # Library outputs at the chosen draws plus N(0, S R_g S / tau) noise at every
 # output, observed or not: one row per draw, the noise coloured by each
-# draw's grid point (grid_posterior.R); with noise groups, independent noise
+# draw's grid point (engine.R); with noise groups, independent noise
 # for each group at its own tau_k, correlated within it; S the field's
 # relative sd (NA, so no predictive bound, where the field gives none).
 noisy_outputs <- function(fit, pick) {

@@ -1,4 +1,4 @@
-# The emulator of an emulated library (library_emulated.R): one parallel
+# The emulator of an emulated library (library-emulated.R): one parallel
 # partial Gaussian process, RobustGaSP::ppgasp() (Gu & Berger 2016), fitted
 # once to the design runs, in one of two forms:
 #

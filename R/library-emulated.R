@@ -288,7 +288,7 @@ print.emulated_library <- function(x, ...) {
   invisible(x)
 }
 
-# ---- the library interface (see library_interface.R) ----------------------
+# ---- the library interface (see library.R) ----------------------
 
 #' @exportS3Method
 lib_outputs.emulated_library <- function(library, rows = NULL) {
@@ -298,7 +298,7 @@ lib_outputs.emulated_library <- function(library, rows = NULL) {
 
 # C with the emulation error at the library's own plug-in noise variance
 # and shared kappa for these field data (emulated_noise_var() in
-# emulation_error.R), its extra log-determinant folded in; warns when the
+# emulation.R), its extra log-determinant folded in; warns when the
 # emulator is worse than the noise. Returned with the error's size
 # (`emulation_error`) and the plug-in (`plug_in`), which travels into the
 # problem's library (new_griddy_problem(), misfit_parts()).
@@ -368,7 +368,7 @@ emulated_library_mean <- function(gp, th) {
   design_gp_predict(gp, th)$mean
 }
 
-# ---- what refine() reads (see library_interface.R) -----------------------------
+# ---- what refine() reads (see library.R) -----------------------------
 
 #' @exportS3Method
 lib_predicted.emulated_library <- function(library) rep(TRUE, lib_n_runs(library))
@@ -382,7 +382,7 @@ lib_noise_var.emulated_library <- function(library) {
 }
 
 # The shared kappa stays what the library found for these data (see
-# emulation_error.R): only the noise scale is restated.
+# emulation.R): only the noise scale is restated.
 #' @exportS3Method
 lib_with_noise_var.emulated_library <- function(library, noise_var, y_field) {
   kappa <- library$noise$kappa
@@ -413,7 +413,7 @@ lib_design_emulator.emulated_library <- function(library) library$emulator
 
 # ---- an emulated library's own plug-in ----------------------------------------------
 
-# The shared kappa of an emulated library's runs (see the top of emulation_error.R):
+# The shared kappa of an emulated library's runs (see the top of emulation.R):
 # the mean of kappa_i under the posterior over runs `p`.
 emulated_kappa <- function(library, p) {
   sum(p * library$rel_var) / sum(p)

@@ -249,7 +249,7 @@ print.hdf5_library <- function(x, ...) {
   invisible(x)
 }
 
-# ---- the library interface, HDF5 (see library_interface.R) -----------------
+# ---- the library interface, HDF5 (see library.R) -----------------
 
 # Runs first..last of the outputs, one read.
 h5_piece <- function(library, first, last) {

@@ -218,7 +218,7 @@ print.disk_library <- function(x, ...) {
   invisible(x)
 }
 
-# ---- the library interface, chunks on disk (see library_interface.R) -------
+# ---- the library interface, chunks on disk (see library.R) -------
 
 # One chunk file, checked against the manifest.
 rds_piece <- function(library, k) {

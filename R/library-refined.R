@@ -1,6 +1,6 @@
 # A refined library: a library (any backend) plus runs that refine() added
 # where the posterior has its mass, round by round. It is an ordinary library
-# (the interface of library_interface.R), so calibrate(), posterior_exact(),
+# (the interface of library.R), so calibrate(), posterior_exact(),
 # predict() and refine() itself take it like any other, and saveRDS() keeps
 # it.
 #
@@ -13,7 +13,7 @@
 #   density is a sum of uniform densities: N0 / vol(B0) over the base
 #   library's box B0, plus n_r / vol(B_r) over each round's box B_r (or, in
 #   four or more parameters, n_r times the density of the round's proposal,
-#   a defensive uniform plus a t mixture: refine_proposal.R). Each run
+#   a defensive uniform plus a t mixture: refine-proposal.R). Each run
 #   is weighed by prior density / design density (the balance heuristic of
 #   multiple importance sampling), which keeps the prior uniform over B0.
 # * Emulation error. Runs predicted by an emulator rather than simulated
@@ -298,7 +298,7 @@ lib_log_prior.refined_library <- function(library) {
 
 # The design density of a refined library at the rows of `theta`: the base
 # library's runs spread evenly over its box, plus each round's runs over its
-# box, or by its proposal's density (refine_proposal.R, four or more
+# box, or by its proposal's density (refine-proposal.R, four or more
 # parameters). Constant columns take no part in the volumes.
 design_density <- function(library, theta) {
   theta <- as.matrix(theta)

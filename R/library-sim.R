@@ -71,7 +71,7 @@ print.sim_library <- function(x, ...) {
   invisible(x)
 }
 
-# ---- the library interface, in memory (see library_interface.R) -----------
+# ---- the library interface, in memory (see library.R) -----------
 
 #' @exportS3Method
 lib_outputs.sim_library <- function(library, rows = NULL) {

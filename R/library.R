@@ -1,5 +1,5 @@
 # The library interface. Code outside the library files (library_*.R,
-# sim_library.R) reads a library only through these functions, never through
+# library-sim.R) reads a library only through these functions, never through
 # its fields, so that a backend -- in memory, an HDF5 file, an old directory
 # of .rds chunks -- is a set of methods. Every backend holds theta, x and t in
 # memory (N x p, small) as the list elements `theta`, `x` and `t`; the outputs
@@ -40,7 +40,7 @@ lib_outputs <- function(library, rows = NULL) UseMethod("lib_outputs")
 
 # The quadratic forms C (runs x correlation grid points) of `y_field` under
 # every grid point of `setup`; see correlation_setup() and misfit_table() in
-# grid_posterior.R. A matrix, or, for a backend that finds more beside it
+# engine.R. A matrix, or, for a backend that finds more beside it
 # (extra log-determinants, an emulated library's error and plug-in), a list
 # with C and those (misfit_parts()): never attributes on C.
 lib_quad_forms <- function(library, y_field, setup) UseMethod("lib_quad_forms")
@@ -159,7 +159,7 @@ check_library_parts <- function(library, n_runs, n_out, what,
 
 # ---- what refine() reads of a library ---------------------------------------
 #
-# refine() adds runs round by round (a refined library, library_refined.R),
+# refine() adds runs round by round (a refined library, library-refined.R),
 # predicts them from the library when it has no simulator, and replaces
 # predicted runs with simulated ones when it has. It reads a library only
 # through these functions.
@@ -249,8 +249,8 @@ runs_piece <- function(theta, y, x, t) {
 # ---- the emulation-error contract --------------------------------------------
 #
 # refine() without a simulator predicts its runs; the emulators and their
-# error model live in library_emulator*.R, library_emulated.R and (the
-# error model) emulation_error.R. refine() reaches them only through these
+# error model live in library_emulator*.R, library-emulated.R and (the
+# error model) emulation.R. refine() reaches them only through these
 # two functions:
 #
 # * lib_emulator(library, region): an emulator of the library's runs over

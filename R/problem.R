@@ -65,7 +65,7 @@ new_griddy_problem <- function(library, y_field, prior, log_prior_run, setup,
     griddy_abort("A library run reproduces the field data exactly, so with ",
                  "`prior$rate` = 0 its posterior weight is infinite. Use a positive rate.")
   }
-  # an emulated library's noise plug-in for these data (emulation_error.R),
+  # an emulated library's noise plug-in for these data (emulation.R),
   # kept with it so that what reads its error later agrees with C
   library <- lib_with_plug_in(library, misfit$plug_in)
   structure(
@@ -119,7 +119,7 @@ setup_grid_table <- function(library, setup) {
 # ---- the noise pattern ----------------------------------------------------------
 
 # What the likelihood needs to know about the field beyond its values (see
-# grid_posterior.R): which library outputs are observed, the relative sd of
+# engine.R): which library outputs are observed, the relative sd of
 # their values (`sd_mean`, NULL when neither sd nor replicates are given) and
 # of one measurement (`sd`, for predict()), the noise group of each library
 # output (`group`, indices into `labels`), with the prior that folds the

@@ -1,6 +1,6 @@
 # Where refine()'s new runs go: the box of a round around the posterior,
 # a Latin hypercube in it (or, in four or more parameters, a proposal fitted
-# to the posterior: refine_proposal.R), and which predicted runs a
+# to the posterior: refine-proposal.R), and which predicted runs a
 # simulator replaces.
 
 # The new runs of a round of n: list(theta, round = the round's design as

@@ -1,4 +1,4 @@
-# The "gp" library emulator (see library_emulator.R): a parallel partial
+# The "gp" library emulator (see refine-emulator.R): a parallel partial
 # Gaussian process (RobustGaSP::ppgasp(), Gu & Berger 2016) from theta to all
 # outputs at once, one set of range parameters shared by the outputs and a
 # variance and mean for each. Fitted on at most `max_runs` runs nearest to the

@@ -1,4 +1,4 @@
-# The "grid" library emulator (see library_emulator.R): on a full-factorial
+# The "grid" library emulator (see refine-emulator.R): on a full-factorial
 # library, tensor-product piecewise-cubic interpolation. Along each axis a
 # point is interpolated by the Lagrange polynomial through the 4 nodes around
 # it (the 2 below and the 2 above), fewer at the ends of the axis (3, or 2

@@ -1,4 +1,4 @@
-# The "local" library emulator (see library_emulator.R), which needs no other
+# The "local" library emulator (see refine-emulator.R), which needs no other
 # package: at each new point, a weighted least-squares quadratic in theta
 # (linear, or a weighted mean, when too few runs) fitted to the k nearest
 # runs, its value at the point the prediction. Tricube weights on the

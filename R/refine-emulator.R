@@ -3,11 +3,11 @@
 # can refine its grid of theta without calling the simulator. Three methods,
 # one file each:
 #   "grid"   tensor-product cubic interpolation on a full-factorial library
-#            (library_emulator-grid.R);
+#            (refine-emulator-grid.R);
 #   "gp"     a parallel partial Gaussian process, RobustGaSP::ppgasp(), on at
-#            most `max_runs` runs near the region (library_emulator-gp.R);
+#            most `max_runs` runs near the region (refine-emulator-gp.R);
 #   "local"  local quadratic least squares on the nearest runs, needing no
-#            other package (library_emulator-local.R).
+#            other package (refine-emulator-local.R).
 # "auto" takes "grid" for a full factorial, else "gp" when RobustGaSP is
 # installed, else "local": the order bench/emulator-accuracy.R measured
 # (bench/results/emulator-accuracy.md). For a dense library "auto" first
@@ -27,9 +27,9 @@
 #
 # Distances: theta is scaled by the whole library's range per column,
 # u = (theta - lower) / range, so that a region and its runs are measured
-# alike whatever part of the library they cover (nearest_runs.R).
+# alike whatever part of the library they cover (refine-nearest.R).
 
-# library: any library backend (read through library_interface.R only).
+# library: any library backend (read through library.R only).
 # region: NULL (the library's whole range) or two rows, lower and upper bounds
 #   per parameter (a data.frame or matrix, columns named as the library's or
 #   in its order); it is cut to the library's range. Predictions are asked

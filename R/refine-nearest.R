@@ -1,5 +1,5 @@
 # Nearest runs in scaled parameter space, for the library emulator
-# (library_emulator.R): which runs to read for a region, the k nearest runs to
+# (refine-emulator.R): which runs to read for a region, the k nearest runs to
 # a point, and the runs' typical spacing. Brute force in blocks: the emulator
 # searches among at most a region's runs, and no package for k-d trees is a
 # dependency.

@@ -1,5 +1,5 @@
 # refine()'s runs without a simulator: predicted from the library through
-# the emulation-error contract of library_interface.R (lib_emulator(),
+# the emulation-error contract of library.R (lib_emulator(),
 # lib_predict()).
 
 # The emulator of a round: built from the library's simulated runs over a

@@ -7,7 +7,7 @@
 #
 # The table has one row per round, written before the round's first run:
 # its kind ("add": a Latin hypercube in the box lower_*, upper_*; "propose":
-# draws from a proposal (four or more parameters, refine_proposal.R), whose
+# draws from a proposal (four or more parameters, refine-proposal.R), whose
 # components are rows of `<file>.proposals.csv`; "replace": predicted runs
 # simulated at their theta) and `n`, the runs of it in the
 # file, updated after each append. The runs in the file are in round order;

@@ -1,5 +1,5 @@
 # Is a scattered library in four or more parameters resolved? The
-# per-parameter test of library_resolution.R (10 effective values per
+# per-parameter test of resolution.R (10 effective values per
 # marginal) counts runs, not values, when every run has its own value of
 # every parameter: 11 effective runs gave 11 parameters 10 effective values
 # each (issue 24, Al-5083). From four parameters (proposal_min_parameters,

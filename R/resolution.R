@@ -18,7 +18,7 @@ effective_count <- function(p) 1 / sum(p^2)
 # ~ 2 sqrt(pi) s / h ~ 3.5 s / h. Ten of them means h <~ s / 3, and a
 # quantile of the discrete marginal (a grid value) then lies within one step,
 # about a third of an sd, of the continuous one (in practice within little
-# more than half a step; test-library_resolution.R checks this on grids of
+# more than half a step; test-resolution.R checks this on grids of
 # several steps).
 resolution_min_values <- 10
 
@@ -63,7 +63,7 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
   rownames(out) <- NULL
   # from four parameters, or in a library grown by refine()'s proposals
   # (`scattered`), the posterior over runs as an importance sample
-  # (resolution_runs.R): a parameter is limited while it is not resolved
+  # (resolution-runs.R): a parameter is limited while it is not resolved
   runs <- run_resolution(p, sum(!out$constant), scattered)
   out$effective_runs <- runs$effective_runs
   out$pareto_k <- runs$pareto_k

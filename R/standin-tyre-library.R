@@ -1,4 +1,4 @@
-# A library of the tyre stand-in (tyre_model.R) over a Latin hypercube of
+# A library of the tyre stand-in (standin-tyre.R) over a Latin hypercube of
 # its two parameters.
 
 #' A library of tyre-rig runs over a Latin hypercube of (k, c)

@@ -50,7 +50,7 @@ stream_posterior <- function(stream, joint = TRUE) {
 }
 
 # The exact margins, kept until the next update, and the resolution table
-# of the runs' posterior (library_resolution.R).
+# of the runs' posterior (resolution.R).
 stream_margins <- function(stream) {
   state <- stream$state
   if (is.null(state$cache$margins)) {

@@ -12,8 +12,8 @@
 # many-parameters.R's library, shared by the trials). For each trial the
 # ladder stops at the first N whose fit is resolved by griddy's own test
 # (resolution_limited(): from four parameters max(100, 20 p) effective runs
-# and a Pareto k-hat below its threshold, R/resolution_runs.R; below four, 10
-# effective values per parameter, R/library_resolution.R) and has at least
+# and a Pareto k-hat below its threshold, R/resolution-runs.R; below four, 10
+# effective values per parameter, R/resolution.R) and has at least
 # max(100, 20 p) effective runs (at p >= 4 implied by the first; at p = 2, 3
 # the ladder goes on past the weaker test so that the run target can be
 # compared at every p), or at 128,000 (512,000 at p = 2, where the measured

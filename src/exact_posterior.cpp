@@ -1,4 +1,4 @@
-// The exact posterior over (run, grid point) of R/grid_posterior.R in a few
+// The exact posterior over (run, grid point) of R/engine.R in a few
 // passes over C, without the runs x grid points temporaries of the R
 // expression (each as large as C: 8 GB at 10^6 runs x 1,000 grid points):
 // the posterior over runs and over grid points, the log normalising constant

@@ -1,6 +1,6 @@
 // The grid posterior in C++: the log weights of (run, grid point) that the
 // sampler draws from, and the AR(1) whitening that defines a grid point's R_t.
-// Mirrors R/grid_posterior.R, which owns the same quantities in R; each
+// Mirrors R/engine.R, which owns the same quantities in R; each
 // quantity is computed in one of the two places, never both. The log mass
 // of the data (the log evidence less its constant) is summed in one place,
 // CollapsedJoint::weigh(), for the exact posterior (src/exact_posterior.cpp)

@@ -1,4 +1,4 @@
-// The runs' products of diagnose_gap()'s "other" model (R/diagnose_gap-other.R,
+// The runs' products of diagnose_gap()'s "other" model (R/gap-other.R,
 // kronecker_products()): for every run j, with its residual E_j = y - Y_j as
 // an n_t x n_x matrix (column k the residuals at x setting k), and for every
 // term m (a kernel at a grid point),

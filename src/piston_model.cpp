@@ -2,7 +2,7 @@
 // solved once per operating condition, then a small dense solve per set of
 // the three unknown heat-transfer coefficients.
 //
-// The R side (R/piston_model.R) builds the geometry, the conductances and the
+// The R side (R/standin-piston.R) builds the geometry, the conductances and the
 // boundary faces and validates everything; the functions here trust their
 // inputs.
 

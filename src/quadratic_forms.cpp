@@ -19,7 +19,7 @@
 //   partial sums do not cancel: 2 to 10 times the rounding error when
 //   cond(R_x) is 1e10.)
 // Against the exact forms of the rounded inputs, at cond(R_x) = 2e10
-// (test-grid_posterior.R), |e' L|^2 is off by 1.8e-10 at worst where the
+// (test-engine.R), |e' L|^2 is off by 1.8e-10 at worst where the
 // full trace is off by 8.7e-10, and whole columns of W'W by what the full
 // trace is (1.2e-10).
 //

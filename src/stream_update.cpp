@@ -1,4 +1,4 @@
-// The streaming calibration's hot loops (R/griddy_stream-update.R): one new
+// The streaming calibration's hot loops (R/stream-update.R): one new
 // measurement adds one term to every run's quadratic form at every grid
 // point, in place, in one pass over the runs. The log evidence is not here:
 // it is the exact posterior's log mass (log_mass_cpp(), the one pruned sum of

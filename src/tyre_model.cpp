@@ -3,7 +3,7 @@
 // height; Fiala or PAC2002-style vertical force; point-follower, rigid-disc or
 // rectangular-patch (uniform pressure) contact.
 //
-// All inputs are SI and validated on the R side (R/tyre_model.R).
+// All inputs are SI and validated on the R side (R/standin-tyre.R).
 
 #include <RcppArmadillo.h>
 #include <cmath>

@@ -1,5 +1,5 @@
 // The smallest and largest value of a library column in one read, for the
-// resolution check (R/library_resolution.R): R's range() reads the column
+// resolution check (R/resolution.R): R's range() reads the column
 // twice and checks every value for NA, which made it most of the check on
 // 10^6 runs. The columns are finite (validated when the library is built).
 #include <Rcpp.h>

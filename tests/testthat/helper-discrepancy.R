@@ -38,7 +38,7 @@ bump_fit <- function(sys, ...) {
 # loads l = 1, 2, 3 and n_t outputs; field data at `truth` plus
 # `bump * gap(l, t)` plus noise of sd `sd`, with `reps` replicated
 # experiments. Used by test-discrepancy.R (a sin-shaped gap, truth on a run)
-# and test-discrepancy_evidence.R (a gap growing with load and t, truth
+# and test-discrepancy-evidence.R (a gap growing with load and t, truth
 # between the runs).
 load_decay_system <- function(gap, bump, n_grid, n_t, truth, sd = 0.05, seed = 3, reps = 1) {
   grid <- expand.grid(a = seq(1, 2, length.out = n_grid), b = seq(0, 1, length.out = n_grid))

@@ -1,4 +1,4 @@
-# delta's conditional law (discrepancy_law.R) and its two readers:
+# delta's conditional law (discrepancy-law.R) and its two readers:
 # discrepancy_posterior()'s moments (fit draws, tau drawn) and diagnose_gap()'s
 # discrepancy_where() (exact pairs, tau integrated out).
 

@@ -24,7 +24,7 @@ test_that("refine() without a simulator says so when the library cannot predict 
   set.seed(3)
   field <- field_data(sharp(data.frame(k = 2.71)) + rnorm(40, sd = 0.01), t = lib$t)
   fit <- suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
-  # (its misfit shows as a gap too: test-gap_screen.R)
+  # (its misfit shows as a gap too: test-gap-screen.R)
   expect_warning(refined <- suppressWarnings(refine(fit, max_runs = 600, seed = 1),
                                              classes = "griddy_warning_gap"),
                  "times the noise", class = "griddy_warning_emulation")
