@@ -78,7 +78,7 @@ test_that("an orthogonal discrepancy with knowledge projects the conditioned pro
   expect_true(known$orthogonal)
   expect_false(gp_discrepancy(zero_at = data.frame(load = 1, t = 0))$orthogonal)
   expect_true(gp_discrepancy()$orthogonal)
-  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+  problem <- local_problem(toy$library, toy$field,
                                  discrepancy = known)
   kernels <- attr(problem$setup$discrepancy, "kernels")
   G <- attr(kernels, "sensitivity")

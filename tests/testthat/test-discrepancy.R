@@ -50,8 +50,8 @@ brute_force_point <- function(problem, run, g) {
 
 test_that("the misfit table with a discrepancy is the dense algebra's", {
   toy <- gap_toy(bump = 0.1)
-  problem <- calibration_problem(toy$library, toy$field, rho_x = 0, rho_t = c(0, 0.5), NULL,
-                                 2, NULL, discrepancy = gp_discrepancy(ratio = c(0, 0.5, 20),
+  problem <- local_problem(toy$library, toy$field, rho_t = c(0, 0.5),
+                                 discrepancy = gp_discrepancy(ratio = c(0, 0.5, 20),
                                                                        length_x = c(0.3, 1),
                                                                        length_t = 0.2))
   expect_equal(ncol(problem$C), 2 * (1 + 2 * 2))
@@ -70,7 +70,7 @@ test_that("with replicates and missing cells, the dense algebra still holds", {
   y <- toy$field$y
   y[2, 3] <- NA
   field <- field_data(y, x = toy$field$x, t = toy$field$t)
-  problem <- calibration_problem(toy$library, field, 0, 0, NULL, 2, NULL,
+  problem <- local_problem(toy$library, field,
                                  discrepancy = gp_discrepancy(ratio = c(0, 3), length_x = 0.5,
                                                               length_t = 0.5))
   for (g in 1:2) {
@@ -105,7 +105,7 @@ test_that("the grid table and the draws carry the discrepancy's columns", {
 test_that("noise groups: the discrepancy acts within each group", {
   toy <- gap_toy(bump = 0.1)
   groups <- rep(c("early", "late"), each = 5)
-  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+  problem <- local_problem(toy$library, toy$field,
                                  noise_groups = groups,
                                  discrepancy = gp_discrepancy(ratio = c(0, 2), length_x = 1,
                                                               length_t = 1))
@@ -165,7 +165,7 @@ test_that("refine() keeps the discrepancy in every round", {
 
 test_that("an orthogonal discrepancy cannot imitate a change of theta", {
   toy <- gap_toy(bump = 0.1)
-  problem <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+  problem <- local_problem(toy$library, toy$field,
                                  discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
                                                               length_t = 0.5))
   kernels <- attr(problem$setup$discrepancy, "kernels")
@@ -177,7 +177,7 @@ test_that("an orthogonal discrepancy cannot imitate a change of theta", {
   # the slopes are those of the outputs near the best run: a a*l*exp(-b t) library
   best <- best_fitting_run(toy$library, problem$y_field, NULL)
   expect_equal(best, which.min(rowSums(sweep(lib_outputs(toy$library), 2, problem$y_field)^2)))
-  plain <- calibration_problem(toy$library, toy$field, 0, 0, NULL, 2, NULL,
+  plain <- local_problem(toy$library, toy$field,
                                discrepancy = gp_discrepancy(ratio = c(0, 1), length_x = 1,
                                                             length_t = 0.5, orthogonal = FALSE))
   expect_null(attr(attr(plain$setup$discrepancy, "kernels"), "sensitivity"))
@@ -211,7 +211,7 @@ test_that("a scaled discrepancy (S-GaSP) has Gu and Wang's kernel, one per ratio
   field <- field_data(y, x = toy$field$x, t = toy$field$t)
   disc <- gp_discrepancy(ratio = c(0, 1, 30), length_x = 1, length_t = c(0.3, 0.6),
                          orthogonal = FALSE, scaled = TRUE)
-  problem <- calibration_problem(toy$library, field, 0, 0, NULL, 2, NULL, discrepancy = disc)
+  problem <- local_problem(toy$library, field, discrepancy = disc)
   points <- problem$setup$discrepancy
   kernels <- attr(points, "kernels")
   expect_equal(nrow(kernels), 4L)  # 2 ratios x 2 lengths: a kernel per point

@@ -202,12 +202,12 @@ test_that("replicated experiments in expobs are kept as replicates (they were re
   expect_s3_class(inputs$library, "sim_library")
   expect_equal(inputs$library$x, data.frame(h = c(10, 20)))
   expect_equal(sum(!is.na(inputs$field$y)), 9L)
-  pr <- calibration_problem(inputs$library, inputs$field, 0, 0, NULL, 2, NULL)
+  pr <- local_problem(inputs$library, inputs$field)
   expect_identical(pr$n_obs, 9L)
   # n_x = 0: every row an experiment at the one setting
   one <- read_calibration_inputs(theta, cbind(theta$k, theta$c),
                                  data.frame(a = c(2, 2.2), b = c(1, 0.9)), n_x = 0)
-  pr1 <- calibration_problem(one$library, one$field, 0, 0, NULL, 2, NULL)
+  pr1 <- local_problem(one$library, one$field)
   expect_identical(pr1$n_obs, 4L)
   expect_equal(pr1$y_field, c(2.1, 0.95))
 })

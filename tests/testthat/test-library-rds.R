@@ -8,10 +8,10 @@ test_that("an old .rds chunk directory gives the in-memory C, exact posterior an
   expect_identical(lib$rows, c(20L, 20L, 20L, 20L, 1L))
   expect_output(print(lib), "81 runs of 2 parameter\\(s\\) in 5 .rds chunk\\(s\\)")
   rho <- list(rho_x = c(0, 0.3), rho_t = c(0, 0.5))
-  mem <- calibration_problem(toy$library, toy$field, rho$rho_x, rho$rho_t,
-                             list(shape = 1e-9, rate = 1e-9), 2, NULL)
-  disk <- calibration_problem(lib, toy$field, rho$rho_x, rho$rho_t,
-                              list(shape = 1e-9, rate = 1e-9), 2, NULL)
+  mem <- local_problem(toy$library, toy$field, rho_x = rho$rho_x, rho_t = rho$rho_t,
+                       prior = list(shape = 1e-9, rate = 1e-9))
+  disk <- local_problem(lib, toy$field, rho_x = rho$rho_x, rho_t = rho$rho_t,
+                        prior = list(shape = 1e-9, rate = 1e-9))
   expect_identical(disk$C, mem$C)
   expect_identical(posterior_exact(lib, toy$field, rho$rho_x, rho$rho_t)$joint,
                    posterior_exact(toy$library, toy$field, rho$rho_x, rho$rho_t)$joint)
@@ -185,8 +185,10 @@ test_that("a chunked library gives the in-memory C with missing data, sd and noi
   y[2, 3:7] <- NA
   field <- field_data(y, x = toy$field$x, t = toy$field$t, sd = seq(1, 2, length.out = 12))
   prior <- list(shape = 1, rate = 0.1)
-  mem <- calibration_problem(toy$library, field, c(0, 0.3), c(0, 0.5), prior, 2, NULL, "x")
-  disk <- calibration_problem(lib, field, c(0, 0.3), c(0, 0.5), prior, 2, NULL, "x")
+  mem <- local_problem(toy$library, field, rho_x = c(0, 0.3), rho_t = c(0, 0.5), prior = prior,
+                       noise_groups = "x")
+  disk <- local_problem(lib, field, rho_x = c(0, 0.3), rho_t = c(0, 0.5), prior = prior,
+                        noise_groups = "x")
   expect_false(is.null(mem$setup$dense))
   expect_equal(disk$C, mem$C)
 })
