@@ -149,13 +149,13 @@ test_that("simulate_library() on a device that fills up (a small tmpfs): griddy_
   skip_on_os(c("windows", "mac"))
   dir <- withr::local_tempfile(pattern = "tmpfs-")
   dir.create(dir)
-  status <- suppressWarnings(system2("mount", c("-t", "tmpfs", "-o", "size=8m", "tmpfs", dir),
+  status <- suppressWarnings(system2("mount", c("-t", "tmpfs", "-o", "size=3m", "tmpfs", dir),
                                      stdout = FALSE, stderr = FALSE))
   skip_if(!identical(status, 0L), "cannot mount a tmpfs here (not root, or no mount)")
   on.exit(system2("umount", dir), add = TRUE)
   tt <- seq(0, 1, length.out = 50)
   sim <- function(theta) t(vapply(theta$k, function(k) sin(k * tt), numeric(50)))
-  design <- data.frame(k = seq(1, 4, length.out = 20000)) # 8 MB of outputs
+  design <- data.frame(k = seq(1, 4, length.out = 10000)) # 4 MB of outputs
   file <- file.path(dir, "lib.h5")
   expect_error(simulate_library(sim, design, file, t = tt, progress = FALSE),
                "the disk is full", class = "griddy_error_disk")
