@@ -390,7 +390,9 @@ evidence_line <- function(x) {
   if (is.null(ev)) return(character(0))
   paste0("Evidence: log Bayes factor for a discrepancy ", format(ev$log_bayes_factor, digits = 3),
          " (", evidence_words(ev$log_bayes_factor), "), at matched resolution (",
-         x$settings$runs, " runs).")
+         x$settings$runs, " runs): exact, on a library refined until the posterior is ",
+         "resolved, so it exceeds calibrate()'s screen (a lower bound from the fit's own ",
+         "runs) and may differ from a discrepancy fit on the unrefined library.")
 }
 
 gap_x_labels <- function(x) {

@@ -98,5 +98,5 @@ test_that("a gap on predicted runs worse than the noise says it may be their err
                                              classes = "griddy_warning_emulation"),
                  "part of the gap may be that error", class = "griddy_warning_gap")
   expect_gt(refined$refinement$emulation_error, emulation_error_threshold)
-  expect_gt(refined$gap_screen$log_bf, gap_log_bf_threshold)
+  expect_gt(refined$gap_screen$log_bf, gap_detect_log_odds)
 })
