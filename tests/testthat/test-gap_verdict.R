@@ -67,3 +67,13 @@ test_that("without candidates a gap needs log odds beyond 1, or the base model's
   expect_identical(v[c("answer", "prob", "reason")],
                    list(answer = "none", prob = 0.8, reason = "evidence"))
 })
+
+test_that("one rule shows a gap: log odds beyond 1, or a block flagged", {
+  expect_false(gap_shown(0.9))
+  expect_true(gap_shown(1.1))
+  expect_true(gap_shown(-3, n_flagged = 1L))   # a local gap the evidence misses
+  expect_false(gap_shown(-3, n_flagged = 0L))
+  expect_false(gap_shown(NA_real_))
+  # the screen's warning and diagnose_gap() without candidates share it
+  expect_identical(gap_found(c(none = 0.2, other = 0.8)), gap_shown(log(0.8 / 0.2)))
+})
