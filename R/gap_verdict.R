@@ -4,15 +4,28 @@
 
 # The verdict from the models' table `which_tab` (most probable first) and
 # the leave-block-out checks `where`: the most probable model that is not
-# confounded with theta, unless that is "none" while blocks are flagged, when
+# confounded with theta, if its evidence passes gap_shown()'s bar (else
+# "none"), unless that is "none" while blocks are flagged, when
 # a gap is there even if no model beats the base model in evidence (a gap too
 # local or too rough): then "other", for reason "blocks".
 gap_verdict <- function(which_tab, separation, base, where) {
   ok <- !which_tab$confounded
   answer <- which_tab$effect[ok][1]
   prob <- which_tab$prob[ok][1]
+  prob_none <- which_tab$prob[which_tab$effect == "none"]
   n_flagged <- sum(where$blocks$flagged)
-  reason <- if (answer == "none" && n_flagged > 0L) "blocks" else "evidence"
+  reason <- "evidence"
+  # a model, candidate or "other", is named only past the bar of gap_shown():
+  # log odds against the base model beyond gap_detect_log_odds (below it,
+  # "none", for reason "inconclusive", with the model that fell short)
+  short <- NULL
+  if (answer != "none" && !gap_shown(log(prob) - log(prob_none))) {
+    short <- list(effect = answer, prob = prob)
+    answer <- "none"
+    prob <- prob_none
+    reason <- "inconclusive"
+  }
+  if (answer == "none" && n_flagged > 0L) reason <- "blocks"
   if (reason == "blocks") {
     answer <- "other"
     prob <- which_tab$prob[which_tab$effect == "other"]
@@ -20,8 +33,8 @@ gap_verdict <- function(which_tab, separation, base, where) {
   conf <- which_tab$effect[which_tab$confounded]
   advice <- gap_advice(which_tab, separation, lib_x(base))
   list(answer = answer, prob = prob, reason = reason, confounded = conf,
-       advice = unname(advice), n_flagged = n_flagged,
-       prob_none = which_tab$prob[which_tab$effect == "none"])
+       advice = unname(advice), n_flagged = n_flagged, prob_none = prob_none,
+       short = short)
 }
 
 # ---- the one rule for "is there a gap" ------------------------------------------
