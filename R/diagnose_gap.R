@@ -32,7 +32,8 @@
 #' two), unless the base model fails its own leave-block-out checks (see
 #' "Where" below; one noise precision and no replicates only): a gap too
 #' local or rough for a
-#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`), and
+#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`; the same
+#' rule, on the fit's own runs, decides [calibrate()]'s gap warning), and
 #' `$where` is then those checks (`settings$where` is `"check"`, else
 #' `"discrepancy"`). At matched resolution: the base library is
 #' refined as below, then the model with the discrepancy is refined in turn
@@ -110,7 +111,11 @@
 #' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
 #' discrepancy stays smooth in output units. Model probabilities use `prior_models`
 #' (default: equal). **Decision rule:** the answer is the most probable model
-#' that is not confounded with theta; "none" means no detectable gap,
+#' that is not confounded with theta, if its posterior log odds against
+#' "none" exceed 1 (the bar "other" needs without candidates; below it the
+#' answer is "none", `verdict$reason` `"inconclusive"`, and
+#' `verdict$short` names the model that fell short and its probability);
+#' "none" means no detectable gap,
 #' "other" a gap that no candidate explains. When that model is "none" but
 #' `$where` flags blocks (the base model fails its own check), the answer is
 #' "other" too: the gap is real but too local or rough for the smooth
@@ -213,8 +218,9 @@
 #'     measure to separate them, from `separation`; where that says nothing
 #'     (one x setting, or alike at every one), a sentence per absorbing
 #'     parameter and the generic advice: outside the control settings'
-#'     ranges), `n_flagged` and `prob_none` (and `mode = "discrepancy"`
-#'     without candidates);
+#'     ranges), `n_flagged`, `prob_none` and `short` (NULL, or the model
+#'     that fell short of the evidence bar: `effect` and `prob`; and
+#'     `mode = "discrepancy"` without candidates);
 #'   * `evidence` (without candidates): the [discrepancy_evidence()] of the
 #'     fit with the discrepancy, at matched resolution.
 #'
