@@ -130,16 +130,24 @@ warn_gap_screen <- function(fit) {
 gap_screen_message <- function(screen, library = NULL, caveat = NULL) {
   log_bf <- screen$log_bf
   flagged <- if (!is.null(screen$blocks)) screen$blocks[screen$blocks$flagged, , drop = FALSE]
+  evidence <- paste0("log Bayes factor of at least ", format(log_bf, digits = 3), " (",
+                     evidence_words(log_bf), ")")
   paste0("The field data show structure the model has no term for: ",
-         "a Gaussian-process discrepancy is favoured by a log Bayes factor of at least ",
-         format(log_bf, digits = 3), " (", evidence_words(log_bf), ")",
+         if (gap_shown(log_bf)) {
+           paste0("a Gaussian-process discrepancy is favoured by a ", evidence)
+         } else {
+           paste0("the evidence for a smooth Gaussian-process discrepancy is weak (a ",
+                  evidence, ")")
+         },
          if (NROW(flagged) > 0L) {
-           paste0(", and the model's leave-block-out checks flag ", nrow(flagged), " block",
+           paste0(if (gap_shown(log_bf)) ", and" else ", but",
+                  " the model's leave-block-out checks flag ", nrow(flagged), " block",
                   if (nrow(flagged) > 1L) "s", " (", flagged_blocks_text(flagged, library),
                   ") as a local misfit")
          },
-         ". Until the gap is modelled, ", gap_theta_sentence, ", and its intervals may be ",
-         "narrow and off. It is a gap between the simulator and reality, or noise correlated ",
+         "; ", gap_theta_sentence, " (the value that brings the simulator closest to data ",
+         "it cannot match), and until the gap is modelled its intervals may be narrow and ",
+         "off. It is a gap between the simulator and reality, or noise correlated ",
          "over x or t (try the `rho_x` and `rho_t` grids). Fit it with ",
          "`discrepancy = gp_discrepancy()`, or look for its cause with diagnose_gap(). ",
          screen_number_note(),
@@ -148,10 +156,9 @@ gap_screen_message <- function(screen, library = NULL, caveat = NULL) {
 
 # Why the screen's factor is smaller than the others griddy reports.
 screen_number_note <- function() {
-  paste0("(The factor is a lower bound from the runs that carry the posterior; a fit with ",
-         "`discrepancy = gp_discrepancy()` and diagnose_gap() compute it exactly over all ",
-         "runs and their own ratio grid, diagnose_gap() on a refined library, so they report ",
-         "more.)")
+  paste0("(The factor is a lower bound from the runs that carry the posterior: a fit with ",
+         "`discrepancy = gp_discrepancy()` computes it exactly over all runs, so reports at ",
+         "least as much, and diagnose_gap() on a refined library.)")
 }
 
 # Flagged blocks `flagged` (gap_where()'s rows) as "x = ..., t a-b", at most

@@ -76,8 +76,7 @@ gap_found <- function(prob) gap_shown(log(prob[["other"]]) - log(prob[["none"]])
 # What every gap warning says theta then is (a fit without a discrepancy has
 # bent theta to absorb the gap; one with a discrepancy estimates the value
 # its discrepancy's prior defines).
-gap_theta_sentence <- paste0("theta is then a best-fitting value, not the physical one: ",
-                             "what brings the simulator closest to the data given the gap")
+gap_theta_sentence <- "theta is then a best-fitting value, not the physical one"
 
 # The verdict without candidates (gap_without_candidates()): gap_verdict()'s,
 # marked mode "discrepancy", then, unless the evidence finds a gap (`found`),
