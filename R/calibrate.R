@@ -100,7 +100,7 @@
 #' is screened for one: a lower bound on the log Bayes factor for a
 #' [gp_discrepancy()] (from the runs that carry the posterior) and, with one
 #' noise precision and no replicates, the leave-block-out checks of
-#' [diagnose_gap()] (one x setting times one window of t, at FDR 5%), which
+#' [diagnose_gap()] (one x setting times one window of t, at FDR 2.5%), which
 #' see a gap too local for a smooth discrepancy. The fit warns (class
 #' `griddy_warning_gap`) by the rule [diagnose_gap()] decides "other" with:
 #' a log Bayes factor above 1 (or a discrepancy fit's own above 1), or a

@@ -165,7 +165,9 @@
 #'   fitted correlation length long (at most 8 per setting); a single whole
 #'   number gives that many equal windows; a vector of more than one value
 #'   gives the window breaks in units of t.
-#' @param fdr False discovery rate for flagging blocks.
+#' @param fdr False discovery rate for flagging blocks. The default, 0.025,
+#'   is half the 5% false-alarm budget on data without a gap (the evidence
+#'   rule takes the rest); [calibrate()]'s gap screen uses it too.
 #' @param prior_models Prior probabilities of the models, a named vector over
 #'   `"none"`, the candidate names and `"other"`; `NULL` is equal.
 #' @param other_scales Length-scales (on coordinates scaled to \[0, 1]) of the
@@ -248,7 +250,7 @@
 #' # without candidates: is there a gap at all, and where?
 #' diagnose_gap(fit, discrepancy = gp_discrepancy(ratio = c(0, 1, 10, 100)), seed = 1)
 #' @export
-diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
+diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
                          prior_models = NULL, other_scales = c(0.03, 0.1, 0.3),
                          confounding_threshold = 0.05, max_runs = control$max_runs,
                          seed = NULL, progress = control$progress,

@@ -97,3 +97,7 @@ test_that("a candidate is named only past the bar 'other' needs", {
     blocks_flagged(FALSE)), which = tab[0, ], shrinkage = empty_shrinkage())),
     "the evidence for 'quadratic' is inconclusive (P(quadratic) = 63.0%", fixed = TRUE)
 })
+
+test_that("calibrate()'s screen and diagnose_gap() flag blocks at the same level", {
+  expect_identical(formals(diagnose_gap)$fdr, gap_block_fdr)
+})
