@@ -12,7 +12,7 @@
 # griddy_warning_gap), the old rule's (screen bound > log 20, from the same
 # screen) and diagnose_gap(fit)'s verdict "other".
 #
-# Run from the package root: Rscript bench/gap-signal.R [trials]
+# Run from the package root: Rscript bench/gap-signal.R [trials [levels]]
 # (~5 s per trial here, ~6 min in all). Results: bench/results/gap-signal.csv.
 pkgload::load_all(".", quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
@@ -84,3 +84,36 @@ tab <- do.call(rbind, lapply(split(out, out$size), function(d) {
              resolution_warned = sum(d$resolution_warned))
 }))
 print(tab, row.names = FALSE)
+
+# The block checks' level (gap_block_fdr): calibrate() only, more seeds (90
+# without a gap, 30 at 3 sds, 45 at 5 sds), each trial's screen bound and
+# smallest Benjamini-Hochberg adjusted p-value, so that the warning's rate
+# can be read at any level. Rscript bench/gap-signal.R 15 levels (~2 min);
+# results in bench/results/gap-signal-levels.csv.
+if (length(args) >= 2L && args[2] == "levels") {
+  lv <- list()
+  for (size in c(0, 3, 5)) {
+    seeds <- switch(as.character(size), "0" = c(1:45, 101:145), "3" = 3001:3030,
+                    "5" = 5001:5045)
+    for (seed in seeds) {
+      set.seed(seed)
+      ka <- stats::runif(1, 1.4, 1.6)
+      ke <- stats::runif(1, 0.1925, 0.2075)
+      y <- matrix(conc(ka, ke), 3, length(times), byrow = TRUE)
+      y[2, ] <- y[2, ] + size * noise_sd * exp(-0.5 * ((times - 6) / 0.5)^2)
+      y <- y + stats::rnorm(length(y), sd = noise_sd)
+      fit <- suppressWarnings(calibrate(library_pk, field_data(y, x = doses, t = times),
+                                        n_iter = 1000, burn_in = 200, seed = seed))
+      b <- fit$gap_screen$blocks
+      lv[[length(lv) + 1L]] <- data.frame(size = size, seed = seed,
+                                          bound = fit$gap_screen$log_bf,
+                                          min_adj = min(stats::p.adjust(b$p_value, "BH")))
+    }
+  }
+  lv <- do.call(rbind, lv)
+  utils::write.csv(lv, "bench/results/gap-signal-levels.csv", row.names = FALSE)
+  for (q in c(0.05, 0.025, 0.01)) {
+    rate <- tapply(lv$bound > gap_detect_log_odds | lv$min_adj <= q, lv$size, mean)
+    cat("block level", q, ": warned share by size", names(rate), ":", round(rate, 3), "\n")
+  }
+}
