@@ -96,6 +96,18 @@
 #' then the value that best fits the data with a discrepancy, not
 #' necessarily the physical one (see [gp_discrepancy()]).
 #'
+#' **Gap screen.** A fit without a discrepancy (at most 400 measured cells)
+#' is screened for one: a lower bound on the log Bayes factor for a
+#' [gp_discrepancy()] (from the runs that carry the posterior) and, with one
+#' noise precision and no replicates, the leave-block-out checks of
+#' [diagnose_gap()] (one x setting times one window of t, at FDR 2.5%), which
+#' see a gap too local for a smooth discrepancy. The fit warns (class
+#' `griddy_warning_gap`) by the rule [diagnose_gap()] decides "other" with:
+#' a log Bayes factor above 1 (or a discrepancy fit's own above 1), or a
+#' flagged block; not while the library's resolution limits the fit. Every
+#' gap warning says that \eqn{\theta} is then a best-fitting value, not the
+#' physical one. `fit$gap_screen` holds `log_bf`, `blocks` and `n_flagged`.
+#'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.
 #'

@@ -102,10 +102,6 @@ evidence_words <- function(log_bf) {
   words[findInterval(log_bf, breaks)]
 }
 
-# The log Bayes factor above which calibrate() and summary() say the data
-# show a gap: "strong" on Kass and Raftery's scale (a factor of 20).
-gap_log_bf_threshold <- log(20)
-
 # calibrate()'s warning when its discrepancy shows a gap (nothing when the
 # fit has no discrepancy to weigh), with where the gap lies: the settings
 # and outputs where the posterior of delta is clear of 0
@@ -114,7 +110,9 @@ gap_log_bf_threshold <- log(20)
 warn_gap <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(invisible(NULL))
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
-  if (is.null(ev) || !(ev$log_bayes_factor > gap_log_bf_threshold)) return(invisible(NULL))
+  # the one rule of gap_verdict.R (under the fit's prior on no discrepancy,
+  # the log Bayes factor stands for the log odds)
+  if (is.null(ev) || !gap_shown(ev$log_bayes_factor)) return(invisible(NULL))
   griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit),
                           resolution_caveat(fit)), class = "gap")
 }
@@ -132,8 +130,8 @@ gap_message <- function(log_bf, where = NULL, caveat = NULL) {
          "factor for a discrepancy is ", format(log_bf, digits = 3), " (",
          evidence_words(log_bf), "). ",
          if (!is.null(where)) paste0(where, " "),
-         "theta is then the value that best fits the data ",
-         "with a discrepancy, not necessarily the physical one. See where the gap lies with ",
+         "With the discrepancy, ", gap_theta_sentence, " (its meaning set by the ",
+         "discrepancy's prior). See where the gap lies with ",
          "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().",
          if (!is.null(caveat)) paste0(" ", caveat))
 }

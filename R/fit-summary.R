@@ -110,24 +110,25 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
             info = fit_description(object), discrepancy = fit_discrepancy_evidence(object),
-            gap_screen = if (screen_shows_gap(object)) object$gap_screen)
+            gap_screen = if (screen_shows_gap(object)) object$gap_screen,
+            library_x = lib_x(object$library))
 }
 
 # The discrepancy evidence of a fit with one to weigh, else NULL.
 fit_discrepancy_evidence <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(NULL)
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
-  if (!is.null(ev) && ev$log_bayes_factor > gap_log_bf_threshold) {
+  if (!is.null(ev) && gap_shown(ev$log_bayes_factor)) {
     ev$where <- discrepancy_where_text(fit)
   }
   ev
 }
 
 # summary()'s line on the gap screen of a fit without a discrepancy, when it
-# found a gap (screen_shows_gap()).
-format_gap_screen <- function(screen) {
-  if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(character())
-  paste("Gap:", gap_screen_message(screen$log_bf))
+# found a gap (screen_shows_gap(), the warning's rule and words).
+format_gap_screen <- function(screen, library = NULL) {
+  if (is.null(screen) || !gap_shown(screen$log_bf, screen$n_flagged)) return(character())
+  paste("Gap:", gap_screen_message(screen, library))
 }
 
 # summary()'s line on the discrepancy: the Bayes factor and, when it shows a
@@ -137,9 +138,9 @@ format_discrepancy <- function(ev) {
   paste0("Discrepancy: log Bayes factor ", format(ev$log_bayes_factor, digits = 3), " (",
          evidence_words(ev$log_bayes_factor), "); posterior probability of none ",
          format(ev$prob_none, digits = 3), ".",
-         if (ev$log_bayes_factor > gap_log_bf_threshold) {
-           paste0(" The data show a gap: theta is the value that best fits them with a ",
-                  "discrepancy, not necessarily the physical one. ", ev$where)
+         if (gap_shown(ev$log_bayes_factor)) {
+           paste0(" The data show a gap: with the discrepancy, ", gap_theta_sentence, ". ",
+                  ev$where)
          })
 }
 
@@ -219,7 +220,8 @@ print.griddy_summary <- function(x, digits = 4, width = getOption("width"), ...)
   adequacy <- attr(x, "adequacy")
   if (!is.null(adequacy)) cat_wrapped(format_adequacy(adequacy), width)
   cat_wrapped(format_discrepancy(attr(x, "discrepancy")), width)
-  cat_wrapped(format_gap_screen(attr(x, "gap_screen")), width)
+  cat_wrapped(format_gap_screen(attr(x, "gap_screen"), list(x = attr(x, "library_x"))),
+              width)
   if (!is.null(x$rhat) && !is.null(adequacy$tv_reference)) {
     problems <- convergence_problems(stats::setNames(x$rhat, x$parameter),
                                      adequacy$tv_distance, adequacy$tv_reference)

@@ -40,13 +40,9 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   rownames(which_tab) <- NULL
   found <- gap_found(prob)
   step("where the discrepancy lies")
-  # the base model's own leave-block-out checks (diagnose_gap-where.R, one
-  # noise precision): a gap too local or rough for a smooth discrepancy
-  # (one noise precision, no replicates: with them the checks of predicted
-  # runs flag blocks in data without a gap, so the evidence alone answers)
-  check <- if (length(matched$setup$group_sizes) == 1L && !has_replicates(fit)) {
-    base_check(matched, windows, fdr)
-  }
+  # the base model's own leave-block-out checks (diagnose_gap-where.R): a
+  # gap too local or rough for a smooth discrepancy (gap_shown())
+  check <- if (block_check_applies(fit)) base_check(matched, windows, fdr)
   win <- if (!is.null(check)) check$breaks else windows
   where <- discrepancy_where(problem, exact, win, fdr, found)
   if (!found && !is.null(check) && any(check$blocks$flagged)) {
@@ -62,12 +58,24 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
             class = "gap_diagnosis")
 }
 
-# gap_where() of a refined base problem: its leave-block-out checks.
-base_check <- function(matched, windows, fdr) {
+# gap_where() of a base problem (diagnose_gap()'s refined one, or a fit in
+# the gap screen): its leave-block-out checks, over its runs `runs` (all by
+# default; the screen passes those that carry the posterior, as gap_where()
+# reads no others).
+base_check <- function(matched, windows, fdr, runs = NULL) {
   ctx <- gap_context(matched)
-  terms <- matched_terms(ctx, lib_outputs(matched$library), matched$log_prior_run, matched$C,
-                         matched$library)
+  if (is.null(runs)) runs <- seq_len(lib_n_runs(matched$library))
+  terms <- matched_terms(ctx, lib_outputs(matched$library, runs), matched$log_prior_run[runs],
+                         matched$C[runs, , drop = FALSE], matched$library)
+  terms$rows <- runs
   gap_where(ctx, terms, windows, fdr)
+}
+
+# Whether the base model's block checks answer for a fit: one noise
+# precision and no replicates (with them the checks of predicted runs flag
+# blocks in data without a gap, so the evidence alone answers).
+block_check_applies <- function(fit) {
+  length(fit$setup$group_sizes) == 1L && !has_replicates(fit)
 }
 
 empty_shrinkage <- function() {

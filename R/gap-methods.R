@@ -67,14 +67,20 @@ prob_phrase <- function(p, what = "P") {
   paste0(what, ifelse(grepl("^[<>]", s), " ", " = "), s)
 }
 
+# The probability of the model that fell short of the evidence bar (an
+# older verdict without `short`: "other", 1 - P(none)).
+short_phrase <- function(v) {
+  if (is.null(v$short)) return(prob_phrase(1 - v$prob_none, "P(other)"))
+  prob_phrase(v$short$prob, paste0("P(", v$short$effect, ")"))
+}
+
 # The verdict in a few words: a gap flagged by blocks but beaten in evidence
 # by no model is named as such (its "other" probability, often tiny, says
 # nothing about it).
 verdict_label <- function(v) {
   switch(v$answer,
          none = if (identical(v$reason, "inconclusive")) {
-           paste0("no detectable gap (inconclusive evidence, ",
-                  prob_phrase(1 - v$prob_none, "P(other)"), ")")
+           paste0("no detectable gap (inconclusive evidence, ", short_phrase(v), ")")
          } else paste0("no gap (", prob_phrase(v$prob), ")"),
          other = if (identical(v$reason, "blocks")) {
            if (without_candidates(v)) "a local gap the smooth discrepancy misses" else
@@ -230,9 +236,12 @@ verdict_explanation <- function(x) {
   conf <- x$which[x$which$confounded, ]
   out <- switch(v$answer,
     none = if (identical(v$reason, "inconclusive")) {
-      paste0("No detectable gap: the evidence for a discrepancy is inconclusive (",
-             prob_phrase(1 - v$prob_none, "P(other)"), ", below the log odds of ",
-             gap_detect_log_odds, " that a gap needs), so the base model stands.")
+      paste0("No detectable gap: the evidence for ",
+             if (is.null(v$short) || v$short$effect == "other") "a discrepancy" else
+               paste0("'", v$short$effect, "'"),
+             " is inconclusive (", short_phrase(v), ", below the log odds of ",
+             gap_detect_log_odds, " against 'none' that a gap needs), so the base model ",
+             "stands.")
     } else if (nrow(conf) > 0L && sum(conf$prob) > v$prob) {
       paste0("No gap that theta cannot absorb: the base model and the confounded ",
              "candidate", if (nrow(conf) > 1L) "s", " ", quoted_list(conf$effect),
@@ -245,8 +254,8 @@ verdict_explanation <- function(x) {
     other = if (without_candidates(v) && !identical(v$reason, "blocks")) {
       paste0("There is a gap the simulator cannot absorb: the base model plus a Gaussian-",
              "process discrepancy explains the data better than the base model (",
-             prob_phrase(v$prob, "P(other)"), "). theta is then the value that best fits ",
-             "the data with a discrepancy, not necessarily the physical one.")
+             prob_phrase(v$prob, "P(other)"), "). With the discrepancy, ", gap_theta_sentence,
+             ".")
     } else if (identical(v$reason, "blocks")) {
       paste0("There is a gap that no candidate explains: ", v$n_flagged, " block",
              if (v$n_flagged != 1L) "s", " depart from the fitted noise, though no candidate ",
@@ -391,7 +400,9 @@ evidence_line <- function(x) {
   if (is.null(ev)) return(character(0))
   paste0("Evidence: log Bayes factor for a discrepancy ", format(ev$log_bayes_factor, digits = 3),
          " (", evidence_words(ev$log_bayes_factor), "), at matched resolution (",
-         x$settings$runs, " runs).")
+         x$settings$runs, " runs): exact, on a library refined until the posterior is ",
+         "resolved, so it exceeds calibrate()'s screen (a lower bound from the fit's own ",
+         "runs) and may differ from a discrepancy fit on the unrefined library.")
 }
 
 # Where blocks `blocks` (rows of a diagnosis's `where`) are: "load=6, t

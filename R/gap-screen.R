@@ -37,7 +37,20 @@ gap_screen <- function(fit) {
   # the subset's and the grid point's prior mass in the full model
   log_prior_mass <- log_sum_exp(fit$log_prior_run[runs]) + fit$log_prior_grid[g]
   log_mass_disc <- grid_posterior(problem, joint = FALSE)$log_mass + log_prior_mass
-  list(log_bf = log_mass_disc - log_mass_full, runs = length(runs))
+  blocks <- screen_blocks(fit, runs)
+  list(log_bf = log_mass_disc - log_mass_full, runs = length(runs), blocks = blocks,
+       n_flagged = if (is.null(blocks)) 0L else sum(blocks$flagged))
+}
+
+# The fit's own leave-block-out checks (base_check(), as diagnose_gap() runs
+# them, on the runs that carry the posterior): the block table of
+# gap_where(), or NULL where they do not answer (block_check_applies()). A
+# local gap, a second peak at one setting, is flagged here while a smooth
+# discrepancy's evidence stays inconclusive.
+screen_blocks <- function(fit, runs) {
+  if (!block_check_applies(fit)) return(NULL)
+  tryCatch(base_check(fit, NULL, gap_block_fdr, runs)$blocks,
+           griddy_error = function(e) NULL)
 }
 
 screen_discrepancy <- function() gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])
@@ -92,14 +105,14 @@ grid_rho <- function(fit, g) {
   list(x = as.list(combo), t = setup$rho_t[setup$gt[g]])
 }
 
-# Whether the screen found a gap it can vouch for: a factor above the
-# threshold on a fit whose library resolves the posterior. (Between coarse
-# runs the misfit of the nearest run looks like a gap as well, so a fit
-# limited by the library's resolution, which is warned of already, gets no
-# gap warning: refine() it first.)
+# Whether the screen found a gap it can vouch for (gap_shown(): its bound on
+# the log Bayes factor, or the block checks) on a fit whose library resolves
+# the posterior. (Between coarse runs the misfit of the nearest run looks
+# like a gap as well, so a fit limited by the library's resolution, which is
+# warned of already, gets no gap warning: refine() it first.)
 screen_shows_gap <- function(fit) {
   screen <- fit$gap_screen
-  if (is.null(screen) || !(screen$log_bf > gap_log_bf_threshold)) return(FALSE)
+  if (is.null(screen) || !gap_shown(screen$log_bf, screen$n_flagged)) return(FALSE)
   tab <- resolution_limited(fit)
   !any(tab$limited & !tab$constant)
 }
@@ -107,16 +120,63 @@ screen_shows_gap <- function(fit) {
 # finish_fit()'s warning when the screen finds a gap.
 warn_gap_screen <- function(fit) {
   if (!screen_shows_gap(fit)) return(invisible(NULL))
-  griddy_warn(gap_screen_message(fit$gap_screen$log_bf, emulation_caveat(fit)), class = "gap")
+  griddy_warn(gap_screen_message(fit$gap_screen, fit$library, emulation_caveat(fit)),
+              class = "gap")
 }
 
-gap_screen_message <- function(log_bf, caveat = NULL) {
-  paste0("The field data show structure the model has no term for: a Gaussian-process ",
-         "discrepancy is favoured by a log Bayes factor of at least ", format(log_bf, digits = 3),
-         " (", evidence_words(log_bf), "), so the intervals may be narrow and off. It is a gap ",
-         "between the simulator and reality, or noise correlated over x or t (try the ",
-         "`rho_x` and `rho_t` grids). Fit it with `discrepancy = gp_discrepancy()`, or look for ",
-         "its cause with diagnose_gap().", if (!is.null(caveat)) paste0(" ", caveat))
+# The screen's finding in words: the evidence, the blocks flagged (where, by
+# their x values and t range), what theta then is, and why its number is
+# smaller than diagnose_gap()'s.
+gap_screen_message <- function(screen, library = NULL, caveat = NULL) {
+  log_bf <- screen$log_bf
+  flagged <- if (!is.null(screen$blocks)) screen$blocks[screen$blocks$flagged, , drop = FALSE]
+  evidence <- paste0("log Bayes factor of at least ", format(log_bf, digits = 3), " (",
+                     evidence_words(log_bf), ")")
+  paste0("The field data show structure the model has no term for: ",
+         if (gap_shown(log_bf)) {
+           paste0("a Gaussian-process discrepancy is favoured by a ", evidence)
+         } else {
+           paste0("the evidence for a smooth Gaussian-process discrepancy is weak (a ",
+                  evidence, ")")
+         },
+         if (NROW(flagged) > 0L) {
+           paste0(if (gap_shown(log_bf)) ", and" else ", but",
+                  " the model's leave-block-out checks flag ", nrow(flagged), " block",
+                  if (nrow(flagged) > 1L) "s", " (", flagged_blocks_text(flagged, library),
+                  ") as a local misfit")
+         },
+         "; ", gap_theta_sentence, " (the value that brings the simulator closest to data ",
+         "it cannot match), and until the gap is modelled its intervals may be narrow and ",
+         "off. It is a gap between the simulator and reality, or noise correlated ",
+         "over x or t (try the `rho_x` and `rho_t` grids). Fit it with ",
+         "`discrepancy = gp_discrepancy()`, or look for its cause with diagnose_gap(). ",
+         screen_number_note(),
+         if (!is.null(caveat)) paste0(" ", caveat))
+}
+
+# Why the screen's factor is smaller than the others griddy reports.
+screen_number_note <- function() {
+  paste0("(The factor is a lower bound from the runs that carry the posterior: a fit with ",
+         "`discrepancy = gp_discrepancy()` computes it exactly over all runs, so reports at ",
+         "least as much, and diagnose_gap() on a refined library.)")
+}
+
+# Flagged blocks `flagged` (gap_where()'s rows) as "x = ..., t a-b", at most
+# three of them.
+flagged_blocks_text <- function(flagged, library = NULL) {
+  x <- if (!is.null(library)) lib_x(library)
+  where <- vapply(seq_len(nrow(flagged)), function(i) {
+    k <- flagged$x[i]
+    setting <- if (is.null(x)) paste("setting", k) else {
+      paste(names(x), format(unlist(x[k, , drop = TRUE]), digits = 3), sep = " = ",
+            collapse = ", ")
+    }
+    span <- if (flagged$from[i] == flagged$to[i]) format(flagged$from[i], digits = 3) else
+      paste0(format(flagged$from[i], digits = 3), " to ", format(flagged$to[i], digits = 3))
+    paste0(setting, ", t ", span)
+  }, character(1))
+  paste0(paste(utils::head(where, 3L), collapse = "; "),
+         if (length(where) > 3L) paste0("; and ", length(where) - 3L, " more"))
 }
 
 # What a gap found on predicted runs worse than the noise may be instead:

@@ -33,7 +33,8 @@ gap_where <- function(ctx, tm, windows, fdr) {
     for (p in at) {
       j <- pairs[p, 1]
       e <- ctx$y[ctx$obs] - tm$Y[j, ctx$obs]
-      err <- run_emulation(tm$emulation, j, ctx$obs)
+      # the run's index in its library (terms of some runs keep it in `rows`)
+      err <- run_emulation(tm$emulation, if (is.null(tm$rows)) j else tm$rows[j], ctx$obs)
       if (is.null(err)) {
         h <- apply_precision(ctx, point, e)
       } else {

@@ -32,7 +32,8 @@
 #' two), unless the base model fails its own leave-block-out checks (see
 #' "Where" below; one noise precision and no replicates only): a gap too
 #' local or rough for a
-#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`), and
+#' smooth discrepancy is "other" too (`verdict$reason` `"blocks"`; the same
+#' rule, on the fit's own runs, decides [calibrate()]'s gap warning), and
 #' `$where` is then those checks (`settings$where` is `"check"`, else
 #' `"discrepancy"`). At matched resolution: the base library is
 #' refined as below, then the model with the discrepancy is refined in turn
@@ -110,7 +111,11 @@
 #' observed points (\eqn{\tau^{-1}} times the mean of \eqn{sd^2}), so the
 #' discrepancy stays smooth in output units. Model probabilities use `prior_models`
 #' (default: equal). **Decision rule:** the answer is the most probable model
-#' that is not confounded with theta; "none" means no detectable gap,
+#' that is not confounded with theta, if its posterior log odds against
+#' "none" exceed 1 (the bar "other" needs without candidates; below it the
+#' answer is "none", `verdict$reason` `"inconclusive"`, and
+#' `verdict$short` names the model that fell short and its probability);
+#' "none" means no detectable gap,
 #' "other" a gap that no candidate explains. When that model is "none" but
 #' `$where` flags blocks (the base model fails its own check), the answer is
 #' "other" too: the gap is real but too local or rough for the smooth
@@ -160,7 +165,9 @@
 #'   fitted correlation length long (at most 8 per setting); a single whole
 #'   number gives that many equal windows; a vector of more than one value
 #'   gives the window breaks in units of t.
-#' @param fdr False discovery rate for flagging blocks.
+#' @param fdr False discovery rate for flagging blocks. The default, 0.025,
+#'   is half the 5% false-alarm budget on data without a gap (the evidence
+#'   rule takes the rest); [calibrate()]'s gap screen uses it too.
 #' @param prior_models Prior probabilities of the models, a named vector over
 #'   `"none"`, the candidate names and `"other"`; `NULL` is equal.
 #' @param other_scales Length-scales (on coordinates scaled to \[0, 1]) of the
@@ -213,8 +220,9 @@
 #'     measure to separate them, from `separation`; where that says nothing
 #'     (one x setting, or alike at every one), a sentence per absorbing
 #'     parameter and the generic advice: outside the control settings'
-#'     ranges), `n_flagged` and `prob_none` (and `mode = "discrepancy"`
-#'     without candidates);
+#'     ranges), `n_flagged`, `prob_none` and `short` (NULL, or the model
+#'     that fell short of the evidence bar: `effect` and `prob`; and
+#'     `mode = "discrepancy"` without candidates);
 #'   * `evidence` (without candidates): the [discrepancy_evidence()] of the
 #'     fit with the discrepancy, at matched resolution.
 #'
@@ -242,7 +250,7 @@
 #' # without candidates: is there a gap at all, and where?
 #' diagnose_gap(fit, discrepancy = gp_discrepancy(ratio = c(0, 1, 10, 100)), seed = 1)
 #' @export
-diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.05,
+diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
                          prior_models = NULL, other_scales = c(0.03, 0.1, 0.3),
                          confounding_threshold = 0.05, max_runs = control$max_runs,
                          seed = NULL, progress = control$progress,

@@ -52,7 +52,7 @@ test_that("calibrate() warns of a gap, and summary() says what theta then is", {
   expect_s3_class(gap_warning, "griddy_warning_gap")
   out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
   expect_match(out, "Discrepancy: log Bayes factor", fixed = TRUE)
-  expect_match(out, "best fits", fixed = TRUE)
+  expect_match(out, "theta is then a best-fitting value, not the physical one", fixed = TRUE)
   ev <- discrepancy_evidence(fit)
   expect_s3_class(ev, "griddy_discrepancy_evidence")
   expect_equal(sum(ev$ratio$prob), 1)

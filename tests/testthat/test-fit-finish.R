@@ -68,7 +68,7 @@ test_that("refine() with a simulator screens the refined fit for a gap and warns
   expect_false("griddy_warning_gap" %in% first$classes)
   out <- with_warnings(refine(first$value, sim, max_runs = 400, seed = 1))
   expect_identical(out$value$refinement$reason, "resolved")
-  expect_gt(out$value$gap_screen$log_bf, gap_log_bf_threshold)
+  expect_gt(out$value$gap_screen$log_bf, gap_detect_log_odds)
   expect_true("griddy_warning_gap" %in% out$classes)
 })
 

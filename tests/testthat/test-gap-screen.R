@@ -98,5 +98,81 @@ test_that("a gap on predicted runs worse than the noise says it may be their err
                                              classes = "griddy_warning_emulation"),
                  "part of the gap may be that error", class = "griddy_warning_gap")
   expect_gt(refined$refinement$emulation_error, emulation_error_threshold)
-  expect_gt(refined$gap_screen$log_bf, gap_log_bf_threshold)
+  expect_gt(refined$gap_screen$log_bf, gap_detect_log_odds)
+})
+
+# One parameter on a fine grid, 3 loads x 24 outputs; a local second peak of
+# `size` noise sds (sd 0.05) at the second load around t = 0.5 only.
+local_system <- function(size, seed, n_runs = 2001) {
+  theta <- data.frame(a = seq(1, 2, length.out = n_runs))
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = 24)
+  sim <- function(a) unlist(lapply(x$load, function(l) a * l * exp(-0.4 * t)))
+  y <- t(vapply(theta$a, sim, numeric(72)))
+  set.seed(seed)
+  mu <- sim(1.5)
+  at <- 24 + seq_along(t)
+  mu[at] <- mu[at] + size * 0.05 * exp(-0.5 * ((t - 0.5) / 0.05)^2)
+  field <- matrix(mu + stats::rnorm(length(mu), sd = 0.05), nrow(x), length(t), byrow = TRUE)
+  list(library = sim_library(theta, y, x = x, t = t), field = field_data(field, x = x, t = t))
+}
+
+test_that("a local gap that only the block checks see is warned, with where it lies", {
+  # issue 33: a second peak at one setting left the smooth discrepancy's
+  # evidence inconclusive, so calibrate() said nothing (a bound of -0.21
+  # here, against the old bar log 20) while diagnose_gap() said "other" on
+  # its block checks; the screen now runs them
+  w <- NULL
+  fit <- withCallingHandlers(
+    calibrate(local_system(5, 1)$library, local_system(5, 1)$field, n_iter = 300,
+              burn_in = 100, seed = 1),
+    warning = function(x) {
+      w <<- c(w, list(x))
+      invokeRestart("muffleWarning")
+    })
+  screen <- fit$gap_screen
+  expect_lt(screen$log_bf, gap_detect_log_odds)
+  expect_equal(screen$n_flagged, 1L)
+  flagged <- screen$blocks[screen$blocks$flagged, ]
+  expect_equal(flagged$x, 2L)
+  expect_lt(abs((flagged$from + flagged$to) / 2 - 0.5), 0.1)  # the peak, between windows
+  gap <- Filter(function(x) inherits(x, "griddy_warning_gap"), w)
+  expect_length(gap, 1L)
+  expect_match(conditionMessage(gap[[1]]), "flag 1 block (load = 2, t ", fixed = TRUE)
+  # summary() says what the warning says
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
+  expect_match(out, "Gap: The field data show structure", fixed = TRUE)
+  expect_match(out, "flag 1 block (load = 2, t ", fixed = TRUE)
+  # and diagnose_gap() agrees (at the fit's own resolution)
+  expect_identical(diagnose_gap(fit, max_runs = 0)$verdict$answer, "other")
+})
+
+test_that("data without a gap raise no gap warning and flag no block", {
+  for (seed in 1:2) {
+    res <- quiet_fit(local_system(0, seed))
+    expect_false(res$gap_warned)
+    expect_equal(res$fit$gap_screen$n_flagged, 0L)
+  }
+})
+
+test_that("the block checks stay out where they do not answer: replicates", {
+  sys <- local_system(5, 1)
+  y <- as.matrix(sys$field$y)
+  set.seed(2)
+  rep_field <- field_data(rbind(y, y + stats::rnorm(length(y), sd = 0.05)),
+                          x = rbind(sys$library$x, sys$library$x), t = sys$library$t)
+  fit <- quiet_fit(list(library = sys$library, field = rep_field))$fit
+  expect_null(fit$gap_screen$blocks)
+  expect_equal(fit$gap_screen$n_flagged, 0L)
+})
+
+test_that("every gap warning says theta is then a best-fitting value, not the physical one", {
+  # issue 33: the plain fit's warning never said so (0 of 138 warnings)
+  said <- "theta is then a best-fitting value, not the physical one"
+  sys <- screen_system(0.1, seed = 1)
+  expect_warning(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1),
+                 said, fixed = TRUE, class = "griddy_warning_gap")
+  expect_warning(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1,
+                           discrepancy = gp_discrepancy()),
+                 said, fixed = TRUE, class = "griddy_warning_gap")
 })

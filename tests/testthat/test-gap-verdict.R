@@ -67,3 +67,37 @@ test_that("without candidates a gap needs log odds beyond 1, or the base model's
   expect_identical(v[c("answer", "prob", "reason")],
                    list(answer = "none", prob = 0.8, reason = "evidence"))
 })
+
+test_that("one rule shows a gap: log odds beyond 1, or a block flagged", {
+  expect_false(gap_shown(0.9))
+  expect_true(gap_shown(1.1))
+  expect_true(gap_shown(-3, n_flagged = 1L))   # a local gap the evidence misses
+  expect_false(gap_shown(-3, n_flagged = 0L))
+  expect_false(gap_shown(NA_real_))
+  # the screen's warning and diagnose_gap() without candidates share it
+  expect_identical(gap_found(c(none = 0.2, other = 0.8)), gap_shown(log(0.8 / 0.2)))
+})
+
+test_that("a candidate is named only past the bar 'other' needs", {
+  # issue 33: an effect was named at P = 0.63 on data without it
+  tab <- verdict_table(c("quadratic", "none", "other"), c(0.63, 0.3, 0.07))
+  v <- gap_verdict(tab, NULL, verdict_lib(), blocks_flagged(c(FALSE, FALSE)))
+  expect_identical(v[c("answer", "prob", "reason", "short")],
+                   list(answer = "none", prob = 0.3, reason = "inconclusive",
+                        short = list(effect = "quadratic", prob = 0.63)))
+  # with a flagged block the gap is still there, unnamed
+  v <- gap_verdict(tab, NULL, verdict_lib(), blocks_flagged(c(TRUE, FALSE)))
+  expect_identical(v[c("answer", "reason")], list(answer = "other", reason = "blocks"))
+  # past the bar (log odds 1.34), named
+  tab <- verdict_table(c("quadratic", "none", "other"), c(0.76, 0.2, 0.04))
+  v <- gap_verdict(tab, NULL, verdict_lib(), blocks_flagged(FALSE))
+  expect_identical(v[c("answer", "reason")], list(answer = "quadratic", reason = "evidence"))
+  expect_match(verdict_explanation(list(verdict = gap_verdict(
+    verdict_table(c("quadratic", "none", "other"), c(0.63, 0.3, 0.07)), NULL, verdict_lib(),
+    blocks_flagged(FALSE)), which = tab[0, ], shrinkage = empty_shrinkage())),
+    "the evidence for 'quadratic' is inconclusive (P(quadratic) = 63.0%", fixed = TRUE)
+})
+
+test_that("calibrate()'s screen and diagnose_gap() flag blocks at the same level", {
+  expect_identical(formals(diagnose_gap)$fdr, gap_block_fdr)
+})
