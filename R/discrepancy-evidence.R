@@ -110,7 +110,7 @@ evidence_words <- function(log_bf) {
 warn_gap <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(invisible(NULL))
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
-  # the one rule of gap_verdict.R (under the fit's prior on no discrepancy,
+  # the one rule of gap-verdict.R (under the fit's prior on no discrepancy,
   # the log Bayes factor stands for the log odds)
   if (is.null(ev) || !gap_shown(ev$log_bayes_factor)) return(invisible(NULL))
   griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit),

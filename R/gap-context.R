@@ -2,7 +2,7 @@
 # pieces every part of diagnose_gap() reads (see ?diagnose_gap).
 
 # The fit's noise model, one entry per correlation grid point: the grid
-# point (grid_posterior.R) with the dense inverse correlations that the
+# point (engine.R) with the dense inverse correlations that the
 # block checks need. The data are the observed points `obs` (library order;
 # all of them for complete data). Under a noise pattern (missing cells,
 # relative sd) a grid point also holds P = (S R_g S)_oo^-1 over the observed

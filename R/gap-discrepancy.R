@@ -40,7 +40,7 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   rownames(which_tab) <- NULL
   found <- gap_found(prob)
   step("where the discrepancy lies")
-  # the base model's own leave-block-out checks (diagnose_gap-where.R): a
+  # the base model's own leave-block-out checks (gap-where.R): a
   # gap too local or rough for a smooth discrepancy (gap_shown())
   check <- if (block_check_applies(fit)) base_check(matched, windows, fdr)
   win <- if (!is.null(check)) check$breaks else windows

@@ -1,5 +1,5 @@
 # How a gap diagnosis reads: its advice and its print(), summary() and plot()
-# methods (the verdict itself is decided in gap_verdict.R).
+# methods (the verdict itself is decided in gap-verdict.R).
 
 # The advice for confounded candidates: per candidate, where across x it and
 # the parameter that absorbs it part (design_sentence(), from the diagnosis's
@@ -390,7 +390,7 @@ plot.gap_diagnosis <- function(x, ...) {
     ggplot2::theme_bw() + ggplot2::theme(plot.title.position = "plot")
 }
 
-# A diagnosis made without candidates (diagnose_gap-discrepancy.R): its
+# A diagnosis made without candidates (gap-discrepancy.R): its
 # verdict weighs the base model against a Gaussian-process discrepancy.
 without_candidates <- function(v) identical(v$mode, "discrepancy")
 

@@ -1,6 +1,6 @@
 # The verdict of a gap diagnosis: the rules that decide diagnose_gap()'s
 # answer, with candidates (gap_verdict()) and without (discrepancy_verdict()).
-# print() and summary() only say it (gap_diagnosis-methods.R).
+# print() and summary() only say it (gap-methods.R).
 
 # The verdict from the models' table `which_tab` (most probable first) and
 # the leave-block-out checks `where`: the most probable model that is not
@@ -61,7 +61,7 @@ gap_verdict <- function(which_tab, separation, base, where) {
 gap_detect_log_odds <- 1
 
 # The false discovery rate of the block checks, diagnose_gap()'s default `fdr`
-# (test-gap_verdict.R holds them equal). On data without a gap, Benjamini-
+# (test-gap-verdict.R holds them equal). On data without a gap, Benjamini-
 # Hochberg at level q flags some block with probability about q (all nulls
 # true, it controls the family-wise rate at q), and the evidence rule can
 # fire besides: half the 5% false-alarm budget goes to the blocks. At 0.05

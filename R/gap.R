@@ -260,7 +260,7 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
     griddy_abort("`fit` must be a griddy_fit from calibrate(); received ", class(fit)[1], ".")
   }
   if (no_candidates(candidates)) {
-    # is there a gap at all, and where (diagnose_gap-discrepancy.R)
+    # is there a gap at all, and where (gap-discrepancy.R)
     discrepancy <- check_gap_discrepancy(discrepancy)
     return(gap_without_candidates(
       fit, discrepancy, windows, assert_level(fdr, "fdr"), prior_models,
@@ -280,7 +280,7 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
   max_runs <- assert_count(max_runs, "max_runs", min = 0L)
   seed <- assert_seed(seed)
   step <- gap_progress(assert_flag(progress, "progress"), length(candidates))
-  # every model at matched resolution (diagnose_gap-resolution.R)
+  # every model at matched resolution (gap-resolution.R)
   matched <- with_seed(seed, {
     step("refining the base library")
     base_problem <- matched_base(fit, max_runs)

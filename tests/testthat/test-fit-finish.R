@@ -49,7 +49,7 @@ test_that("refine() without a simulator warns of chains stuck on one rho grid po
 })
 
 test_that("refine() with a simulator screens the refined fit for a gap and warns of it", {
-  # screen_system() (test-gap_screen.R's) on a coarse library: the fit is
+  # screen_system() (test-gap-screen.R's) on a coarse library: the fit is
   # limited by its resolution, so calibrate() gives no gap warning; refined,
   # the gap shows
   theta <- data.frame(a = seq(1, 2, length.out = 21))

@@ -1,4 +1,4 @@
-# diagnose_gap() without candidates (diagnose_gap-discrepancy.R).
+# diagnose_gap() without candidates (gap-discrepancy.R).
 
 # a small discrepancy grid keeps these tests fast
 small_disc <- function() gp_discrepancy(ratio = c(0, 1, 10, 100), length_x = c(0.3, 1),

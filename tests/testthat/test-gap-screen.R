@@ -84,7 +84,7 @@ test_that("the screen of an emulated library's fit keeps the emulation error", {
 
 test_that("a gap on predicted runs worse than the noise says it may be their error", {
   # refine() without a simulator on a library that cannot predict itself
-  # (test-refine_predicted.R): the emulator's misfit may show as a gap
+  # (test-refine-predict.R): the emulator's misfit may show as a gap
   sharp <- function(theta) {
     t <- seq(0, 1, length.out = 40)
     t(vapply(theta$k, function(k) sin(k^2 * t), numeric(40)))

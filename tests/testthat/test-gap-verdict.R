@@ -1,4 +1,4 @@
-# The rules that decide diagnose_gap()'s answer (gap_verdict.R), on tables
+# The rules that decide diagnose_gap()'s answer (gap-verdict.R), on tables
 # made by hand.
 
 verdict_table <- function(effect, prob, confounded = rep(FALSE, length(effect))) {

@@ -134,7 +134,7 @@ test_that("diagnose_gap() refuses replicated field measurements with candidates,
   expect_error(diagnose_gap(fit, list(quadratic = toy$quad)),
                "does not yet support replicated field measurements",
                class = "griddy_error_unsupported")
-  # without candidates, replicates are used (test-diagnose_gap-discrepancy.R)
+  # without candidates, replicates are used (test-gap-discrepancy.R)
   expect_s3_class(diagnose_gap(fit, max_runs = 0,
                                discrepancy = gp_discrepancy(ratio = c(0, 10), length_x = 1,
                                                             length_t = 0.3)),
