@@ -126,8 +126,10 @@ commit_runs <- function(library, file, append, chunk_size = NULL) {
 # committed runs are not touched by a failed append (the count is written
 # last), so the message says how to go on.
 h5_guard_write <- function(file, expr, created = FALSE) {
-  tryCatch(expr, error = function(e) {
-    if (inherits(e, "griddy_error")) stop(e)
+  # a calling handler: griddy's own errors go on as they are (the handler
+  # returns), HDF5's are replaced by the classed one
+  withCallingHandlers(expr, error = function(e) {
+    if (inherits(e, "griddy_error")) return()
     msg <- conditionMessage(e)
     disk <- grepl("errno = (27|28|122)\\b|No space left|File too large|quota exceeded", msg,
                   ignore.case = TRUE)
@@ -407,10 +409,7 @@ h5_check_same_library <- function(open, library, new_theta) {
 # earlier append left uncommitted (in a plain, short, open).
 h5_drop_before_append <- function(file) {
   h5 <- h5_open(file, "r")
-  meta <- tryCatch(h5_griddy_meta(h5), error = function(e) {
-    h5_close(h5)
-    stop(e)
-  })
+  meta <- withCallingHandlers(h5_griddy_meta(h5), error = function(e) h5_close(h5))
   n_ext <- if (meta$griddy) max(h5[["theta"]]$dims[1], h5[["y"]]$dims[1])
   chunk_bytes <- if (meta$griddy) {
     8 * (prod(h5[["theta"]]$chunk_dims) + prod(h5[["y"]]$chunk_dims))

@@ -36,10 +36,7 @@ library_lock <- function(path, what = "library", recover = NULL) {
     griddy_abort(lock_refusal(path, lock), class = "lock")
   }
   token <- list(lock = lock, pid = Sys.getpid(), host = lock_host())
-  done <- tryCatch(recover(), error = function(e) {
-    library_unlock(token)
-    stop(e)
-  })
+  done <- withCallingHandlers(recover(), error = function(e) library_unlock(token))
   cli::cli_inform(c("!" = paste0("{.path {path}}: took over the lock of a writer that died ",
                                  "({lock_who(dead)}); {done}")),
                   class = c("griddy_message_lock_recovered", "griddy_message"))
