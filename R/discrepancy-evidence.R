@@ -113,8 +113,8 @@ warn_gap <- function(fit) {
   # the one rule of gap-verdict.R (under the fit's prior on no discrepancy,
   # the log Bayes factor stands for the log odds)
   if (is.null(ev) || !gap_shown(ev$log_bayes_factor)) return(invisible(NULL))
-  griddy_warn(gap_message(ev$log_bayes_factor, discrepancy_where_text(fit),
-                          resolution_caveat(fit)), class = "gap")
+  griddy_warn(gap_message(ev$log_bayes_factor, theta_estimand(fit$setup$discrepancy),
+                          discrepancy_where_text(fit), resolution_caveat(fit)), class = "gap")
 }
 
 # What a gap found on a library too coarse for the data may be instead.
@@ -125,13 +125,13 @@ resolution_caveat <- function(fit) {
          "between its runs; refine() it first.)")
 }
 
-gap_message <- function(log_bf, where = NULL, caveat = NULL) {
+# `estimand`: what theta then is (theta_estimand() of the fit's discrepancy).
+gap_message <- function(log_bf, estimand, where = NULL, caveat = NULL) {
   paste0("The field data show a gap between the simulator and reality: the log Bayes ",
          "factor for a discrepancy is ", format(log_bf, digits = 3), " (",
          evidence_words(log_bf), "). ",
          if (!is.null(where)) paste0(where, " "),
-         "With the discrepancy, ", gap_theta_sentence, " (its meaning set by the ",
-         "discrepancy's prior). See where the gap lies with ",
+         estimand, " See where the gap lies with ",
          "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().",
          if (!is.null(caveat)) paste0(" ", caveat))
 }

@@ -122,6 +122,19 @@
 #' covered the physical frequency under a hardening spring; see
 #' `vignette("discrepancy")`.
 #'
+#' **What theta means.** The three choices estimate different
+#' \eqn{\theta}s, and `print()` and `summary()` of the fit, and its gap
+#' warning, say which in one sentence. With the orthogonal default,
+#' \eqn{\theta} is the best-fitting value, the \eqn{L_2} projection of Tuo
+#' and Wu (2015): the \eqn{\theta} whose simulator output is closest to
+#' reality over the observed settings. That is not what SEPIA, SAVE and
+#' RobustCalibration report; compare those with `orthogonal = FALSE`, which
+#' estimates Kennedy and O'Hagan's \eqn{\theta}, as they do: the value that
+#' best fits the data together with the discrepancy, its meaning set by the
+#' discrepancy's prior, and its intervals wider. With `zero_at` or `flat_at`
+#' (which make `orthogonal` default to `FALSE`), \eqn{\theta} is the
+#' physical value to the extent that the stated knowledge holds.
+#'
 #' **Cost.** Every combination of correlation grid point and length scales
 #' needs one eigen-decomposition of the observed points' covariance
 #' (\eqn{O(n^3)}) and one rotation of every run's residuals (\eqn{O(N n^2)});
@@ -160,6 +173,9 @@
 #'   Brynjarsdóttir, J. and O'Hagan, A. (2014). Learning about physical
 #'   parameters: the importance of model discrepancy. *Inverse Problems*
 #'   30(11), 114007.
+#'
+#'   Tuo, R. and Wu, C. F. J. (2015). Efficient calibration for imperfect
+#'   computer models. *Annals of Statistics* 43(6), 2331-2352.
 #'
 #'   Plumlee, M. (2017). Bayesian calibration of inexact computer models.
 #'   *JASA* 112(519), 1274-1285.
@@ -257,6 +273,43 @@ print.griddy_discrepancy <- function(x, ...) {
   invisible(x)
 }
 
+# What theta estimates under the discrepancy `discrepancy` (a
+# gp_discrepancy(), or a fit's setup$discrepancy), in one sentence shared by summary(), print() and the
+# gap warning; NULL for a fit without one (its gap warning says what theta
+# is, gap_theta_sentence). An orthogonal discrepancy hands theta everything it
+# can explain, so theta is the L2 projection (Tuo and Wu 2015, Plumlee 2017),
+# whatever the knowledge; without the projection theta is Kennedy and
+# O'Hagan's, set by the discrepancy's prior unless knowledge of the gap
+# pins it (Brynjarsdottir and O'Hagan 2014).
+theta_estimand <- function(discrepancy) {
+  if (is.null(discrepancy)) return(NULL)
+  # a fit's discrepancy points (discrepancy_points()) keep the choices on
+  # their kernels; a fit made before they kept `orthogonal` was orthogonal
+  # where it learnt sensitivities
+  if (is.data.frame(discrepancy)) {
+    kernels <- attributes(attr(discrepancy, "kernels"))
+    if (is.null(kernels$orthogonal)) kernels$orthogonal <- !is.null(kernels$sensitivity)
+    discrepancy <- kernels
+  }
+  if (isTRUE(discrepancy$orthogonal)) {
+    return(paste0("With an orthogonal discrepancy (gp_discrepancy()'s default), theta is the ",
+                  "best-fitting value, not the physical one: the L2 projection, the theta ",
+                  "whose simulator output is closest to reality over the observed settings, ",
+                  "and not the Kennedy-O'Hagan theta that SEPIA, SAVE and RobustCalibration ",
+                  "report, which gp_discrepancy(orthogonal = FALSE) estimates."))
+  }
+  if (!is.null(discrepancy$zero_at) || !is.null(discrepancy$flat_at)) {
+    return(paste0("With a discrepancy told what is known of the gap (zero_at, flat_at), theta ",
+                  "is the best-fitting value under that knowledge, and so the physical value ",
+                  "to the extent that the knowledge holds (Kennedy and O'Hagan's theta, with ",
+                  "the discrepancy conditioned on it)."))
+  }
+  paste0("With a discrepancy that is not orthogonal (orthogonal = FALSE), theta is Kennedy ",
+         "and O'Hagan's, as SEPIA, SAVE and RobustCalibration report it: the best-fitting ",
+         "value together with the discrepancy, its meaning set by the discrepancy's prior, ",
+         "not necessarily the physical one.")
+}
+
 # NULL, or a validated discrepancy.
 assert_discrepancy <- function(discrepancy) {
   if (is.null(discrepancy)) return(NULL)
@@ -302,6 +355,8 @@ discrepancy_points <- function(discrepancy, library) {
   # where delta and its slope are known to be zero (discrepancy-knowledge.R)
   attr(kernels, "zero_at") <- discrepancy$zero_at
   attr(kernels, "flat_at") <- discrepancy$flat_at
+  # what theta then estimates (theta_estimand())
+  attr(kernels, "orthogonal") <- discrepancy$orthogonal
   attr(points, "kernels") <- kernels
   points
 }

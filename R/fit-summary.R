@@ -84,7 +84,10 @@
 #'   bounds named by their probabilities, and the diagnostics; `mean` and
 #'   `median` stay in the data.frame) and a line saying which estimate is
 #'   reported, then one line per limited parameter and per parameter with mass at
-#'   the edge of its range, then a "Convergence:" note for an R-hat above
+#'   the edge of its range, for a fit with a discrepancy a "Discrepancy:" line
+#'   (its Bayes factor, where a gap lies, and in one sentence what
+#'   \eqn{\theta} estimates under it: see "What theta means" in
+#'   [gp_discrepancy()]), then a "Convergence:" note for an R-hat above
 #'   1.01 and for a total-variation distance beyond Monte Carlo error, and
 #'   returns its argument invisibly.
 #' @references Vehtari, A., Gelman, A., Simpson, D., Carpenter, B. and
@@ -110,6 +113,7 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
   structure(out, class = c("griddy_summary", "data.frame"),
             adequacy = adequacy, level = level,
             info = fit_description(object), discrepancy = fit_discrepancy_evidence(object),
+            estimand = theta_estimand(object$setup$discrepancy),
             gap_screen = if (screen_shows_gap(object)) object$gap_screen,
             library_x = lib_x(object$library))
 }
@@ -131,17 +135,18 @@ format_gap_screen <- function(screen, library = NULL) {
   paste("Gap:", gap_screen_message(screen, library))
 }
 
-# summary()'s line on the discrepancy: the Bayes factor and, when it shows a
-# gap, what theta then means.
-format_discrepancy <- function(ev) {
-  if (is.null(ev)) return(character())
-  paste0("Discrepancy: log Bayes factor ", format(ev$log_bayes_factor, digits = 3), " (",
-         evidence_words(ev$log_bayes_factor), "); posterior probability of none ",
-         format(ev$prob_none, digits = 3), ".",
-         if (gap_shown(ev$log_bayes_factor)) {
-           paste0(" The data show a gap: with the discrepancy, ", gap_theta_sentence, ". ",
-                  ev$where)
-         })
+# summary()'s line on the discrepancy: the Bayes factor, where a gap lies
+# when it shows one, and what theta estimates (theta_estimand(), `estimand`;
+# stated whatever the evidence, as the fit's intervals are of that theta).
+format_discrepancy <- function(ev, estimand = NULL) {
+  if (is.null(ev) && is.null(estimand)) return(character())
+  evidence <- if (!is.null(ev)) {
+    paste0(" log Bayes factor ", format(ev$log_bayes_factor, digits = 3), " (",
+           evidence_words(ev$log_bayes_factor), "); posterior probability of none ",
+           format(ev$prob_none, digits = 3), ".",
+           if (gap_shown(ev$log_bayes_factor)) paste(" The data show a gap.", ev$where))
+  }
+  paste0("Discrepancy:", evidence, if (!is.null(estimand)) paste0(" ", estimand))
 }
 
 # summary()'s rows for a data.frame of draws (one column per parameter) from
@@ -219,7 +224,7 @@ print.griddy_summary <- function(x, digits = 4, width = getOption("width"), ...)
   print_summary_table(x, digits, width, level)
   adequacy <- attr(x, "adequacy")
   if (!is.null(adequacy)) cat_wrapped(format_adequacy(adequacy), width)
-  cat_wrapped(format_discrepancy(attr(x, "discrepancy")), width)
+  cat_wrapped(format_discrepancy(attr(x, "discrepancy"), attr(x, "estimand")), width)
   cat_wrapped(format_gap_screen(attr(x, "gap_screen"), list(x = attr(x, "library_x"))),
               width)
   if (!is.null(x$rhat) && !is.null(adequacy$tv_reference)) {

@@ -52,7 +52,10 @@ test_that("calibrate() warns of a gap, and summary() says what theta then is", {
   expect_s3_class(gap_warning, "griddy_warning_gap")
   out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
   expect_match(out, "Discrepancy: log Bayes factor", fixed = TRUE)
-  expect_match(out, "theta is then a best-fitting value, not the physical one", fixed = TRUE)
+  # the default discrepancy is orthogonal: theta is the L2 projection
+  estimand <- theta_estimand(gp_discrepancy())
+  expect_match(conditionMessage(gap_warning), estimand, fixed = TRUE)
+  expect_match(out, estimand, fixed = TRUE)
   ev <- discrepancy_evidence(fit)
   expect_s3_class(ev, "griddy_discrepancy_evidence")
   expect_equal(sum(ev$ratio$prob), 1)
@@ -60,6 +63,23 @@ test_that("calibrate() warns of a gap, and summary() says what theta then is", {
                                        prior_none = 0.5,
                                        ratio = data.frame(ratio = c(0, 1), prob = c(0.04, 0.96))),
                                   class = "griddy_discrepancy_evidence")))
+})
+
+test_that("a gap warning under knowledge of the gap calls theta physical as far as it holds", {
+  # issue 33: the warning said "not the physical one" whatever the
+  # discrepancy, though zero_at and flat_at are what make theta physical
+  sys <- gap_system(0.1, seed = 2)
+  known <- gp_discrepancy(zero_at = data.frame(load = c(1, 2, 3), t = 0))
+  expect_warning(
+    fit <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100,
+                                      seed = 1, discrepancy = known),
+                            classes = "griddy_warning_resolution"),
+    theta_estimand(known), fixed = TRUE, class = "griddy_warning_gap")
+  expect_match(theta_estimand(known), "physical value to the extent that the knowledge holds",
+               fixed = TRUE)
+  out <- paste(capture.output(print(fit, width = 1000)), collapse = " ")
+  expect_match(out, theta_estimand(known), fixed = TRUE)
+  expect_no_match(out, "not the physical one", fixed = TRUE)
 })
 
 test_that("discrepancy_evidence() needs a discrepancy with ratio 0 and positive ratios", {

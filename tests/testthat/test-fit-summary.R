@@ -179,3 +179,51 @@ test_that("print.griddy_fit() and print.griddy_summary() are stable (times scrub
   expect_snapshot(print(fit, width = 250), transform = scrub_print)
   expect_snapshot(print(summary(fit), width = 250), transform = scrub_print)
 })
+
+test_that("theta_estimand() says what theta is under each discrepancy", {
+  # issue 33: the orthogonal default estimates another theta than SEPIA,
+  # SAVE and RobustCalibration, and nothing in the output said so
+  orthogonal <- theta_estimand(gp_discrepancy())
+  expect_match(orthogonal, "theta is the best-fitting value, not the physical one: the L2 projection",
+               fixed = TRUE)
+  expect_match(orthogonal, "not the Kennedy-O'Hagan theta that SEPIA, SAVE and RobustCalibration",
+               fixed = TRUE)
+  koh <- theta_estimand(gp_discrepancy(orthogonal = FALSE))
+  expect_match(koh, "theta is Kennedy and O'Hagan's, as SEPIA, SAVE and RobustCalibration report",
+               fixed = TRUE)
+  expect_match(koh, "not necessarily the physical one", fixed = TRUE)
+  known <- theta_estimand(gp_discrepancy(zero_at = data.frame(x = 0)))
+  expect_match(known, "the physical value to the extent that the knowledge holds", fixed = TRUE)
+  expect_no_match(known, "not the physical one", fixed = TRUE)
+  expect_identical(theta_estimand(gp_discrepancy(flat_at = data.frame(x = 0))), known)
+  # asked for, the projection hands theta the gap's share whatever the knowledge
+  expect_identical(theta_estimand(gp_discrepancy(zero_at = data.frame(x = 0), orthogonal = TRUE)),
+                   orthogonal)
+  expect_null(theta_estimand(NULL))
+})
+
+test_that("print() and summary() of a fit state its discrepancy's estimand, and only then", {
+  sys <- bump_sys(n_t = 5)
+  printed <- function(discrepancy) {
+    fit <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100,
+                                      seed = 1, discrepancy = discrepancy))
+    list(fit = paste(capture.output(print(fit, width = 1000)), collapse = " "),
+         summary = paste(capture.output(print(summary(fit), width = 1000)), collapse = " "))
+  }
+  cases <- list(gp_discrepancy(), gp_discrepancy(orthogonal = FALSE),
+                gp_discrepancy(zero_at = data.frame(amp = 1, t = sys$library$t)))
+  sentences <- lapply(cases, theta_estimand)
+  expect_length(unique(sentences), 3L)
+  for (i in seq_along(cases)) {
+    out <- printed(cases[[i]])
+    expect_match(out$fit, sentences[[i]], fixed = TRUE)
+    expect_match(out$summary, sentences[[i]], fixed = TRUE)
+    for (other in sentences[-i]) expect_no_match(out$fit, other, fixed = TRUE)
+  }
+  # a fit without a discrepancy claims none of them
+  plain <- printed(NULL)
+  for (sentence in sentences) expect_no_match(plain$fit, sentence, fixed = TRUE)
+  for (words in c("L2 projection", "Kennedy", "physical value to the extent")) {
+    expect_no_match(plain$fit, words, fixed = TRUE)
+  }
+})

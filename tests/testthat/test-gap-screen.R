@@ -172,7 +172,10 @@ test_that("every gap warning says theta is then a best-fitting value, not the ph
   sys <- screen_system(0.1, seed = 1)
   expect_warning(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1),
                  said, fixed = TRUE, class = "griddy_warning_gap")
+  # with the default (orthogonal) discrepancy, the best-fitting value is the
+  # L2 projection (theta_estimand())
   expect_warning(calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1,
                            discrepancy = gp_discrepancy()),
-                 said, fixed = TRUE, class = "griddy_warning_gap")
+                 "theta is the best-fitting value, not the physical one: the L2 projection",
+                 fixed = TRUE, class = "griddy_warning_gap")
 })
