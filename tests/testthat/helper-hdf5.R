@@ -19,16 +19,7 @@ leave_uncommitted <- function(file, library) {
 # shell's ulimit -f, SIGXFSZ ignored so that a write past it fails with
 # EFBIG as on a full disk); returns the exit status.
 run_child_limited <- function(code, kb) {
-  path <- getNamespaceInfo("griddy", "path")
-  dev <- requireNamespace("pkgload", quietly = TRUE) && pkgload::is_dev_package("griddy")
-  prelude <- if (dev) {
-    sprintf("suppressMessages(pkgload::load_all(%s, quiet = TRUE, export_all = FALSE))",
-            deparse(path))
-  } else {
-    "suppressMessages(library(griddy))"
-  }
-  script <- tempfile(fileext = ".R")
-  writeLines(c(prelude, code), script)
+  script <- child_script(code)
   cmd <- sprintf("trap '' XFSZ; ulimit -f %d; exec %s %s", as.integer(kb),
                  shQuote(file.path(R.home("bin"), "Rscript")), shQuote(script))
   system2("bash", c("-c", shQuote(cmd)), stdout = FALSE, stderr = FALSE)

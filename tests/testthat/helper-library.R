@@ -57,6 +57,12 @@ write_user_h5 <- function(library, file, layout = "runs_first", theta_as = "comp
 # the source tree under devtools/testthat, else the installed package).
 # Returns the system2() result (the exit status when waiting).
 run_child <- function(code, wait = TRUE, stdout = FALSE, stderr = FALSE) {
+  system2(file.path(R.home("bin"), "Rscript"), child_script(code), wait = wait,
+          stdout = stdout, stderr = stderr)
+}
+
+# A script file that loads this griddy, then runs `code`.
+child_script <- function(code) {
   path <- getNamespaceInfo("griddy", "path")
   dev <- requireNamespace("pkgload", quietly = TRUE) && pkgload::is_dev_package("griddy")
   prelude <- if (dev) {
@@ -67,8 +73,7 @@ run_child <- function(code, wait = TRUE, stdout = FALSE, stderr = FALSE) {
   }
   script <- tempfile(fileext = ".R")
   writeLines(c(prelude, code), script)
-  system2(file.path(R.home("bin"), "Rscript"), script, wait = wait, stdout = stdout,
-          stderr = stderr)
+  script
 }
 
 # Waits until `file` exists (a child's signal), at most `timeout` seconds.
