@@ -84,3 +84,19 @@ linear4_toy <- function() {
     suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
   }))
 }
+
+# A 1-parameter library too coarse to predict its own runs (outputs
+# sin(k^2 t) on k = 1, 1.5, ..., 4) and its fit to data at k = 2.71: refine()
+# without a simulator then predicts worse than the noise
+# (test-refine-predict.R), and its misfit shows as a gap (test-gap-screen.R).
+sharp_fit <- function() {
+  sharp <- function(theta) {
+    t <- seq(0, 1, length.out = 40)
+    t(vapply(theta$k, function(k) sin(k^2 * t), numeric(40)))
+  }
+  theta <- data.frame(k = seq(1, 4, by = 0.5))
+  lib <- sim_library(theta, sharp(theta))
+  set.seed(3)
+  field <- field_data(sharp(data.frame(k = 2.71)) + rnorm(40, sd = 0.01), t = lib$t)
+  suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
+}

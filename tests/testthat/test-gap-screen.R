@@ -85,15 +85,7 @@ test_that("the screen of an emulated library's fit keeps the emulation error", {
 test_that("a gap on predicted runs worse than the noise says it may be their error", {
   # refine() without a simulator on a library that cannot predict itself
   # (test-refine-predict.R): the emulator's misfit may show as a gap
-  sharp <- function(theta) {
-    t <- seq(0, 1, length.out = 40)
-    t(vapply(theta$k, function(k) sin(k^2 * t), numeric(40)))
-  }
-  theta <- data.frame(k = seq(1, 4, by = 0.5))
-  lib <- sim_library(theta, sharp(theta))
-  set.seed(3)
-  field <- field_data(sharp(data.frame(k = 2.71)) + rnorm(40, sd = 0.01), t = lib$t)
-  fit <- suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
+  fit <- sharp_fit()
   expect_warning(refined <- suppressWarnings(refine(fit, max_runs = 600, seed = 1),
                                              classes = "griddy_warning_emulation"),
                  "part of the gap may be that error", class = "griddy_warning_gap")

@@ -15,15 +15,7 @@ test_that("refine() without a simulator predicts runs and resolves the posterior
 })
 
 test_that("refine() without a simulator says so when the library cannot predict itself", {
-  sharp <- function(theta) {
-    t <- seq(0, 1, length.out = 40)
-    t(vapply(theta$k, function(k) sin(k^2 * t), numeric(40)))
-  }
-  theta <- data.frame(k = seq(1, 4, by = 0.5))
-  lib <- sim_library(theta, sharp(theta))
-  set.seed(3)
-  field <- field_data(sharp(data.frame(k = 2.71)) + rnorm(40, sd = 0.01), t = lib$t)
-  fit <- suppressWarnings(calibrate(lib, field, n_iter = 500, burn_in = 100, seed = 1))
+  fit <- sharp_fit()
   # (its misfit shows as a gap too: test-gap-screen.R)
   expect_warning(refined <- suppressWarnings(refine(fit, max_runs = 600, seed = 1),
                                              classes = "griddy_warning_gap"),
