@@ -8,10 +8,13 @@ test_that("refine() runs the simulator on the workers of a future plan, same res
   # the workers ("'package:griddy' may not be available when loading")
   sim <- refine_sim
   environment(sim) <- globalenv()
-  sequential <- refine(toy$fit, sim, max_runs = 60, runs_per_round = 30, seed = 4)
+  # 60 runs do not resolve the toy: the warning says so, the same both ways
+  expect_warning(sequential <- refine(toy$fit, sim, max_runs = 60, runs_per_round = 30, seed = 4),
+                 class = "griddy_warning_resolution")
   future::plan("multisession", workers = 2)
   on.exit(future::plan("sequential"), add = TRUE)
-  parallel <- refine(toy$fit, sim, max_runs = 60, runs_per_round = 30, seed = 4)
+  expect_warning(parallel <- refine(toy$fit, sim, max_runs = 60, runs_per_round = 30, seed = 4),
+                 class = "griddy_warning_resolution")
   expect_identical(lib_theta(parallel$library), lib_theta(sequential$library))
   expect_equal(parallel$C, sequential$C)
 })
