@@ -77,6 +77,7 @@ test_that("print.refined_library() shows the base, the rounds and the runs added
 })
 
 test_that("a refined library over an emulated one keeps the base's error and plug-in in C's results", {
+  skip_if_not_installed("RobustGaSP")
   # they travelled as attributes of C, which rbind() of the base's and the
   # added runs' forms dropped: calibrate() on such a library lost the
   # emulation error its summary reports
@@ -94,6 +95,7 @@ test_that("a refined library over an emulated one keeps the base's error and plu
 })
 
 test_that("a problem is classed, holds its prior once and C bare", {
+  skip_if_not_installed("RobustGaSP")
   lib <- emulated_toy_library(n = 40, n_runs = 300)
   problem <- suppressWarnings(local_problem(lib, emulated_toy_field(), rho_t = c(0, 0.5)))
   expect_s3_class(problem, "griddy_problem")
