@@ -116,6 +116,9 @@ run_tasks <- function(call, theta, tasks, finish) {
     return(invisible())
   }
   running <- list()
+  # a scheduler's plan (future.batchtools) has no workers to restart: a job
+  # it lost (cancelled, expired) is gone, and the next future is a new job
+  restartable <- !inherits(future::plan(), "batchtools")
   lost_worker <- FALSE
   failed_launches <- 0L
   on.exit(if (lost_worker) restart_workers())
@@ -137,7 +140,7 @@ run_tasks <- function(call, theta, tasks, finish) {
       }
       # sent to a dead worker: not the task's fault, it waits for the
       # restart (unless launches keep failing on fresh workers)
-      lost_worker <- TRUE
+      lost_worker <- restartable
       failed_launches <- failed_launches + 1L
       tasks <- if (failed_launches <= lost_tries) c(list(t1), tasks) else
         c(tasks, finish(t1, list(error = launched)))
@@ -156,7 +159,7 @@ run_tasks <- function(call, theta, tasks, finish) {
     idle <- 0L
     for (r in running[done]) {
       result <- tryCatch(future::value(r$future), error = function(e) list(error = e))
-      if (inherits(result$error, "FutureError")) lost_worker <- TRUE
+      if (inherits(result$error, "FutureError") && restartable) lost_worker <- TRUE
       tasks <- c(tasks, finish(r$task, result))
     }
     running <- running[!done]

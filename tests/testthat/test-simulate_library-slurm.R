@@ -24,7 +24,7 @@ test_that("a campaign on Slurm survives a cancelled job and a killed writer with
     "    system(paste('scancel', Sys.getenv('SLURM_JOB_ID')))",
     "    Sys.sleep(60)",
     "  }",
-    "  Sys.sleep(0.2)",
+    "  Sys.sleep(1)",
     "  t <- seq(0, 1, length.out = 20)",
     "  t(mapply(function(k, c) sin(k * t) + c, theta$k, theta$c))",
     "}",
