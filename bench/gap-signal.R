@@ -29,14 +29,23 @@ Y <- t(mapply(conc, theta$k_a, theta$k_e))
 library_pk <- sim_library(theta, Y, x = doses, t = times)
 noise_sd <- 0.05
 
-trial <- function(size, seed) {
+# One trial's field data `y` and its truth (`ka`, `ke`): a truth drawn inside the library, a Gaussian
+# second peak of `size` noise sds at t = 6 h at the middle dose, noise.
+trial_data <- function(size, seed) {
   set.seed(seed)
   ka <- stats::runif(1, 1.4, 1.6)
   ke <- stats::runif(1, 0.1925, 0.2075)
   y <- matrix(conc(ka, ke), 3, length(times), byrow = TRUE)
   y[2, ] <- y[2, ] + size * noise_sd * exp(-0.5 * ((times - 6) / 0.5)^2)
   y <- y + stats::rnorm(length(y), sd = noise_sd)
-  field <- field_data(y, x = doses, t = times)
+  list(y = y, ka = ka, ke = ke)
+}
+
+trial <- function(size, seed) {
+  data <- trial_data(size, seed)
+  ka <- data$ka
+  ke <- data$ke
+  field <- field_data(data$y, x = doses, t = times)
   classes <- character(0)
   start <- proc.time()[["elapsed"]]
   fit <- withCallingHandlers(
@@ -96,12 +105,7 @@ if (length(args) >= 2L && args[2] == "levels") {
     seeds <- switch(as.character(size), "0" = c(1:45, 101:145), "3" = 3001:3030,
                     "5" = 5001:5045)
     for (seed in seeds) {
-      set.seed(seed)
-      ka <- stats::runif(1, 1.4, 1.6)
-      ke <- stats::runif(1, 0.1925, 0.2075)
-      y <- matrix(conc(ka, ke), 3, length(times), byrow = TRUE)
-      y[2, ] <- y[2, ] + size * noise_sd * exp(-0.5 * ((times - 6) / 0.5)^2)
-      y <- y + stats::rnorm(length(y), sd = noise_sd)
+      y <- trial_data(size, seed)$y
       fit <- suppressWarnings(calibrate(library_pk, field_data(y, x = doses, t = times),
                                         n_iter = 1000, burn_in = 200, seed = seed))
       b <- fit$gap_screen$blocks

@@ -55,3 +55,18 @@ load_decay_system <- function(gap, bump, n_grid, n_t, truth, sd = 0.05, seed = 3
        field = field_data(field, x = x[rep(seq_len(nrow(x)), reps), , drop = FALSE], t = t),
        simulator = function(theta) t(mapply(sim, theta$a, theta$b)))
 }
+
+# toy_missing() with missing cells, a relative sd and two noise groups,
+# calibrated with a discrepancy (`orthogonal` as gp_discrepancy() takes it):
+# the toy, its sd and groups, and the fit.
+missing_groups_fit <- function(orthogonal = NULL) {
+  toy <- toy_missing()
+  sd <- rep(c(0.5, 1, 2), each = 5)
+  groups <- rep(c(1, 2, 2, 1, 2), 3)
+  fit <- suppressWarnings(calibrate(
+    toy$library, field_data(toy$y, x = toy$x, t = toy$t, sd = sd), rho_x = 0.5,
+    rho_t = c(0, 0.6), n_iter = 100, burn_in = 10, seed = 1, noise_groups = groups,
+    discrepancy = gp_discrepancy(ratio = c(0, 1, 10), length_x = 0.5, length_t = 0.3,
+                                 orthogonal = orthogonal)))
+  list(toy = toy, sd = sd, groups = groups, fit = fit)
+}

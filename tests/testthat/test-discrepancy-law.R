@@ -5,17 +5,7 @@
 # A fit of toy_missing() with missing cells, a relative sd and two noise
 # groups, and a discrepancy (a plain GaSP, so that every block's conditional
 # covariance has full rank and its statistic has a closed form below).
-law_fit <- function() {
-  toy <- toy_missing()
-  sd <- rep(c(0.5, 1, 2), each = 5)
-  groups <- rep(c(1, 2, 2, 1, 2), 3)
-  fit <- suppressWarnings(calibrate(
-    toy$library, field_data(toy$y, x = toy$x, t = toy$t, sd = sd), rho_x = 0.5,
-    rho_t = c(0, 0.6), n_iter = 100, burn_in = 10, seed = 1, noise_groups = groups,
-    discrepancy = gp_discrepancy(ratio = c(0, 1, 10), length_x = 0.5, length_t = 0.3,
-                                 orthogonal = FALSE)))
-  list(toy = toy, sd = sd, groups = groups, fit = fit)
-}
+law_fit <- function() missing_groups_fit(orthogonal = FALSE)
 
 # The Gaussian conditional of delta at run i, grid point g by dense algebra,
 # per noise group k (o its observed cells, c all its cells): the mean

@@ -23,13 +23,10 @@ brute_delta <- function(fit, i, g, sd, groups) {
 }
 
 test_that("delta | y at a run and grid point is the Gaussian conditional, per noise group", {
-  toy <- toy_missing()
-  sd <- rep(c(0.5, 1, 2), each = 5)
-  groups <- rep(c(1, 2, 2, 1, 2), 3)
-  fit <- suppressWarnings(calibrate(
-    toy$library, field_data(toy$y, x = toy$x, t = toy$t, sd = sd), rho_x = 0.5,
-    rho_t = c(0, 0.6), n_iter = 100, burn_in = 10, seed = 1, noise_groups = groups,
-    discrepancy = gp_discrepancy(ratio = c(0, 1, 10), length_x = 0.5, length_t = 0.3)))
+  case <- missing_groups_fit()
+  fit <- case$fit
+  sd <- case$sd
+  groups <- case$groups
   for (g in which(fit$grid$delta_ratio > 0)) {
     at <- delta_law(fit$setup, g, fit_kernels(fit))
     want <- brute_delta(fit, 3, g, sd, groups)
