@@ -15,7 +15,10 @@
 #'   parameter values: one row per run (`N x p`), at least two runs.
 #' @param y A numeric matrix `N x (n_x * n_t)` of the runs' outputs.
 #' @param x A data.frame (or numeric vector or named matrix) of the `n_x`
-#'   control settings, one row each; `NULL` for a single setting.
+#'   control settings, one row each; `NULL` for a single setting. Its
+#'   columns may not be named `setting`, `t`, `observed`, `residual`, `mean`,
+#'   `sd`, `lower`, `upper`, `pred_lower` or `pred_upper`: [predict()] and
+#'   [discrepancy_posterior()] put columns of those names beside them.
 #' @param t The `n_t` output coordinates (time, or a location index), strictly
 #'   increasing; `NULL` gives `1:n_t`.
 #' @return An object of class `sim_library`: a list with elements `theta` (a
@@ -161,6 +164,7 @@ as_settings <- function(x, arg, distinct = TRUE) {
     griddy_abort("`", arg, "` must be a data.frame of control settings, one row each; ",
                  "received ", class(x)[1], ".")
   }
+  assert_unreserved_columns(names(x), arg)
   # plain doubles: integer and integer64 columns are read as their numbers
   x <- as.data.frame(as_numeric_matrix(x, arg))
   dup <- if (distinct) which(duplicated(x)) else integer(0)
@@ -169,6 +173,24 @@ as_settings <- function(x, arg, distinct = TRUE) {
   }
   rownames(x) <- NULL
   x
+}
+
+# The columns that predict(), discrepancy_posterior() and their plots put
+# beside the x columns in one table (setting_cells()): an x column of one of
+# these names made two columns of one name, and every table and plot built
+# from them broke or read the wrong one. `x` itself is not here: the
+# setting's row is then named `setting` (setting_column()).
+reserved_setting_names <- c("setting", "t", "observed", "residual", "mean", "sd", "lower",
+                            "upper", "pred_lower", "pred_upper")
+
+assert_unreserved_columns <- function(columns, arg) {
+  clash <- intersect(columns, reserved_setting_names)
+  if (length(clash) == 0L) return(invisible(columns))
+  griddy_abort("`", arg, "` has column(s) named ", show_some(paste0("`", clash, "`")),
+               ", which griddy's prediction and discrepancy tables use for their own ",
+               "columns (", paste(reserved_setting_names, collapse = ", "), "): rename ",
+               if (length(clash) == 1L) "it" else "them", " (say, `", clash[1], "_x`).",
+               class = "input")
 }
 
 # Output coordinates: strictly increasing and finite, `n` of them.

@@ -63,3 +63,17 @@ test_that("print.sim_library() shows runs, parameters, settings and outputs", {
   expect_snapshot(print(toy_xt(n_per_dim = 4)$library))
   expect_snapshot(print(toy_ar1(n_runs = 30, n_t = 5)$library))
 })
+
+test_that("an x column named like a column of griddy's tables is refused (issue 33)", {
+  # before, `t` as an x column gave predict() two columns named t, and the
+  # ppc plot read the output coordinate from the wrong one
+  theta <- data.frame(a = 1:3)
+  y <- matrix(1:6, 3, 2)
+  for (name in c("t", "mean", "observed")) {
+    x <- stats::setNames(data.frame(c(1, 2)), name)
+    expect_error(sim_library(theta, y, x = x), paste0("`", name, "`"),
+                 class = "griddy_error_input")
+  }
+  # `x` itself is allowed (the setting's row is then named `setting`)
+  expect_s3_class(sim_library(theta, y, x = data.frame(x = c(1, 2))), "sim_library")
+})
