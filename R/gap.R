@@ -337,13 +337,19 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
 
   step("where and how much")
   where <- gap_where(ctx, base_terms, windows, fdr)
-  folds <- gap_folds(ctx, base_terms, cand_terms)
-  shrink <- summarise_folds(folds, names(candidates))
+  # the one rule of the block checks (block_check_applies(), as without
+  # candidates and in calibrate()'s screen): with replicates or noise groups
+  # they are shown, not flagged, and the evidence alone answers
+  checks <- block_check_applies(fit)
+  if (!checks) where$blocks$flagged <- FALSE
+  folds <- gap_folds(ctx, base_terms, cand_terms, lapply(screen, `[[`, "identified"))
+  shrink <- summarise_folds(folds, names(candidates), gap_x_labels(list(x = lib_x(base))))
   separation <- do.call(rbind, unname(lapply(screen, `[[`, "separation")))
   verdict <- gap_verdict(which_tab, separation, base, where)
   structure(list(where = where$blocks, which = which_tab, shrinkage = shrink,
                  folds = folds, map = where$map, separation = separation, verdict = verdict,
                  settings = list(fdr = fdr, windows = where$breaks,
+                                 where = if (checks) "check" else "unflagged",
                                  other_scales = other_scales,
                                  confounding_threshold = confounding_threshold),
                  x = lib_x(base), t = lib_t(base)),
@@ -383,16 +389,9 @@ check_gap_pattern <- function(fit) {
                  "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
-  # replicates enter the likelihood as their cell means plus a pure-error sum
-  # of squares; the leave-block-out checks of refined libraries (predicted
-  # runs' error) are not calibrated for them yet
-  if (has_replicates(fit)) {
-    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
-                 "candidates (", fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)),
-                 " cells). Diagnose without candidates (is there a gap, and where), or ",
-                 "weigh candidates on the replicates' means (one row per setting in ",
-                 "field_data()).", class = "unsupported")
-  }
+  # replicates are fine: they enter the likelihood as their cell means plus a
+  # pure-error sum of squares, which every leave-out piece keeps (it informs
+  # tau whatever setting or block is left out)
 }
 
 # More measurements than measured cells: replicates.
