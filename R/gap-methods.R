@@ -225,7 +225,9 @@ print.gap_diagnosis <- function(x, ...) {
 #'   the columns of its `shrinkage` table for the candidates: `before` and
 #'   `after` the held-out RMSE, `shrink` = 1 - after / before, `lpd_*` the
 #'   leave-setting-out log predictive densities, `cover90_*` the coverage of
-#'   90% predictive intervals), `flagged` (the flagged blocks, worst first)
+#'   90% predictive intervals; `NA` after where the held-out settings do not
+#'   identify the candidate's strength, `identified` and `unidentified` saying
+#'   so, see [diagnose_gap()]'s "How much"), `flagged` (the flagged blocks, worst first)
 #'   and `settings`. Its `print()` shows them and returns it invisibly.
 #' @examples
 #' t <- seq(0, 1, length.out = 30)
