@@ -160,7 +160,10 @@ emulated_inverse <- function(ctx, point, e, err) {
   A <- PV %*% eg$vectors
   shrink <- error_shrink(1, gamma)[1, ]
   h <- apply_precision(ctx, point, e) - drop(A %*% (shrink * crossprod(A, e)))
-  list(A = A, shrink = shrink, h = h, Q = sum(e * h), logdet = error_logdet(1, gamma))
+  # Q as the run's misfit C has it: with the replicates' pure error, which
+  # every leave-block-out piece keeps (plain runs' Q holds it too)
+  list(A = A, shrink = shrink, h = h, Q = sum(e * h) + sum(ctx$setup$pure_ss),
+       logdet = error_logdet(1, gamma))
 }
 
 # Its leave-block pieces: (S^-1)_BB = P_BB - A_B diag(shrink) A_B'.

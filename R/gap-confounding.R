@@ -57,7 +57,9 @@ confounding_screen <- function(ctx, base_terms, cand, base_cols, threshold, effe
        confounded = any(judged) && sep[best] < threshold,
        detectable = res[[biggest]]$detectable, absorbed_by = absorbed_by,
        separation = effect_separation(ctx, base_terms$Y, cand, res[[best]]$pair,
-                                      res[[best]]$imitator, absorbed_by, effect))
+                                      res[[best]]$imitator, absorbed_by, effect),
+       # which held-out folds can learn the strength (gap-shrinkage.R)
+       identified = strength_identified(ctx, cand, lapply(res, `[[`, "pair"), point, tau_hat))
 }
 
 # The base runs' outputs whitened at the base posterior's top grid point, as

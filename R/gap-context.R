@@ -31,8 +31,21 @@ gap_context <- function(fit) {
   list(n_x = n_x, n_t = n_t, n = fit$n_obs, y = fit$y_field, prior = fit$prior,
        points = points, setup = setup, x = lib_x(lib), t = lib_t(lib), theta = lib_theta(lib),
        logdet = setup$logdet, log_prior_grid = fit$log_prior_grid,
-       obs = obs, sd = setup$pattern$sd, is_dense = !is.null(noise_layout(setup)),
-       setting_pos = setting_pos)
+       obs = obs, sd = setup$pattern$sd, sd_y = data_sd(setup, n_x * n_t),
+       is_dense = !is.null(noise_layout(setup)), setting_pos = setting_pos)
+}
+
+# The relative sd of each data value (library order, NA where missing): a
+# replicated cell's mean has its own (1 / sqrt(n_rep) without sd), a cell
+# measured once its measurement's; NULL when every value has the noise's.
+# What the predictive checks of held-out values scale by (`sd` is that of
+# one measurement, which "other"'s discrepancy is scaled by).
+data_sd <- function(setup, n) {
+  layout <- noise_layout(setup)
+  if (is.null(layout$scale)) return(NULL)
+  sd <- rep(NA_real_, n)
+  sd[layout$obs] <- 1 / layout$scale
+  sd
 }
 
 # The AR(1) precision over t, A'A for A the whitening (innovations) operator

@@ -99,7 +99,10 @@ verdict_line <- function(x) {
   v <- x$verdict
   sh <- x$shrinkage[x$shrinkage$effect == v$answer, ]
   conf_mass <- sum(x$which$prob[x$which$confounded])
-  extra <- if (nrow(sh) == 1L) {
+  extra <- if (nrow(sh) == 1L && is.na(sh$shrink)) {
+    paste0("; its held-out shrinkage is not identified by the held-out settings (",
+           sh$unidentified, ")")
+  } else if (nrow(sh) == 1L) {
     paste0("; held-out RMSE ", format(sh$before, digits = 3), " -> ",
            format(sh$after, digits = 3), " (", format_shrink(sh$shrink), " shrinkage)")
   } else if (v$answer == "none" && conf_mass > v$prob) {
@@ -124,7 +127,14 @@ where_line <- function(x, n_worst = 1L, scores = FALSE) {
   wh <- x$where
   fdr <- paste0("FDR ", format(100 * x$settings$fdr), "%")
   fl <- wh[wh$flagged, ]
-  out <- if (nrow(fl) == 0L) {
+  out <- if (identical(x$settings$where, "unflagged")) {
+    # replicates (or noise groups): the checks are shown, the evidence answers
+    top <- utils::head(wh[order(wh$p_value), ], n_worst)
+    paste0("Where: no block flagged: with replicated field data the block checks do not ",
+           "decide, the evidence alone answers; least p-value ",
+           paste0(format(top$p_value, digits = 2), " at ", block_place(x, top),
+                  collapse = "; "))
+  } else if (nrow(fl) == 0L) {
     paste0("Where: no block of ", nrow(wh), " flagged (", fdr, ")")
   } else {
     top <- utils::head(fl[order(fl$score, decreasing = TRUE), ], n_worst)
@@ -153,11 +163,29 @@ model_lines <- function(x) {
   note <- ifelse(w$confounded, paste0("confounded with ", w$absorbed_by), "")
   note[w$effect == "none"] <- "the base model"
   note[w$effect == "other"] <- "a smooth discrepancy"
+  # a candidate whose held-out folds cannot learn its strength has none
+  lost <- w$effect %in% x$shrinkage$effect[!shrinkage_identified(x$shrinkage)]
   cols <- list(c("model", w$effect), c("P", format_prob(w$prob)),
-               c("shrinkage", ifelse(is.na(shrink), "", format_shrink(shrink))),
+               c("shrinkage", ifelse(lost, "not identified",
+                                     ifelse(is.na(shrink), "", format_shrink(shrink)))),
                c("", note))
   lines <- do.call(paste, c(lapply(cols, format), sep = "  "))
   paste0("  ", sub("\\s+$", "", lines))
+}
+
+# Per candidate of a shrinkage table, whether its held-out shrinkage is
+# identified (a table without the column: every one).
+shrinkage_identified <- function(sh) {
+  if (is.null(sh$identified)) rep(TRUE, nrow(sh)) else sh$identified
+}
+
+# The sentence for a candidate whose held-out shrinkage is withheld
+# (summarise_folds()): which settings' folds cannot learn its strength.
+unidentified_sentence <- function(row) {
+  paste0("The held-out shrinkage of '", row$effect, "' is not identified by the held-out ",
+         "settings: leaving out ", row$unidentified, ", the other settings do not show its ",
+         "effect (below the evidence bar), so its strength there, and the figure, would be ",
+         "set by the strength grid, not by the data.")
 }
 
 wrap_lines <- function(s) {
@@ -197,7 +225,9 @@ print.gap_diagnosis <- function(x, ...) {
 #'   the columns of its `shrinkage` table for the candidates: `before` and
 #'   `after` the held-out RMSE, `shrink` = 1 - after / before, `lpd_*` the
 #'   leave-setting-out log predictive densities, `cover90_*` the coverage of
-#'   90% predictive intervals), `flagged` (the flagged blocks, worst first)
+#'   90% predictive intervals; `NA` after where the held-out settings do not
+#'   identify the candidate's strength, `identified` and `unidentified` saying
+#'   so, see [diagnose_gap()]'s "How much"), `flagged` (the flagged blocks, worst first)
 #'   and `settings`. Its `print()` shows them and returns it invisibly.
 #' @examples
 #' t <- seq(0, 1, length.out = 30)
@@ -222,7 +252,9 @@ summary.gap_diagnosis <- function(object, ...) {
   fl <- object$where[object$where$flagged, ]
   fl <- fl[order(fl$score, decreasing = TRUE), ]
   rownames(fl) <- NULL
-  structure(list(explanation = c(verdict_explanation(object), evidence_line(object)),
+  lost <- sh[!shrinkage_identified(sh) & sh$effect != object$verdict$answer, ]
+  lost <- vapply(seq_len(nrow(lost)), function(i) unidentified_sentence(lost[i, ]), "")
+  structure(list(explanation = c(verdict_explanation(object), lost, evidence_line(object)),
                  where = where_line(object, n_worst = 3L, scores = TRUE),
                  advice = gap_advice(object$which, object$separation, object$x),
                  models = models, flagged = fl,
@@ -267,7 +299,9 @@ verdict_explanation <- function(x) {
     },
     paste0("The gap is best explained by '", v$answer, "' (", prob_phrase(v$prob), ")."))
   sh <- x$shrinkage[x$shrinkage$effect == v$answer, ]
-  if (nrow(sh) == 1L) {
+  if (nrow(sh) == 1L && is.na(sh$shrink)) {
+    out <- paste0(out, " ", unidentified_sentence(sh))
+  } else if (nrow(sh) == 1L) {
     out <- paste0(out, " Adding it cuts the RMSE of held-out settings from ",
                   format(sh$before, digits = 3), " to ", format(sh$after, digits = 3), " (",
                   format_shrink(sh$shrink), " shrinkage; 90% coverage ",
@@ -307,9 +341,11 @@ print.gap_diagnosis_summary <- function(x, digits = 3, ...) {
     cols <- c(cols, "confounded", "separable", "detectable", "absorbed_by")
   }
   print(m[cols], row.names = FALSE)
-  cand <- m[!is.na(x$models$shrink), ]
+  cand <- m[!x$models$effect %in% c("none", "other"), ]
   if (nrow(cand) > 0L) {
-    cli::cat_line("Held-out settings (each x setting left out in turn):")
+    lost <- !shrinkage_identified(x$models[!x$models$effect %in% c("none", "other"), ])
+    cli::cat_line("Held-out settings (each x setting left out in turn",
+                  if (any(lost)) "; NA: not identified", "):")
     print(cand[c("effect", "before", "after", "shrink", "lpd_before", "lpd_after",
                  "cover90_before", "cover90_after")], row.names = FALSE)
   }

@@ -12,7 +12,8 @@
 #'   marginal likelihoods of the base model ("none"), of each candidate, and
 #'   of a generic smooth discrepancy ("other");
 #' * **how much** each candidate shrinks the gap on data it has not seen:
-#'   each x setting is left out in turn and predicted from the others.
+#'   each x setting is left out in turn and predicted from the others (not
+#'   given when the other settings cannot teach the candidate's strength).
 #'
 #' **Without candidates** (`candidates` missing, `NULL` or an empty list),
 #' the question is whether the field data show a gap the simulator cannot
@@ -76,12 +77,21 @@
 #' block (of "where") or x setting (of "how much") is its observed cells; a
 #' block with none is not checked (`n` = 0, `score` and `p_value` `NA`,
 #' never flagged) and a setting with none has no fold. Candidates' quadratic
-#' forms use the same observed points and sd. **Not yet supported with
+#' forms use the same observed points and sd.
+#'
+#' **Replicated field data** (several measurements of a cell, see
+#' [field_data()]) enter every model as their cell means plus the pure-error
+#' sum of squares, as in [calibrate()]: the pure error pins the noise, so that
+#' it is told from the gap, and it stays in every leave-out piece (a held-out
+#' setting or block leaves out its cell means; the replicates' scatter still
+#' informs the noise). Held-out intervals and the map are those of the cell
+#' means. As without candidates (and in [calibrate()]'s gap screen), the
+#' leave-block-out checks then do not decide: `$where` shows their scores and
+#' p-values but flags no block (`settings$where` is `"unflagged"`, else
+#' `"check"`), and the evidence alone answers. **Not yet supported with
 #' candidates:** noise groups (see [calibrate()]): with a precision per group
-#' the block statistic has no single F distribution; and replicated field
-#' measurements (the leave-block-out checks of predicted runs are not
-#' calibrated for them). Such a fit is an error of class
-#' `griddy_error_unsupported` (without candidates both are supported).
+#' the block statistic has no single F distribution. Such a fit is an error of
+#' class `griddy_error_unsupported` (without candidates they are supported).
 #'
 #' **Candidates.** Each candidate is a [sim_library()] at the fit's x and t
 #' whose `theta` holds the base library's columns plus one or more strength
@@ -157,6 +167,24 @@
 #' `cover90_*` the fraction of held-out points inside the central 90%
 #' predictive interval (simulator plus fitted noise).
 #'
+#' A fold can learn a candidate's strength only from its training settings.
+#' When the effect acts at the held-out setting but not (or too weakly) at
+#' the others, as an effect confined to one setting does, every strength
+#' fits the training part alike: the strength's posterior there is its prior,
+#' and the held-out prediction, so the shrinkage, would be set by the
+#' candidate's strength grid, not by the data. So a fold counts as
+#' identifying the strength only when its training cells could show the
+#' candidate's largest effect (its run near the base posterior mode against
+#' the zero-strength run, at each non-zero strength) at the evidence bar a
+#' gap needs: log likelihood ratio against no effect,
+#' \eqn{\tau d_{-B}' \Sigma_{-B}^{-1} d_{-B} / 2}, above 1 at the fitted noise.
+#' A candidate with a fold that does not has its `after`, `shrink`,
+#' `lpd_after` and `cover90_after` withheld (`NA`; `identified` `FALSE`,
+#' `unidentified` naming the held-out settings), and `print()` and
+#' [summary()][summary.gap_diagnosis] say that its shrinkage is not identified
+#' by the held-out settings. Its evidence (`$which`) is unaffected: that uses
+#' all the data.
+#'
 #' @param fit A `griddy_fit` from [calibrate()].
 #' @param candidates A named list of candidate effects, each a [sim_library()]
 #'   as described in Details; `NULL` (the default) or an empty list asks only
@@ -195,8 +223,11 @@
 #'     deviations), `absorbed_by` (the theta column that imitates it);
 #'   * `shrinkage`: one row per candidate: `effect`, `before`, `after`,
 #'     `shrink`, `lpd_before`, `lpd_after`, `cover90_before`,
-#'     `cover90_after`;
-#'   * `folds`: the same per left-out x setting;
+#'     `cover90_after`, `identified` (whether every fold learns the
+#'     candidate's strength; if not, the `after` figures and `shrink` are
+#'     `NA`, see "How much") and `unidentified` (the x settings whose folds do
+#'     not, "" when none);
+#'   * `folds`: the same per left-out x setting (`identified` per fold);
 #'   * `map`: the pointwise residual field (`x`, `t`, `residual`, `z` =
 #'     residual / fitted noise sd, times the point's relative sd where given)
 #'     under the base posterior, `NA` at missing cells;
@@ -227,7 +258,7 @@
 #'     fit with the discrepancy, at matched resolution.
 #'
 #'   `print()` gives the short result: the verdict (answer, probability,
-#'   held-out shrinkage), the worst flagged block, one line per model and the
+#'   held-out shrinkage, or that it is not identified), the worst flagged block, one line per model and the
 #'   design advice (one line per confounded candidate, the generic advice
 #'   once); [summary()][summary.gap_diagnosis] explains the
 #'   verdict and gives the full tables.
@@ -337,13 +368,19 @@ diagnose_gap <- function(fit, candidates = NULL, windows = NULL, fdr = 0.025,
 
   step("where and how much")
   where <- gap_where(ctx, base_terms, windows, fdr)
-  folds <- gap_folds(ctx, base_terms, cand_terms)
-  shrink <- summarise_folds(folds, names(candidates))
+  # the one rule of the block checks (block_check_applies(), as without
+  # candidates and in calibrate()'s screen): with replicates or noise groups
+  # they are shown, not flagged, and the evidence alone answers
+  checks <- block_check_applies(fit)
+  if (!checks) where$blocks$flagged <- FALSE
+  folds <- gap_folds(ctx, base_terms, cand_terms, lapply(screen, `[[`, "identified"))
+  shrink <- summarise_folds(folds, names(candidates), gap_x_labels(list(x = lib_x(base))))
   separation <- do.call(rbind, unname(lapply(screen, `[[`, "separation")))
   verdict <- gap_verdict(which_tab, separation, base, where)
   structure(list(where = where$blocks, which = which_tab, shrinkage = shrink,
                  folds = folds, map = where$map, separation = separation, verdict = verdict,
                  settings = list(fdr = fdr, windows = where$breaks,
+                                 where = if (checks) "check" else "unflagged",
                                  other_scales = other_scales,
                                  confounding_threshold = confounding_threshold),
                  x = lib_x(base), t = lib_t(base)),
@@ -383,16 +420,9 @@ check_gap_pattern <- function(fit) {
                  "without candidates (is there a gap, and where).",
                  class = "unsupported")
   }
-  # replicates enter the likelihood as their cell means plus a pure-error sum
-  # of squares; the leave-block-out checks of refined libraries (predicted
-  # runs' error) are not calibrated for them yet
-  if (has_replicates(fit)) {
-    griddy_abort("diagnose_gap() does not yet support replicated field measurements with ",
-                 "candidates (", fit$n_obs, " measurements at ", sum(!is.na(fit$y_field)),
-                 " cells). Diagnose without candidates (is there a gap, and where), or ",
-                 "weigh candidates on the replicates' means (one row per setting in ",
-                 "field_data()).", class = "unsupported")
-  }
+  # replicates are fine: they enter the likelihood as their cell means plus a
+  # pure-error sum of squares, which every leave-out piece keeps (it informs
+  # tau whatever setting or block is left out)
 }
 
 # More measurements than measured cells: replicates.

@@ -64,6 +64,29 @@ test_that("the misfit table and the leave-block pieces are one algebra", {
   expect_equal(bs$logdet_BB, as.numeric(determinant(Si[W, W])$modulus), tolerance = 1e-10)
 })
 
+test_that("with replicates, a predicted run's leave-block form keeps the pure error, as C", {
+  # issue 33: its Q lacked the replicates' pure-error sum of squares that C and
+  # the block statistic's degrees of freedom count, so the checks of predicted
+  # runs saw too little noise and flagged blocks in data without a gap
+  toy <- refine_toy()
+  set.seed(4)
+  y <- c(toy$field$y, toy$field$y + stats::rnorm(40, sd = 0.02))
+  field <- field_data(data.frame(t = rep(toy$lib$t, 2), y = y))
+  fit <- suppressWarnings(calibrate(toy$lib, field, n_iter = 300, burn_in = 100, seed = 1))
+  refined <- suppressWarnings(refine(fit, max_runs = 200, runs_per_round = 100, seed = 2),
+                              classes = "griddy_warning")
+  ctx <- gap_context(refined)
+  expect_gt(sum(ctx$setup$pure_ss), 0)
+  lib <- refined$library
+  j <- lib_n_runs(lib$base) + 5L
+  err <- run_emulation(run_errors(lib), j, ctx$obs)
+  r <- (refined$y_field - lib_outputs(lib, j)[1, ])[ctx$obs]
+  wood <- emulated_inverse(ctx, ctx$points[[1]], r, err)
+  C <- list(C = matrix(wood$Q), extra_logdet = matrix(wood$logdet))
+  expect_equal(drop(fold_extra_logdet(C, refined$prior, ctx$n)), refined$C[j, 1],
+               tolerance = 1e-8)
+})
+
 # One theta in [0, 1]; a joint design dense in its middle with one run near
 # each edge, so the emulator knows little there; replicated field data from
 # theta = 0.5 with a discrepancy no run removes.

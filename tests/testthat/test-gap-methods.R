@@ -173,3 +173,50 @@ test_that("print.gap_diagnosis() and its summary's print are stable", {
   expect_snapshot(print(gap))
   expect_snapshot(print(summary(gap)))
 })
+
+test_that("print() and summary() say when a candidate's held-out shrinkage is not identified", {
+  # issue 33: a figure set by the strength grid was printed as a shrinkage
+  toy <- toy_gap(0)
+  t <- toy$t
+  bump_sim <- function(a, s) {
+    toy$sim(a, 0) + c(rep(0, 30), s * exp(-((t - 0.5) / 0.1)^2), rep(0, 30))
+  }
+  g <- expand.grid(a = lib_theta(toy$lib)$a, s = c(0, 0.1, 0.2, 0.3))
+  bump <- sim_library(g, t(mapply(bump_sim, g$a, g$s)), x = toy$x, t = t)
+  set.seed(1)
+  field <- field_data(matrix(bump_sim(1, 0.15) + stats::rnorm(90, sd = 0.05), 3, byrow = TRUE),
+                      x = toy$x, t = t)
+  fit <- suppressWarnings(calibrate(toy$lib, field, n_iter = 300, burn_in = 100, seed = 1))
+  gap <- diagnose_gap(fit, list(bump = bump, quadratic = toy$quad), seed = 1)
+  out <- printed(gap)
+  expect_match(out, paste0("Verdict: best explained by 'bump' \\(P [=>] [0-9.]+%\\); its held-out ",
+                           "shrinkage is not identified by the held-out settings \\(load=2\\)"))
+  expect_match(out, "bump > 99.9% not identified")
+  expect_no_match(out, "held-out RMSE")
+  s <- summary(gap)
+  expect_match(paste(s$explanation, collapse = " "),
+               paste0("The held-out shrinkage of 'bump' is not identified by the held-out ",
+                      "settings: leaving out load=2, the other settings do not show its effect"))
+  expect_match(printed(s), "Held-out settings \\(each x setting left out in turn; NA: not identified")
+  expect_match(printed(s), "bump [0-9.]+ NA NA")
+  # an unidentified candidate that is not the answer is explained in summary()
+  null <- diagnose_gap(toy$fit, list(bump = bump, quadratic = toy$quad), seed = 1)
+  expect_identical(null$verdict$answer, "none")
+  expect_match(paste(summary(null)$explanation, collapse = " "),
+               "The held-out shrinkage of 'bump' is not identified", fixed = TRUE)
+})
+
+test_that("with replicates the block checks are shown, not flagged, and print says why", {
+  toy <- toy_gap(0.1)
+  set.seed(3)
+  y <- do.call(rbind, lapply(1:3, function(r) {
+    matrix(toy$sim(1, 0.1) + stats::rnorm(90, sd = 0.05), 3, byrow = TRUE)
+  }))
+  field <- field_data(y, x = toy$x[rep(1:3, 3), , drop = FALSE], t = toy$t)
+  fit <- suppressWarnings(calibrate(toy$lib, field, n_iter = 200, burn_in = 50, seed = 1))
+  gap <- diagnose_gap(fit, list(quadratic = toy$quad), seed = 1)
+  expect_match(printed(gap), paste0("Where: no block flagged: with replicated field data the ",
+                                    "block checks do not decide, the evidence alone answers; ",
+                                    "least p-value [0-9.e-]+ at load="))
+  expect_match(printed(summary(gap)), "least p-value [0-9.e-]+ at load=[0-9]+, t [0-9.]+-[0-9.]+;")
+})

@@ -124,21 +124,59 @@ test_that("diagnose_gap() refuses fits with noise groups, saying missing data an
                class = "griddy_error_unsupported")
 })
 
-test_that("diagnose_gap() refuses replicated field measurements with candidates, not without", {
-  toy <- toy_gap(0.2)
-  f <- toy$field
-  replicated <- field_data(rbind(f$y, f$y[1, ] + 0.01), x = rbind(f$x, f$x[1, , drop = FALSE]),
-                           t = f$t)
-  fit <- suppressWarnings(calibrate(toy$lib, replicated, n_iter = 200, burn_in = 50,
-                                    seed = 1))
-  expect_error(diagnose_gap(fit, list(quadratic = toy$quad)),
-               "does not yet support replicated field measurements",
-               class = "griddy_error_unsupported")
-  # without candidates, replicates are used (test-gap-discrepancy.R)
-  expect_s3_class(diagnose_gap(fit, max_runs = 0,
-                               discrepancy = gp_discrepancy(ratio = c(0, 10), length_x = 1,
-                                                            length_t = 0.3)),
-                  "gap_diagnosis")
+# toy_gap()'s system measured `n_rep` times at every setting (the quadratic
+# effect at strength `s_true`), calibrated on the base library.
+replicated_gap <- function(s_true, n_rep = 3, seed = 3) {
+  toy <- toy_gap(s_true)
+  set.seed(seed)
+  y <- do.call(rbind, lapply(seq_len(n_rep), function(r) {
+    matrix(toy$sim(1, s_true) + stats::rnorm(90, sd = 0.05), 3, byrow = TRUE)
+  }))
+  field <- field_data(y, x = toy$x[rep(1:3, n_rep), , drop = FALSE], t = toy$t)
+  c(toy[c("lib", "quad", "scale", "x", "t")],
+    list(field = field, fit = suppressWarnings(calibrate(toy$lib, field, n_iter = 200,
+                                                        burn_in = 50, seed = 1))))
+}
+
+test_that("replicated field data with candidates: exact evidence, the withheld effect named", {
+  # issue 33: replicated field data were refused with candidates
+  for (s_true in c(0, 0.1)) {
+    rep3 <- replicated_gap(s_true)
+    expect_true(has_replicates(rep3$fit))
+    gap <- diagnose_gap(rep3$fit, list(quadratic = rep3$quad, scale = rep3$scale), seed = 1)
+    expect_identical(gap$verdict$answer, if (s_true == 0) "none" else "quadratic")
+    # the evidence alone answers, as without candidates: the block checks are
+    # shown, not flagged
+    expect_identical(gap$settings$where, "unflagged")
+    expect_false(any(gap$where$flagged))
+    # the pure error is in every model's evidence
+    exact <- diagnose_gap(rep3$fit, list(quadratic = rep3$quad), max_runs = 0)
+    ev <- stats::setNames(exact$which$log_evidence, exact$which$effect)
+    expect_equal(ev[["none"]], posterior_exact(rep3$lib, rep3$field)$log_evidence,
+                 tolerance = 1e-10)
+    lp <- candidate_log_prior(rep3$quad, "a")
+    expect_equal(ev[["quadratic"]],
+                 posterior_exact(rep3$quad, rep3$field, run_weights = exp(lp))$log_evidence,
+                 tolerance = 1e-10)
+  }
+})
+
+test_that("a candidate is not named below the evidence bar on data without its effect", {
+  # issue 33: an effect was named at P = 0.63 on data without it. On null
+  # data the quadratic's non-zero strengths are ruled out, so its Bayes
+  # factor against the base model is its zero level's prior mass, 1/4; prior
+  # odds of 7 make it the most probable model (P about 0.64) while its log
+  # odds against the base model, log(7/4), stay below the bar
+  toy <- toy_gap(0)
+  gap <- diagnose_gap(toy$fit, list(quadratic = toy$quad), seed = 1,
+                      prior_models = c(none = 1, quadratic = 7, other = 1))
+  expect_identical(gap$which$effect[1], "quadratic")
+  p <- stats::setNames(gap$which$prob, gap$which$effect)
+  expect_gt(p[["quadratic"]], 0.6)
+  expect_lt(log(p[["quadratic"]] / p[["none"]]), gap_detect_log_odds)
+  expect_identical(gap$verdict[c("answer", "reason")],
+                   list(answer = "none", reason = "inconclusive"))
+  expect_identical(gap$verdict$short$effect, "quadratic")
 })
 
 test_that("the dense path agrees with the Kronecker path on complete data (sd all 1)", {
