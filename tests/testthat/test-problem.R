@@ -37,6 +37,22 @@ test_that("the default prior warns when the outputs' units make it matter", {
   expect_silent(posterior_exact(small, small_field, prior = list(shape = 1, rate = 1)))
 })
 
+test_that("a discrepancy's large ratios do not make the default prior warn (issue 33)", {
+  # logistic growth without a gap, outputs near 1: the prior is negligible,
+  # but the smallest quadratic form over all grid points (at the largest
+  # discrepancy ratio, an improbable grid point) made it warn
+  x <- data.frame(y0 = c(0.02, 0.05, 0.1))
+  t <- 1:15
+  sim <- function(r) 1 / (1 + outer(1 / x$y0 - 1, exp(-r * t)))
+  r <- seq(0.5, 0.7, by = 1e-3)
+  lib <- sim_library(data.frame(r = r), t(vapply(r, function(v) as.vector(t(sim(v))),
+                                                 numeric(45))), x = x, t = t)
+  set.seed(4018)
+  f <- field_data(sim(stats::runif(1, 0.55, 0.65)) + stats::rnorm(45, sd = 0.02), x = x, t = t)
+  expect_no_warning(posterior_exact(lib, f, discrepancy = gp_discrepancy(), joint = FALSE),
+                    class = "griddy_warning_prior")
+})
+
 test_that("the grid prior is uniform over distinct correlation structures, not grid points", {
   # two x columns in which every setting differs: rho_j = 0 in either makes
   # R_x the identity, so 11 of the 36 grid points are independence
