@@ -48,13 +48,20 @@
 #' simulator <- predict(fit_d, ndraws = 200, seed = 1, discrepancy = FALSE)
 #' @export
 predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 1000,
-                               seed = NULL, discrepancy = has_discrepancy(object), ...) {
+                               seed = NULL, discrepancy = has_discrepancy(object),
+                               simulator = NULL, run_mass = 0.999, ...) {
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   seed <- assert_seed(seed)
   discrepancy <- assert_flag(discrepancy, "discrepancy")
   if (discrepancy) assert_discrepancy_fit(object)
   lib <- object$library
+  # settings the library does not hold: the simulator's route (fit-predict-new.R)
+  hit <- new_setting_rows(lib, newdata)
+  if (!is.null(hit)) {
+    return(predict_new_settings(object, newdata, hit, level, ndraws, seed, discrepancy,
+                                simulator, run_mass))
+  }
   settings <- predict_settings(lib, newdata)
   cols <- as.vector(outer(seq_len(lib_n_t(lib)), (settings - 1L) * lib_n_t(lib), "+"))
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
