@@ -52,7 +52,7 @@ predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrep
       "data frame of x settings that returns one row per theta row with the outputs at ",
       "those settings (blocks of the library's ", lib_n_t(lib), " t value(s) by setting); ",
       "predict() runs it at the posterior's runs. (Prediction from an emulator over x is ",
-      "not available yet.)", class = "prediction")
+      "not available yet.)", class = c("prediction", "input"))
   }
   if (!is.function(simulator)) {
     griddy_abort("`simulator` must be NULL or a function(theta, x); received ",
@@ -84,7 +84,7 @@ predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrep
 # "x = 5" for each row of a data frame of settings, over the library's x columns.
 setting_text <- function(lib, x) {
   nm <- names(lib_x(lib))
-  apply(as.matrix(x[nm]), 1, function(v) paste0(nm, " = ", format(v), collapse = ", "))
+  apply(as.matrix(x[nm]), 1, function(v) paste0(nm, " = ", v, collapse = ", "))
 }
 
 # The prediction's table at new settings `x_new` (a data frame over the
