@@ -173,3 +173,29 @@ test_that("new settings without a simulator, or with a broken one, are classed e
   expect_error(predict(grouped, newdata = data.frame(x = 6), simulator = m$simulator),
                class = "griddy_error_unsupported")
 })
+
+test_that("an HDF5 library predicts at new settings as the same library in memory", {
+  skip_if_not_installed("hdf5r")
+  m <- machine()
+  file <- withr::local_tempfile(fileext = ".h5")
+  on_disk <- write_library(m$library, file)
+  fits <- lapply(list(m$library, on_disk), function(lib) {
+    suppressWarnings(calibrate(lib, m$field, n_iter = 600, burn_in = 100, seed = 1,
+                               discrepancy = knowledge()))
+  })
+  p <- lapply(fits, predict, newdata = data.frame(x = c(3, 6)), ndraws = 200, seed = 1,
+              simulator = m$simulator)
+  expect_equal(p[[2]], p[[1]])
+})
+
+test_that("with missing field data the extension agrees at an unmeasured library setting", {
+  m <- machine()
+  y <- m$field$y
+  y[5, 1] <- NA
+  field <- field_data(y, x = m$x)
+  fit <- suppressWarnings(calibrate(m$library, field, n_iter = 800, burn_in = 100, seed = 1,
+                                    discrepancy = knowledge()))
+  x_new <- m$x[c(5, 6), , drop = FALSE]
+  delta <- new_delta(fit, x_new, seq_len(nrow(fit$draws)), integer(0))
+  expect_equal(delta$mean, discrepancy_moments(fit)$mean[c(5, 6)], tolerance = 1e-6)
+})
