@@ -199,3 +199,20 @@ test_that("with missing field data the extension agrees at an unmeasured library
   delta <- new_delta(fit, x_new, seq_len(nrow(fit$draws)), integer(0))
   expect_equal(delta$mean, discrepancy_moments(fit)$mean[c(5, 6)], tolerance = 1e-6)
 })
+
+test_that("a refined fit predicts at new settings from the runs refine() added too", {
+  m <- machine(gap = FALSE)
+  coarse <- sim_library(data.frame(theta = seq(0.3, 1, by = 0.05)),
+                        outer(seq(0.3, 1, by = 0.05), m$x$x), x = m$x)
+  fit <- suppressWarnings(calibrate(coarse, m$field, n_iter = 1000, burn_in = 200, seed = 1))
+  refined <- suppressWarnings(refine(fit, function(theta) outer(theta$theta, m$x$x), seed = 1))
+  seen <- new.env()
+  recording <- function(theta, x) {
+    seen$theta <- c(seen$theta, theta$theta)
+    outer(theta$theta, x$x)
+  }
+  p <- predict(refined, newdata = data.frame(x = 6), simulator = recording, seed = 1)
+  expect_true(all(seen$theta %in% lib_theta(refined$library)$theta))
+  expect_true(any(!seen$theta %in% lib_theta(coarse)$theta))
+  expect_true(p$lower <= 6 * 0.65 && 6 * 0.65 <= p$upper)
+})
