@@ -14,7 +14,10 @@
 #                   tau^-1 (lambda K_nn - lambda K_no Sigma^-1 lambda K_on)).
 # Far from every observed cell K_no -> 0: the mean reverts to 0 and the
 # variance to the prior's lambda K_nn / tau, so an extrapolation's band
-# widens by the discrepancy's whole prior spread.
+# widens by the discrepancy's whole prior spread. (An orthogonal
+# discrepancy also carries to the new cells the change of theta it left to
+# theta, see extended_projector(); that part grows with the simulator's
+# sensitivities, not with the distance.)
 
 # The rows of `newdata` at settings the library holds (their library rows)
 # and NA at the others; NULL when there is nothing new (no newdata, or every
@@ -220,8 +223,10 @@ new_delta <- function(fit, x_new, kept, pick, E = NULL) {
   lib <- fit$library
   n_lib <- lib_n_out(lib)
   n_new <- nrow(x_new) * lib_n_t(lib)
-  kernels <- extended_kernels(lib, attr(fit$setup$discrepancy, "kernels"), x_new, E)
   setup <- fit$setup
+  visited <- unique(fit$draws$grid_point[kept])
+  used <- unique(setup$discrepancy$kernel[setup$gd[visited]])
+  kernels <- extended_kernels(lib, attr(setup$discrepancy, "kernels"), x_new, E, used)
   setup$pattern$group <- c(rep(0L, n_lib), new_cell_groups(fit, nrow(x_new)))
   new_cols <- n_lib + seq_len(n_new)
   means <- function(law, runs) {
@@ -231,7 +236,7 @@ new_delta <- function(fit, x_new, kept, pick, E = NULL) {
   s1 <- numeric(n_new)
   draws <- matrix(0, length(pick), n_new)
   tau <- tau_matrix(fit, pick)
-  for (g in unique(fit$draws$grid_point[kept])) {
+  for (g in visited) {
     law <- delta_law(setup, g, kernels)
     if (is.null(law)) next
     rows <- kept[fit$draws$grid_point[kept] == g]
@@ -259,8 +264,11 @@ new_delta <- function(fit, x_new, kept, pick, E = NULL) {
 # the library's x columns are (so beyond [0, 1] outside its range),
 # conditioned on the user's knowledge (K*, zero_at / flat_at), projected,
 # scaled (S-GaSP). The library block is the fit's kernel; for an
-# orthogonal discrepancy see extended_projector(), `E` its new rows.
-extended_kernels <- function(library, kernels, x_new, E = NULL) {
+# orthogonal discrepancy see extended_projector(), `E` its new rows. Only
+# the kernels `used` are built (the others are NULL): a scaled discrepancy
+# has one per ratio, each costing O(n^2) per observed cell.
+extended_kernels <- function(library, kernels, x_new, E = NULL,
+                             used = seq_len(nrow(kernels))) {
   x <- lib_x(library)
   n_x <- lib_n_x(library) + nrow(x_new)
   n_t <- lib_n_t(library)
@@ -281,6 +289,7 @@ extended_kernels <- function(library, kernels, x_new, E = NULL) {
   cells <- list(u = u[rep(seq_len(n_x), each = n_t), , drop = FALSE], t = rep(s, n_x),
                 d = rep(0L, n_x * n_t))
   lapply(seq_len(nrow(kernels)), function(k) {
+    if (!k %in% used) return(NULL)
     K_x <- if (is.na(kernels$length_x[k])) matrix(1, n_x, n_x) else
       exp(-d2_x / kernels$length_x[k]^2)
     K_t <- if (is.na(kernels$length_t[k])) matrix(1, 1, 1) else exp(-d2_t / kernels$length_t[k]^2)
