@@ -2,8 +2,9 @@
 # settings the library does not hold, on a 10^4-run library with a
 # discrepancy. Library: theta = (a, b) on a 100 x 100 grid ([0.5, 1.5] x
 # [0.5, 2]), simulator y = a x exp(-b t) + 0.1 x at 5 settings x in
-# [0.2, 4] and 20 t in [0, 1] (100 outputs per run); field data from
-# a = 1.02, b = 1.23 with a gap 0.05 x^2 / (1 + x) and noise sd NOISE_SD (default 0.3, so that the posterior spreads over hundreds of runs).
+# [0.2, 4] and N_T (default 20) t in [0, 1]; field data from a = 1.02,
+# b = 1.23 with a gap 0.05 x^2 / (1 + x) and noise sd NOISE_SD (default
+# 0.3, so that the posterior spreads over a few hundred runs).
 # calibrate(): gp_discrepancy() (default grid: 1 + 11 x 3 x 3 = 100
 # discrepancy points), rho_t in {0, 0.5}, 5,000 iterations (1,000 burn-in).
 # Timed (elapsed s, median of REPEATS calls): predict() at the library's
@@ -11,12 +12,13 @@
 # outside) with and without the discrepancy; the simulator's own time and
 # the runs it was given are recorded. Run from the package root:
 #   Rscript bench/predict-new.R
-# writes bench/results/predict-new.csv.
+# appends to bench/results/predict-new.csv.
 pkgload::load_all(".", quiet = TRUE)
 repeats <- as.integer(Sys.getenv("REPEATS", "3"))
 noise_sd <- as.numeric(Sys.getenv("NOISE_SD", "0.3"))
 x <- data.frame(x = seq(0.2, 4, length.out = 5))
-t <- seq(0, 1, length.out = 20)
+n_t <- as.integer(Sys.getenv("N_T", "20"))
+t <- seq(0, 1, length.out = n_t)
 theta <- expand.grid(a = seq(0.5, 1.5, length.out = 100), b = seq(0.5, 2, length.out = 100))
 clock <- new.env()
 clock$sim <- 0
@@ -59,7 +61,10 @@ res <- rbind(
 res$distinct_runs <- length(unique(fit$draws$run))
 res$grid_points_visited <- length(unique(fit$draws$grid_point))
 res$calibrate_s <- fit_time
+res$n_t <- n_t
 res$noise_sd <- noise_sd
 res$machine <- paste0("load ", format(utils::read.table("/proc/loadavg")[[1]], nsmall = 2))
 print(res)
-utils::write.csv(res, "bench/results/predict-new.csv", row.names = FALSE)
+out <- "bench/results/predict-new.csv"
+if (file.exists(out)) res <- rbind(utils::read.csv(out)[names(res)], res)
+utils::write.csv(res, out, row.names = FALSE)
