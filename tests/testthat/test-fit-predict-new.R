@@ -216,3 +216,31 @@ test_that("a refined fit predicts at new settings from the runs refine() added t
   expect_true(any(!seen$theta %in% lib_theta(coarse)$theta))
   expect_true(p$lower <= 6 * 0.65 && 6 * 0.65 <= p$upper)
 })
+
+test_that("noise groups by t and the field's sd carry to new settings", {
+  sys <- bump_sys(n_t = 6)
+  t <- lib_t(sys$library)
+  simulator <- function(theta, x) {
+    t(vapply(theta$k, function(k) unlist(lapply(x$amp, function(a) k * a * (1 + t))),
+             numeric(nrow(x) * length(t))))
+  }
+  y <- matrix(sys$field$y, 3)
+  grouped <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100,
+                                        seed = 1, noise_groups = rep(c("a", "b"), each = 3)))
+  p <- predict(grouped, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+               simulator = simulator)
+  expect_true(all(is.finite(p$pred_lower) & p$pred_lower < p$lower))
+  # an sd per t is the same at every setting: a new setting's noise has it
+  per_t <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = rep(c(1, 3), each = 3))
+  fit <- suppressWarnings(calibrate(sys$library, per_t, n_iter = 400, burn_in = 100, seed = 1))
+  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 2000, seed = 1,
+               simulator = simulator)
+  noise <- (p$pred_upper - p$pred_lower) - (p$upper - p$lower)
+  expect_gt(min(noise[4:6]), 2 * max(noise[1:3]))
+  # an sd per setting is not known at a new one: no predictive bound there
+  per_x <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = c(1, 2, 3))
+  fit <- suppressWarnings(calibrate(sys$library, per_x, n_iter = 400, burn_in = 100, seed = 1))
+  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+               simulator = simulator)
+  expect_true(all(is.na(p$pred_lower)) && all(is.finite(p$lower)))
+})
