@@ -8,10 +8,12 @@
 #'
 #' @param object A `griddy_fit` from [calibrate()].
 #' @param newdata `NULL` (all of the library's x settings), or a data.frame
-#'   of x settings, with the library's x columns, each one of the library's
-#'   settings: the prediction is then at those settings, in that order. A
-#'   library holds the simulator's outputs at its own settings only, so other
-#'   settings are an error.
+#'   of x settings, with the library's x columns: the prediction is then at
+#'   those settings, in that order, at every t of the library (a `t` column
+#'   is not read). A library holds the simulator's outputs at its own
+#'   settings only: other settings need `simulator` (see Details, New
+#'   settings), and without it are an error of class
+#'   `griddy_error_prediction`.
 #' @param level Probability of the central intervals.
 #' @param ndraws How many draws (evenly spaced over the kept ones) to add noise
 #'   (and with `discrepancy = TRUE` the discrepancy) to, for the bounds; the
@@ -20,6 +22,18 @@
 #' @param discrepancy For a fit with a [gp_discrepancy()]: `TRUE` to predict
 #'   the simulator plus the discrepancy (bias-corrected), `FALSE` the
 #'   simulator alone. Must be `FALSE` for a fit without a discrepancy.
+#' @param simulator `NULL`, or for `newdata` with settings the library does
+#'   not hold, the simulator as a `function(theta, x)`: `theta` a data.frame
+#'   of parameter rows (named as the library's), `x` a data.frame of the new
+#'   settings (the library's x columns); it returns a numeric matrix with
+#'   one row per `theta` row and the outputs at those settings in the
+#'   library's layout: blocks of the library's t values, one block per row
+#'   of `x`. Not called at the library's own settings.
+#' @param run_mass The share of the posterior draws whose runs the simulator
+#'   is run at, most visited runs first: the default 0.999 leaves out the
+#'   rarest runs, which carry at most 0.1% of the posterior (the bands at the
+#'   new settings are over the draws of the runs kept); 1 runs every
+#'   distinct run drawn.
 #' @param ... Ignored.
 #' @return A data.frame with one row per library output at the settings
 #'   predicted (the library's order, or `newdata`'s), measured or not: `x`
@@ -34,6 +48,43 @@
 #'   for one measurement, also where the field has replicates: a replicated
 #'   cell's sd is \eqn{\sqrt{n_{rep} / \sum_r sd_r^{-2}}}, its replicates'
 #'   when they share one).
+#' @details
+#' **New settings.** At x settings the library does not hold, `predict()`
+#' runs `simulator` at the posterior's distinct runs (those carrying
+#' `run_mass` of the draws, each weighted by its draws) and the new
+#' settings, in chunks through the runner of [simulate_library()], on the
+#' workers of any [future::plan()]. A run that fails, or outputs of the
+#' wrong shape, stop the prediction (class `griddy_error_simulator`, with the
+#' class of the failure, e.g. `griddy_error_shape`). `mean`, `lower` and
+#' `upper` are then over the simulator's outputs at the drawn runs (plus
+#' the discrepancy with `discrepancy = TRUE`), `pred_lower` and
+#' `pred_upper` add the noise of a new measurement at each draw's
+#' \eqn{\tau}: independent across the new settings (and of the field's
+#' noise), correlated over t by \eqn{R_t} at the draw's \eqn{\rho_t},
+#' times the field's relative `sd` at that t where the field gives one
+#' sd, the same at every setting (else `NA`). Noise groups must depend on t
+#' only (one group, or labels per output coordinate). Rows of `newdata` at
+#' library settings are predicted from the library as without `simulator`
+#' (the same answer); `x` and `observed` are `NA` at new settings.
+#'
+#' With a discrepancy its Gaussian process extends to the new settings:
+#' given each draw's run, grid point and \eqn{\tau}, \eqn{\delta} at the
+#' new cells is the Gaussian conditional on the field's residuals at the
+#' measured cells, under the kernel over the library's cells and the new
+#' ones (the new x scaled as the library's, so beyond \[0, 1] outside its
+#' range), conditioned on `zero_at` and `flat_at` (\eqn{K^*}) as the fit's
+#' is. Far from the measured settings its mean reverts to 0 and its
+#' variance to the prior's \eqn{\lambda / \tau}: an extrapolation's band
+#' widens by the discrepancy's whole prior spread. An orthogonal
+#' discrepancy's projection removes from \eqn{\delta} at the library's
+#' cells the part a change of \eqn{\theta} imitates; the same change of
+#' \eqn{\theta} moves the new cells too, by the simulator's sensitivities
+#' there (the slopes of its outputs on \eqn{\theta} over the 4p + 2, at
+#' least 12, runs nearest the most visited one, which `simulator` is also
+#' run at), and that move is removed there as well, so the prediction is of
+#' the same \eqn{\theta} (the best-fitting one) at every setting. Far out,
+#' the projection's share grows with the sensitivities, so an orthogonal
+#' discrepancy's mean need not revert to 0 there.
 #' @references Bayarri, M. J., Berger, J. O., Paulo, R., Sacks, J., Cafeo,
 #'   J. A., Cavendish, J., Lin, C.-H. and Tu, J. (2007). A framework for
 #'   validation of computer models. *Technometrics* 49(2), 138-154.
@@ -46,15 +97,38 @@
 #'                    discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
 #' corrected <- predict(fit_d, ndraws = 200, seed = 1)
 #' simulator <- predict(fit_d, ndraws = 200, seed = 1, discrepancy = FALSE)
+#'
+#' # Beyond the library: the simple machine (simulator theta x, reality
+#' # theta x / (1 + x / 20)), calibrated on x in [0.2, 4], predicted at 5 and
+#' # 6, where reality is 2.6 and 3
+#' x <- data.frame(x = seq(0.2, 4, length.out = 11))
+#' theta <- data.frame(theta = seq(0.3, 1, by = 0.0025))
+#' lib <- sim_library(theta, outer(theta$theta, x$x), x = x)
+#' set.seed(1)
+#' field <- field_data(matrix(0.65 * x$x / (1 + x$x / 20) + rnorm(11, sd = 0.01)), x = x)
+#' fit_m <- calibrate(lib, field, n_iter = 2000, burn_in = 200, seed = 1,
+#'                    discrepancy = gp_discrepancy())
+#' machine <- function(theta, x) outer(theta$theta, x$x)
+#' predict(fit_m, newdata = data.frame(x = c(2, 5, 6)), simulator = machine, seed = 1)
+#' # the simulator alone misses reality there
+#' predict(fit_m, newdata = data.frame(x = c(5, 6)), simulator = machine, seed = 1,
+#'         discrepancy = FALSE)
 #' @export
 predict.griddy_fit <- function(object, newdata = NULL, level = 0.95, ndraws = 1000,
-                               seed = NULL, discrepancy = has_discrepancy(object), ...) {
+                               seed = NULL, discrepancy = has_discrepancy(object),
+                               simulator = NULL, run_mass = 0.999, ...) {
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   seed <- assert_seed(seed)
   discrepancy <- assert_flag(discrepancy, "discrepancy")
   if (discrepancy) assert_discrepancy_fit(object)
   lib <- object$library
+  # settings the library does not hold: the simulator's route (fit-predict-new.R)
+  hit <- new_setting_rows(lib, newdata)
+  if (!is.null(hit)) {
+    return(predict_new_settings(object, newdata, hit, level, ndraws, seed, discrepancy,
+                                simulator, run_mass))
+  }
   settings <- predict_settings(lib, newdata)
   cols <- as.vector(outer(seq_len(lib_n_t(lib)), (settings - 1L) * lib_n_t(lib), "+"))
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)

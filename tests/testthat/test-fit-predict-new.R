@@ -1,0 +1,246 @@
+# predict() at x settings the library does not hold (fit-predict-new.R).
+
+# The simple machine (Brynjarsdottir and O'Hagan 2014): simulator theta x,
+# reality theta x / (1 + x / 20), theta = 0.65, 11 settings on [0.2, 4].
+machine <- function(sd = 0.01, step = 0.0025, gap = TRUE, seed = 1) {
+  x <- data.frame(x = seq(0.2, 4, length.out = 11))
+  theta <- data.frame(theta = seq(0.3, 1, by = step))
+  set.seed(seed)
+  real <- if (gap) 0.65 * x$x / (1 + x$x / 20) else 0.65 * x$x
+  list(library = sim_library(theta, outer(theta$theta, x$x), x = x), x = x,
+       field = field_data(matrix(real + stats::rnorm(11, sd = sd)), x = x),
+       simulator = function(theta, x) outer(theta$theta, x$x))
+}
+
+machine_fit <- function(m, n_iter = 2000, ...) {
+  suppressWarnings(calibrate(m$library, m$field, n_iter = n_iter, burn_in = 200, seed = 1, ...),
+                   classes = c("griddy_warning_resolution", "griddy_warning_gap",
+                               "griddy_warning_convergence", "griddy_warning_prior"))
+}
+
+knowledge <- function() {
+  gp_discrepancy(zero_at = data.frame(x = 0), flat_at = data.frame(x = 0))
+}
+
+test_that("at library settings the answer is today's, with or without a simulator", {
+  m <- machine()
+  fit <- machine_fit(m, discrepancy = knowledge())
+  at <- m$x[c(3, 7), , drop = FALSE]
+  today <- predict(fit, newdata = at, ndraws = 300, seed = 2)
+  expect_identical(predict(fit, newdata = at, ndraws = 300, seed = 2, simulator = m$simulator),
+                   today)
+  # mixed with new settings, the library's rows are still today's
+  mixed <- predict(fit, newdata = data.frame(x = c(at$x[1], 5, at$x[2])), ndraws = 300,
+                   seed = 2, simulator = m$simulator)
+  expect_equal(mixed$x, c(at$x[1], 5, at$x[2]))
+  expect_equal(mixed[c(1, 3), ], today, ignore_attr = TRUE)
+  expect_true(is.na(mixed$setting[2]))
+  expect_true(is.na(mixed$observed[2]))
+})
+
+test_that("a linear simulator's prediction at a new setting is the closed-form Student t", {
+  # y = theta x + e with a flat prior on theta and tau integrated out:
+  # theta | y ~ t_{n-1}(theta_hat, s^2 / Sxx), so at x0 the simulator's mean
+  # is x0 theta_hat and a new measurement is t_{n-1}(x0 theta_hat,
+  # s^2 (1 + x0^2 / Sxx)).
+  m <- machine(sd = 0.05, step = 0.0005, gap = FALSE)
+  fit <- machine_fit(m, n_iter = 6000)
+  y <- m$field$y[, 1]
+  x <- m$x$x
+  sxx <- sum(x^2)
+  theta_hat <- sum(x * y) / sxx
+  s <- sqrt(sum((y - theta_hat * x)^2) / (length(y) - 1))
+  q <- stats::qt(0.975, length(y) - 1)
+  x0 <- 6
+  p <- predict(fit, newdata = data.frame(x = x0), ndraws = 6000, seed = 1,
+               simulator = m$simulator)
+  sd_mean <- x0 * s / sqrt(sxx)
+  expect_equal(p$mean, x0 * theta_hat, tolerance = 0.15 * sd_mean / (x0 * theta_hat))
+  half <- q * sd_mean
+  expect_equal(c(p$lower, p$upper), x0 * theta_hat + c(-1, 1) * half,
+               tolerance = 0.1 * half / (x0 * theta_hat))
+  half_pred <- q * s * sqrt(1 + x0^2 / sxx)
+  expect_equal(c(p$pred_lower, p$pred_upper), x0 * theta_hat + c(-1, 1) * half_pred,
+               tolerance = 0.1 * half_pred / (x0 * theta_hat))
+})
+
+test_that("the discrepancy at a new cell on a library setting is the library cell's", {
+  # the extended kernel's library block is the fit's, and a new cell where a
+  # library cell is has that cell's row: delta's law there is the fit's, for
+  # knowledge (K*) and for an orthogonal discrepancy (the simulator is
+  # linear in theta, so the new cells' sensitivities are the fit's exactly)
+  m <- machine()
+  for (disc in list(knowledge(), gp_discrepancy(), gp_discrepancy(scaled = TRUE))) {
+    fit <- machine_fit(m, discrepancy = disc)
+    x_new <- m$x[c(4, 9), , drop = FALSE]
+    kernels <- attr(fit$setup$discrepancy, "kernels")
+    G <- attr(kernels, "sensitivity")
+    near <- if (!is.null(G)) sensitivity_runs(fit$library, fit$draws$run, ncol(G))
+    E <- if (!is.null(G)) new_sensitivity_rows(fit$library, G, near,
+                                               m$simulator(lib_theta(fit$library)[near, ,
+                                                           drop = FALSE], x_new))
+    ext <- extended_kernels(fit$library, kernels, x_new, E)
+    expect_equal(lapply(ext, function(K) K[1:11, 1:11]), fit_kernels(fit), tolerance = 1e-10)
+    all_draws <- seq_len(nrow(fit$draws))
+    delta <- new_delta(fit, x_new, all_draws, integer(0), E)
+    expect_equal(delta$mean, discrepancy_moments(fit)$mean[c(4, 9)], tolerance = 1e-6)
+  }
+})
+
+test_that("several outputs per setting, replicates and correlated noise extend too", {
+  sys <- bump_sys(reps = 2, n_t = 11)
+  fit <- suppressWarnings(calibrate(sys$library, sys$field, rho_t = c(0, 0.5), n_iter = 600,
+                                    burn_in = 100, seed = 1, discrepancy = gp_discrepancy()))
+  t <- lib_t(sys$library)
+  simulator <- function(theta, x) {
+    t(vapply(theta$k, function(k) unlist(lapply(x$amp, function(a) k * a * (1 + t))),
+             numeric(nrow(x) * length(t))))
+  }
+  x_new <- data.frame(amp = 2)
+  G <- attr(attr(fit$setup$discrepancy, "kernels"), "sensitivity")
+  near <- sensitivity_runs(fit$library, fit$draws$run, ncol(G))
+  E <- new_sensitivity_rows(fit$library, G, near,
+                            simulator(lib_theta(fit$library)[near, , drop = FALSE], x_new))
+  delta <- new_delta(fit, x_new, seq_len(nrow(fit$draws)), integer(0), E)
+  expect_equal(delta$mean, discrepancy_moments(fit)$mean[12:22], tolerance = 1e-6)
+  p <- predict(fit, newdata = data.frame(amp = c(2.5, 6)), ndraws = 200, seed = 1,
+               simulator = simulator)
+  expect_equal(nrow(p), 22L)
+  expect_equal(p$t, rep(t, 2))
+  expect_true(all(is.finite(as.matrix(p[c("mean", "lower", "upper", "pred_lower",
+                                           "pred_upper")]))))
+  expect_true(all(p$lower < p$mean & p$mean < p$upper))
+})
+
+test_that("the discrepancy band widens outside the calibrated range", {
+  m <- machine()
+  inside <- c(1.5, 2.3, 3.1)
+  outside <- c(5, 6)
+  for (disc in list(knowledge(), gp_discrepancy())) {
+    fit <- machine_fit(m, discrepancy = disc)
+    p <- predict(fit, newdata = data.frame(x = c(inside, outside)), ndraws = 500, seed = 1,
+                 simulator = m$simulator)
+    width <- p$upper - p$lower
+    pred_width <- p$pred_upper - p$pred_lower
+    expect_gt(min(width[p$x %in% outside]), 3 * max(width[p$x %in% inside]))
+    expect_gt(min(pred_width[p$x %in% outside]), 2 * max(pred_width[p$x %in% inside]))
+  }
+  # far away delta reverts to its prior, mean 0: the simulator's mean (an
+  # orthogonal discrepancy keeps there the change of theta it left to theta)
+  fit <- machine_fit(m, discrepancy = knowledge())
+  far <- predict(fit, newdata = data.frame(x = 400), ndraws = 500, seed = 1,
+                 simulator = m$simulator)
+  alone <- predict(fit, newdata = data.frame(x = 400), ndraws = 500, seed = 1,
+                   simulator = m$simulator, discrepancy = FALSE)
+  expect_equal(far$mean, alone$mean, tolerance = 1e-6)
+})
+
+test_that("only the runs carrying run_mass of the posterior are simulated", {
+  m <- machine(sd = 0.05, step = 0.0005, gap = FALSE)
+  fit <- machine_fit(m)
+  seen <- new.env()
+  counting <- function(theta, x) {
+    seen$n <- c(seen$n, nrow(theta))
+    outer(theta$theta, x$x)
+  }
+  predict(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 0.9)
+  freq <- sort(tabulate(fit$draws$run), decreasing = TRUE)
+  expect_equal(sum(seen$n), which(cumsum(freq) >= 0.9 * sum(freq))[1])
+  seen$n <- NULL
+  predict(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 1)
+  expect_equal(sum(seen$n), sum(freq > 0))
+})
+
+test_that("new settings without a simulator, or with a broken one, are classed errors", {
+  m <- machine()
+  fit <- machine_fit(m)
+  expect_error(predict(fit, newdata = data.frame(x = 6)),
+               "pass `simulator = function\\(theta, x\\)`", class = "griddy_error_prediction")
+  expect_error(predict(fit, newdata = data.frame(x = 6), simulator = "theta * x"),
+               class = "griddy_error_input")
+  expect_error(predict(fit, newdata = data.frame(x = c(5, 6)),
+                       simulator = function(theta, x) outer(theta$theta, 1)),
+               "expecting 2 outputs per run", class = "griddy_error_shape")
+  expect_error(predict(fit, newdata = data.frame(x = 6),
+                       simulator = function(theta, x) outer(theta$theta, x$x) / 0 - Inf),
+               class = "griddy_error_simulator")
+  expect_error(predict(fit, newdata = data.frame(x = 6), simulator = m$simulator,
+                       run_mass = 0), class = "griddy_error_input")
+  expect_error(predict(fit, newdata = data.frame(x = NA_real_), simulator = m$simulator),
+               class = "griddy_error_input")
+  grouped <- suppressWarnings(calibrate(m$library, m$field, n_iter = 300, burn_in = 50,
+                                        seed = 1, noise_groups = rep(c("a", "b"), c(5, 6))))
+  expect_error(predict(grouped, newdata = data.frame(x = 6), simulator = m$simulator),
+               class = "griddy_error_unsupported")
+})
+
+test_that("an HDF5 library predicts at new settings as the same library in memory", {
+  skip_if_not_installed("hdf5r")
+  m <- machine()
+  file <- withr::local_tempfile(fileext = ".h5")
+  on_disk <- write_library(m$library, file)
+  fits <- lapply(list(m$library, on_disk), function(lib) {
+    suppressWarnings(calibrate(lib, m$field, n_iter = 600, burn_in = 100, seed = 1,
+                               discrepancy = knowledge()))
+  })
+  p <- lapply(fits, predict, newdata = data.frame(x = c(3, 6)), ndraws = 200, seed = 1,
+              simulator = m$simulator)
+  expect_equal(p[[2]], p[[1]])
+})
+
+test_that("with missing field data the extension agrees at an unmeasured library setting", {
+  m <- machine()
+  y <- m$field$y
+  y[5, 1] <- NA
+  field <- field_data(y, x = m$x)
+  fit <- suppressWarnings(calibrate(m$library, field, n_iter = 800, burn_in = 100, seed = 1,
+                                    discrepancy = knowledge()))
+  x_new <- m$x[c(5, 6), , drop = FALSE]
+  delta <- new_delta(fit, x_new, seq_len(nrow(fit$draws)), integer(0))
+  expect_equal(delta$mean, discrepancy_moments(fit)$mean[c(5, 6)], tolerance = 1e-6)
+})
+
+test_that("a refined fit predicts at new settings from the runs refine() added too", {
+  m <- machine(gap = FALSE)
+  coarse <- sim_library(data.frame(theta = seq(0.3, 1, by = 0.05)),
+                        outer(seq(0.3, 1, by = 0.05), m$x$x), x = m$x)
+  fit <- suppressWarnings(calibrate(coarse, m$field, n_iter = 1000, burn_in = 200, seed = 1))
+  refined <- suppressWarnings(refine(fit, function(theta) outer(theta$theta, m$x$x), seed = 1))
+  seen <- new.env()
+  recording <- function(theta, x) {
+    seen$theta <- c(seen$theta, theta$theta)
+    outer(theta$theta, x$x)
+  }
+  p <- predict(refined, newdata = data.frame(x = 6), simulator = recording, seed = 1)
+  expect_true(all(seen$theta %in% lib_theta(refined$library)$theta))
+  expect_true(any(!seen$theta %in% lib_theta(coarse)$theta))
+  expect_true(p$lower <= 6 * 0.65 && 6 * 0.65 <= p$upper)
+})
+
+test_that("noise groups by t and the field's sd carry to new settings", {
+  sys <- bump_sys(n_t = 6)
+  t <- lib_t(sys$library)
+  simulator <- function(theta, x) {
+    t(vapply(theta$k, function(k) unlist(lapply(x$amp, function(a) k * a * (1 + t))),
+             numeric(nrow(x) * length(t))))
+  }
+  y <- matrix(sys$field$y, 3)
+  grouped <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100,
+                                        seed = 1, noise_groups = rep(c("a", "b"), each = 3)))
+  p <- predict(grouped, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+               simulator = simulator)
+  expect_true(all(is.finite(p$pred_lower) & p$pred_lower < p$lower))
+  # an sd per t is the same at every setting: a new setting's noise has it
+  per_t <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = rep(c(1, 3), each = 3))
+  fit <- suppressWarnings(calibrate(sys$library, per_t, n_iter = 400, burn_in = 100, seed = 1))
+  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 2000, seed = 1,
+               simulator = simulator)
+  noise <- (p$pred_upper - p$pred_lower) - (p$upper - p$lower)
+  expect_gt(min(noise[4:6]), 2 * max(noise[1:3]))
+  # an sd per setting is not known at a new one: no predictive bound there
+  per_x <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = c(1, 2, 3))
+  fit <- suppressWarnings(calibrate(sys$library, per_x, n_iter = 400, burn_in = 100, seed = 1))
+  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+               simulator = simulator)
+  expect_true(all(is.na(p$pred_lower)) && all(is.finite(p$lower)))
+})
