@@ -141,10 +141,11 @@ top_pairs <- function(w, mass, cap) {
 }
 
 # Windows over t as lists of indices. Given `windows` (a count or breaks),
-# they tile t. By default they scan it (scan_windows()): from one fitted
-# correlation length up to the tiling's width (at most 8 windows, each at
-# least one correlation length), each width at steps of half its length.
-gap_windows <- function(ctx, tm, windows) {
+# they tile t. By default they scan it (scan_windows(); `scan = FALSE`: the
+# tiling alone, for where a discrepancy lies): from one fitted correlation
+# length up to the tiling's width (at most 8 windows, each at least one
+# correlation length), each width at steps of half its length.
+gap_windows <- function(ctx, tm, windows, scan = TRUE) {
   n_t <- ctx$n_t
   split_equal <- function(m) {
     m <- max(1L, min(m, n_t))
@@ -158,8 +159,9 @@ gap_windows <- function(ctx, tm, windows) {
     lag1 <- stats::median(phi)
     len <- if (lag1 <= 0) 1 else -1 / log(lag1)
     len <- max(len, 1, na.rm = TRUE)
-    widest <- max(lengths(split_equal(min(8L, floor(n_t / len)))))
-    return(scan_windows(n_t, ceiling(len), widest))
+    tiling <- split_equal(min(8L, floor(n_t / len)))
+    if (!scan) return(tiling)
+    return(scan_windows(n_t, ceiling(len), max(lengths(tiling))))
   }
   windows <- assert_numeric_vector(windows, "windows")
   if (length(windows) == 1L) {

@@ -172,3 +172,53 @@ test_that("every gap warning says theta is then a best-fitting value, not the ph
                  "theta is the best-fitting value, not the physical one: the L2 projection",
                  fixed = TRUE, class = "griddy_warning_gap")
 })
+
+test_that("a discrepancy fit warns of a local gap its evidence misses, from the same block checks", {
+  # issue 33: the discrepancy fit's warning read its evidence alone, so a
+  # second peak at one setting that calibrate() without a discrepancy warns
+  # of (test above) went unwarned with `discrepancy = gp_discrepancy()`
+  sys <- local_system(5, 1)
+  w <- NULL
+  fit <- withCallingHandlers(
+    calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1,
+              discrepancy = gp_discrepancy()),
+    warning = function(x) {
+      w <<- c(w, list(x))
+      invokeRestart("muffleWarning")
+    })
+  expect_lt(discrepancy_evidence(fit)$log_bayes_factor, gap_detect_log_odds)
+  screen <- fit$gap_screen
+  expect_true(screen$discrepancy)
+  expect_equal(screen$n_flagged, 1L)
+  expect_equal(screen$blocks$x[screen$blocks$flagged], 2L)
+  gap <- Filter(function(x) inherits(x, "griddy_warning_gap"), w)
+  expect_length(gap, 1L)                 # once: the screen's own warning stays out
+  expect_match(conditionMessage(gap[[1]]), "(inconclusive), but the model's leave-block-out",
+               fixed = TRUE)
+  expect_match(conditionMessage(gap[[1]]), "flag 1 block (load = 2, t ", fixed = TRUE)
+  expect_match(conditionMessage(gap[[1]]), "theta is the best-fitting value", fixed = TRUE)
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
+  expect_match(out, "The data show a gap. The model's leave-block-out checks", fixed = TRUE)
+})
+
+test_that("a library of one output: the screen says no evidence is possible, not 'no gap'", {
+  # issue 33: one measurement is fitted as well by noise as by a gap
+  k <- seq(0.5, 1.5, length.out = 11)
+  lib <- sim_library(data.frame(k = k), matrix(2 * k, ncol = 1))
+  fit <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50, seed = 1))
+  expect_false(fit$gap_screen$weighable)
+  expect_true(screen_unweighable(fit))
+  expect_false(screen_shows_gap(fit))
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
+  expect_match(out, "Gap: griddy cannot tell whether there is a gap", fixed = TRUE)
+  # with a discrepancy the fit says the same, and gives no gap warning
+  fit_d <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50,
+                                      seed = 1, discrepancy = gp_discrepancy()))
+  expect_no_warning(warn_gap(fit_d), class = "griddy_warning_gap")
+  out <- paste(capture.output(print(summary(fit_d), width = 1000)), collapse = " ")
+  expect_match(out, "griddy cannot tell whether there is a gap", fixed = TRUE)
+  # replicates of the one output separate noise from a gap: weighable
+  two <- suppressWarnings(calibrate(lib, field_data(c(2.04, 2.1)), n_iter = 200, burn_in = 50,
+                                    seed = 1))
+  expect_false(isFALSE(two$gap_screen$weighable))
+})
