@@ -50,10 +50,15 @@ test_that("a fit limited by the library's resolution gets no gap warning", {
   expect_false(res$gap_warned)
 })
 
-test_that("the screen stays out of fits with a discrepancy or many cells", {
+test_that("a fit with a discrepancy keeps only the block checks of its screen", {
   sys <- screen_system(0, seed = 1)
   fit <- quiet_fit(sys, discrepancy = gp_discrepancy(ratio = c(0, 1)))$fit
-  expect_null(fit$gap_screen)
+  # its evidence is its own, exact (discrepancy_evidence()): the screen's
+  # bound stays out, its block checks are those of the model without it
+  expect_true(fit$gap_screen$discrepancy)
+  expect_identical(fit$gap_screen$log_bf, NA_real_)
+  expect_s3_class(fit$gap_screen$blocks, "data.frame")
+  expect_false(screen_shows_gap(fit))
   expect_equal(screen_runs(c(0.5, 0.5 - 1e-7, 1e-7)), c(1L, 2L))
   expect_equal(screen_runs(c(1, 0, 0)), c(1L, 2L))
 })
@@ -218,7 +223,8 @@ test_that("a library of one output: the screen says no evidence is possible, not
   out <- paste(capture.output(print(summary(fit_d), width = 1000)), collapse = " ")
   expect_match(out, "griddy cannot tell whether there is a gap", fixed = TRUE)
   # replicates of the one output separate noise from a gap: weighable
-  two <- suppressWarnings(calibrate(lib, field_data(c(2.04, 2.1)), n_iter = 200, burn_in = 50,
-                                    seed = 1))
+  two <- suppressWarnings(calibrate(lib, field_data(data.frame(t = 1, y = c(2.04, 2.1))),
+                                    n_iter = 200, burn_in = 50, seed = 1))
+  expect_identical(nobs(two), 2L)
   expect_false(isFALSE(two$gap_screen$weighable))
 })
