@@ -228,3 +228,21 @@ test_that("a library of one output: the screen says no evidence is possible, not
   expect_identical(nobs(two), 2L)
   expect_false(isFALSE(two$gap_screen$weighable))
 })
+
+test_that("a peak between two tiles of t is warned: the block checks scan t", {
+  # issue 33: a fixed tiling (8 windows of 3 outputs) split the peak at t =
+  # 0.5 (between outputs 12 and 13) over windows 10-12 and 13-15, and the
+  # screen missed it (here at 4 noise sds, evidence inconclusive)
+  sys <- local_system(4, 1)
+  res <- quiet_fit(sys)
+  screen <- res$fit$gap_screen
+  expect_lt(screen$log_bf, gap_detect_log_odds)
+  tiling <- base_check(res$fit, 8L, gap_block_fdr, screen_runs(res$fit$exact$run))$blocks
+  expect_false(any(tiling$flagged))
+  expect_true(res$gap_warned)
+  flagged <- screen$blocks[screen$blocks$flagged, ]
+  expect_equal(nrow(flagged), 1L)
+  expect_equal(flagged$x, 2L)
+  expect_lte(flagged$n, 3L)
+  expect_true(flagged$from <= 0.5 && flagged$to >= 0.478)
+})
