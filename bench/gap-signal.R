@@ -16,7 +16,7 @@
 # and diagnose_gap(fit)'s verdict "other".
 #
 # Run from the package root: Rscript bench/gap-signal.R [trials [levels]]
-# (~5 s per trial here, ~6 min in all). Results: bench/results/gap-signal.csv.
+# (~5-15 s per trial on a loaded machine, ~8 min in all). Results: bench/results/gap-signal.csv.
 pkgload::load_all(".", quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 n_trials <- if (length(args) >= 1L) as.integer(args[1]) else 15L
