@@ -44,6 +44,40 @@ trial_data <- function(size, seed) {
   list(y = y, ka = ka, ke = ke)
 }
 
+# A fit with a discrepancy (calibrate(discrepancy = gp_discrepancy())) on the
+# same trials (15 without a gap, 15 at 5 sds): its gap warning, which counts
+# the block checks of its model without the discrepancy, against its
+# evidence alone (the warning before). Rscript bench/gap-signal.R 15
+# discrepancy (~3 min; only this); results in
+# bench/results/gap-signal-discrepancy.csv.
+if (length(args) >= 2L && args[2] == "discrepancy") {
+  dr <- list()
+  for (size in c(0, 5)) {
+    for (i in seq_len(n_trials)) {
+      seed <- 1000L * size + i
+      classes <- character(0)
+      fit <- withCallingHandlers(
+        calibrate(library_pk, field_data(trial_data(size, seed)$y, x = doses, t = times),
+                  n_iter = 1000, burn_in = 200, seed = seed, discrepancy = gp_discrepancy()),
+        warning = function(w) {
+          classes <<- c(classes, class(w)[1])
+          invokeRestart("muffleWarning")
+        })
+      lbf <- discrepancy_evidence(fit)$log_bayes_factor
+      dr[[length(dr) + 1L]] <- data.frame(size = size, seed = seed, log_bf = lbf,
+                                          flagged = fit$gap_screen$n_flagged,
+                                          warned = "griddy_warning_gap" %in% classes,
+                                          evidence_alone = gap_shown(lbf))
+      message(sprintf("discrepancy fit, size %g seed %d: warned %s (log BF %.2f, %d blocks)",
+                      size, seed, dr[[length(dr)]]$warned, lbf, fit$gap_screen$n_flagged))
+    }
+  }
+  dr <- do.call(rbind, dr)
+  utils::write.csv(dr, "bench/results/gap-signal-discrepancy.csv", row.names = FALSE)
+  print(stats::aggregate(cbind(warned, evidence_alone) ~ size, dr, sum))
+  quit(save = "no")
+}
+
 trial <- function(size, seed) {
   data <- trial_data(size, seed)
   ka <- data$ka
