@@ -63,8 +63,8 @@ gap_detect_log_odds <- 1
 # The false discovery rate of the block checks, diagnose_gap()'s default `fdr`
 # (test-gap-verdict.R holds them equal). On data without a gap, Benjamini-
 # Hochberg at level q flags some block with probability at most about q (all
-# nulls true, it is Simes' test of them all, which holds its level under the
-# positive dependence of overlapping blocks), and the evidence rule can fire
+# nulls true, it is Simes' test of them all, which holds its level under
+# positive dependence, as overlapping blocks have), and the evidence rule can fire
 # besides: half the 5% false-alarm budget goes to the blocks. At 0.05 a
 # tiling of 24 blocks alone gave 5 false alarms in 90 trials (bench/gap-
 # signal.R's system). The default windows scan t (scan_windows(), 207 blocks
