@@ -100,13 +100,19 @@
 #' is screened for one: a lower bound on the log Bayes factor for a
 #' [gp_discrepancy()] (from the runs that carry the posterior) and, with one
 #' noise precision and no replicates, the leave-block-out checks of
-#' [diagnose_gap()] (one x setting times one window of t, at FDR 2.5%), which
-#' see a gap too local for a smooth discrepancy. The fit warns (class
-#' `griddy_warning_gap`) by the rule [diagnose_gap()] decides "other" with:
-#' a log Bayes factor above 1 (or a discrepancy fit's own above 1), or a
-#' flagged block; not while the library's resolution limits the fit. Every
-#' gap warning says that \eqn{\theta} is then a best-fitting value, not the
-#' physical one. `fit$gap_screen` holds `log_bf`, `blocks` and `n_flagged`.
+#' [diagnose_gap()] (one x setting times one window of t, the windows
+#' scanning t at every width from one correlation length, at FDR 2.5%),
+#' which see a gap too local for a smooth discrepancy. A fit with a
+#' discrepancy runs the same checks on its model without the discrepancy.
+#' The fit warns (class `griddy_warning_gap`) by the rule [diagnose_gap()]
+#' decides "other" with: a log Bayes factor above 1 (the screen's bound, or a
+#' discrepancy fit's own), or a flagged block; not while the library's
+#' resolution limits the fit. Every gap warning says that \eqn{\theta} is
+#' then a best-fitting value, not the physical one. `fit$gap_screen` holds
+#' `log_bf` (`NA` for a fit with a discrepancy), `blocks` and `n_flagged`. A
+#' single measurement (one observed output, no replicates) cannot weigh a
+#' gap: `fit$gap_screen$weighable` is then `FALSE` and `summary()` says that
+#' griddy cannot tell, as [diagnose_gap()] does.
 #'
 #' The chains start at a random correlation grid point and, for the thesis
 #' update, at \eqn{\tau = 1 / var(y)}; \eqn{\theta} is drawn first.

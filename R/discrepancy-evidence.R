@@ -111,10 +111,26 @@ warn_gap <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(invisible(NULL))
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
   # the one rule of gap-verdict.R (under the fit's prior on no discrepancy,
-  # the log Bayes factor stands for the log odds)
-  if (is.null(ev) || !gap_shown(ev$log_bayes_factor)) return(invisible(NULL))
+  # the log Bayes factor stands for the log odds), with the base model's
+  # block checks as calibrate() without a discrepancy runs them
+  # (gap_screen())
+  blocks <- fit$gap_screen$blocks
+  n_flagged <- if (is.null(blocks)) 0L else sum(blocks$flagged)
+  if (is.null(ev) || screen_unweighable(fit) || !gap_shown(ev$log_bayes_factor, n_flagged)) {
+    return(invisible(NULL))
+  }
   griddy_warn(gap_message(ev$log_bayes_factor, theta_estimand(fit$setup$discrepancy),
-                          discrepancy_where_text(fit), resolution_caveat(fit)), class = "gap")
+                          discrepancy_where_text(fit), resolution_caveat(fit),
+                          local_misfit_text(blocks, fit$library)), class = "gap")
+}
+
+# The base model's flagged blocks `blocks` as a clause, or NULL when none is.
+local_misfit_text <- function(blocks, library = NULL) {
+  flagged <- if (!is.null(blocks)) blocks[blocks$flagged, , drop = FALSE]
+  if (NROW(flagged) == 0L) return(NULL)
+  paste0("the model's leave-block-out checks without the discrepancy flag ", nrow(flagged),
+         " block", if (nrow(flagged) > 1L) "s", " (", flagged_blocks_text(flagged, library),
+         ") as a local misfit")
 }
 
 # What a gap found on a library too coarse for the data may be instead.
@@ -125,11 +141,16 @@ resolution_caveat <- function(fit) {
          "between its runs; refine() it first.)")
 }
 
-# `estimand`: what theta then is (theta_estimand() of the fit's discrepancy).
-gap_message <- function(log_bf, estimand, where = NULL, caveat = NULL) {
+# `estimand`: what theta then is (theta_estimand() of the fit's discrepancy);
+# `local`: local_misfit_text() of the base model's block checks.
+gap_message <- function(log_bf, estimand, where = NULL, caveat = NULL, local = NULL) {
   paste0("The field data show a gap between the simulator and reality: the log Bayes ",
          "factor for a discrepancy is ", format(log_bf, digits = 3), " (",
-         evidence_words(log_bf), "). ",
+         evidence_words(log_bf), ")",
+         if (!is.null(local)) {
+           paste0(if (gap_shown(log_bf)) ", and " else ", but ", local,
+                  if (!gap_shown(log_bf)) ", a gap too local for the smooth discrepancy")
+         }, ". ",
          if (!is.null(where)) paste0(where, " "),
          estimand, " See where the gap lies with ",
          "plot(fit, \"discrepancy\"), and which effect may cause it with diagnose_gap().",

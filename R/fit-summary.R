@@ -114,7 +114,8 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
             adequacy = adequacy, level = level,
             info = fit_description(object), discrepancy = fit_discrepancy_evidence(object),
             estimand = theta_estimand(object$setup$discrepancy),
-            gap_screen = if (screen_shows_gap(object)) object$gap_screen,
+            gap_screen = if (screen_shows_gap(object) || screen_unweighable(object) &&
+                               is.null(object$setup$discrepancy)) object$gap_screen,
             library_x = lib_x(object$library))
 }
 
@@ -122,15 +123,24 @@ summary.griddy_fit <- function(object, level = 0.95, ...) {
 fit_discrepancy_evidence <- function(fit) {
   if (is.null(fit$setup$discrepancy)) return(NULL)
   ev <- tryCatch(discrepancy_evidence(fit), griddy_error_input = function(e) NULL)
-  if (!is.null(ev) && gap_shown(ev$log_bayes_factor)) {
-    ev$where <- discrepancy_where_text(fit)
+  if (is.null(ev)) return(NULL)
+  # the warning's rule and words (warn_gap()): the base model's block checks count
+  blocks <- fit$gap_screen$blocks
+  ev$n_flagged <- if (is.null(blocks)) 0L else sum(blocks$flagged)
+  local <- local_misfit_text(blocks, fit$library)
+  if (gap_shown(ev$log_bayes_factor, ev$n_flagged)) {
+    ev$where <- paste(c(if (!is.null(local)) paste0(toupper(substr(local, 1, 1)),
+                                                     substring(local, 2), "."),
+                        discrepancy_where_text(fit)), collapse = " ")
   }
+  ev$unweighable <- screen_unweighable(fit)
   ev
 }
 
 # summary()'s line on the gap screen of a fit without a discrepancy, when it
 # found a gap (screen_shows_gap(), the warning's rule and words).
 format_gap_screen <- function(screen, library = NULL) {
+  if (isFALSE(screen$weighable)) return(paste0("Gap: griddy ", gap_unweighable_sentence, "."))
   if (is.null(screen) || !gap_shown(screen$log_bf, screen$n_flagged)) return(character())
   paste("Gap:", gap_screen_message(screen, library))
 }
@@ -144,7 +154,11 @@ format_discrepancy <- function(ev, estimand = NULL) {
     paste0(" log Bayes factor ", format(ev$log_bayes_factor, digits = 3), " (",
            evidence_words(ev$log_bayes_factor), "); posterior probability of none ",
            format(ev$prob_none, digits = 3), ".",
-           if (gap_shown(ev$log_bayes_factor)) paste(" The data show a gap.", ev$where))
+           if (isTRUE(ev$unweighable)) {
+             paste0(" griddy ", gap_unweighable_sentence, ".")
+           } else if (gap_shown(ev$log_bayes_factor, ev$n_flagged)) {
+             paste(" The data show a gap.", ev$where)
+           })
   }
   paste0("Discrepancy:", evidence, if (!is.null(estimand)) paste0(" ", estimand))
 }

@@ -38,17 +38,19 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
                           absorbed_by = NA_character_, stringsAsFactors = FALSE)
   which_tab <- which_tab[order(which_tab$prob, decreasing = TRUE), ]
   rownames(which_tab) <- NULL
-  found <- gap_found(prob)
+  found <- gap_found(prob) && gap_weighable(fit$n_obs)
   step("where the discrepancy lies")
   # the base model's own leave-block-out checks (gap-where.R): a
   # gap too local or rough for a smooth discrepancy (gap_shown())
   check <- if (block_check_applies(fit)) base_check(matched, windows, fdr)
-  win <- if (!is.null(check)) check$breaks else windows
-  where <- discrepancy_where(problem, exact, win, fdr, found)
+  # where the discrepancy lies, over the tiling of t (the check's scan, by
+  # default, holds overlapping windows of every width: many, and its flags
+  # are what a gap the discrepancy misses is told by)
+  where <- discrepancy_where(problem, exact, windows, fdr, found)
   if (!found && !is.null(check) && any(check$blocks$flagged)) {
     where <- c(check, list(kind = "check"))
   }
-  verdict <- discrepancy_verdict(which_tab, base, where, prob, found)
+  verdict <- discrepancy_verdict(which_tab, base, where, prob, found, gap_weighable(fit$n_obs))
   structure(list(where = where$blocks, which = which_tab, shrinkage = empty_shrinkage(),
                  folds = NULL, map = where$map, separation = NULL, verdict = verdict,
                  evidence = evidence,
@@ -73,9 +75,11 @@ base_check <- function(matched, windows, fdr, runs = NULL) {
 
 # Whether the base model's block checks answer for a fit: one noise
 # precision and no replicates (with them the checks of predicted runs flag
-# blocks in data without a gap, so the evidence alone answers).
+# blocks in data without a gap, so the evidence alone answers), and more
+# than one measurement (gap_weighable(): a single one leaves nothing to
+# predict it from).
 block_check_applies <- function(fit) {
-  length(fit$setup$group_sizes) == 1L && !has_replicates(fit)
+  length(fit$setup$group_sizes) == 1L && !has_replicates(fit) && gap_weighable(fit$n_obs)
 }
 
 empty_shrinkage <- function() {
@@ -165,7 +169,8 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
                           points = lapply(seq_len(n_grid_points(setup)), function(g) {
                             list(phi = setup$phi[, setup$gt[g]])
                           })),
-                     list(lj = log(joint * rep(none, each = nrow(joint)))), windows)
+                     list(lj = log(joint * rep(none, each = nrow(joint)))), windows,
+                     scan = FALSE)
   blocks <- expand.grid(w = seq_along(win), x = seq_len(n_x))
   pos <- lapply(seq_len(nrow(blocks)), function(b) {
     block_positions(obs, blocks$x[b], win[[blocks$w[b]]], n_t)

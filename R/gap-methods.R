@@ -81,6 +81,8 @@ verdict_label <- function(v) {
   switch(v$answer,
          none = if (identical(v$reason, "inconclusive")) {
            paste0("no detectable gap (inconclusive evidence, ", short_phrase(v), ")")
+         } else if (identical(v$reason, "unweighable")) {
+           "cannot tell (no evidence possible from a single measurement)"
          } else paste0("no gap (", prob_phrase(v$prob), ")"),
          other = if (identical(v$reason, "blocks")) {
            if (without_candidates(v)) "a local gap the smooth discrepancy misses" else
@@ -105,7 +107,7 @@ verdict_line <- function(x) {
   } else if (nrow(sh) == 1L) {
     paste0("; held-out RMSE ", format(sh$before, digits = 3), " -> ",
            format(sh$after, digits = 3), " (", format_shrink(sh$shrink), " shrinkage)")
-  } else if (v$answer == "none" && conf_mass > v$prob) {
+  } else if (v$answer == "none" && isTRUE(conf_mass > v$prob)) {
     paste0("; confounded candidates, which a shift of theta imitates, hold ",
            format_prob(conf_mass))
   } else if (identical(v$reason, "blocks")) {
@@ -267,7 +269,9 @@ verdict_explanation <- function(x) {
   v <- x$verdict
   conf <- x$which[x$which$confounded, ]
   out <- switch(v$answer,
-    none = if (identical(v$reason, "inconclusive")) {
+    none = if (identical(v$reason, "unweighable")) {
+      paste0("griddy ", gap_unweighable_sentence, ".")
+    } else if (identical(v$reason, "inconclusive")) {
       paste0("No detectable gap: the evidence for ",
              if (is.null(v$short) || v$short$effect == "other") "a discrepancy" else
                paste0("'", v$short$effect, "'"),

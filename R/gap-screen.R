@@ -16,15 +16,28 @@ gap_screen_runs <- 500L
 gap_screen_cells <- 400L
 
 # The screen's result for a fit without a discrepancy: list(log_bf = the
-# lower bound on the log Bayes factor, runs = how many runs it weighed), or
-# NULL when it does not apply (a fit with a discrepancy, too many cells, an
-# improper evidence). Built from the fit's own problem (finish_fit()), so
-# any route's fit gets it, and each run keeps the covariance it has in the
-# fit (a predicted run its emulation error): the model with a discrepancy
-# differs from the fit's by the discrepancy alone.
+# lower bound on the log Bayes factor, runs = how many runs it weighed,
+# blocks and n_flagged = the base model's block checks), or NULL when it
+# does not apply (too many cells, an improper evidence). Built from the
+# fit's own problem (finish_fit()), so any route's fit gets it, and each run
+# keeps the covariance it has in the fit (a predicted run its emulation
+# error): the model with a discrepancy differs from the fit's by the
+# discrepancy alone. A fit with a discrepancy weighs it exactly
+# (discrepancy_evidence()): its screen holds the block checks alone
+# (log_bf NA, `discrepancy` TRUE), which its warning reads (warn_gap()).
+# Data that cannot weigh a gap (gap_weighable()) get `weighable` FALSE.
 gap_screen <- function(fit) {
+  if (!gap_weighable(fit$n_obs)) {
+    return(list(log_bf = NA_real_, runs = 0L, blocks = NULL, n_flagged = 0L,
+                weighable = FALSE))
+  }
   n_cells <- sum(!is.na(fit$y_field))
-  if (!is.null(fit$setup$discrepancy) || n_cells > gap_screen_cells) return(NULL)
+  if (n_cells > gap_screen_cells) return(NULL)
+  if (!is.null(fit$setup$discrepancy)) {
+    blocks <- discrepancy_fit_blocks(fit)
+    return(list(log_bf = NA_real_, runs = 0L, blocks = blocks, discrepancy = TRUE,
+                n_flagged = if (is.null(blocks)) 0L else sum(blocks$flagged)))
+  }
   log_mass_full <- attr(fit$exact, "log_mass")
   if (is.null(log_mass_full) || !is.finite(log_mass_full)) return(NULL)
   runs <- screen_runs(fit$exact$run)
@@ -51,6 +64,20 @@ screen_blocks <- function(fit, runs) {
   if (!block_check_applies(fit)) return(NULL)
   tryCatch(base_check(fit, NULL, gap_block_fdr, runs)$blocks,
            griddy_error = function(e) NULL)
+}
+
+# The block checks of a fit with a discrepancy: those of its base model
+# (the fit without the discrepancy, as calibrate() without one would screen
+# it), on the runs that carry that model's posterior. A local gap that a
+# smooth discrepancy does not capture, and so does not win evidence for, is
+# warned whichever fit the user made.
+discrepancy_fit_blocks <- function(fit) {
+  if (!block_check_applies(fit)) return(NULL)
+  tryCatch({
+    base <- no_discrepancy_problem(fit)
+    runs <- screen_runs(grid_posterior(base, joint = FALSE)$run)
+    base_check(base, NULL, gap_block_fdr, runs)$blocks
+  }, griddy_error = function(e) NULL)
 }
 
 screen_discrepancy <- function() gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])
@@ -112,10 +139,15 @@ grid_rho <- function(fit, g) {
 # warned of already, gets no gap warning: refine() it first.)
 screen_shows_gap <- function(fit) {
   screen <- fit$gap_screen
-  if (is.null(screen) || !gap_shown(screen$log_bf, screen$n_flagged)) return(FALSE)
+  # a fit with a discrepancy says it (warn_gap())
+  if (is.null(screen) || isTRUE(screen$discrepancy) ||
+        !gap_shown(screen$log_bf, screen$n_flagged)) return(FALSE)
   tab <- resolution_limited(fit)
   !any(tab$limited & !tab$constant)
 }
+
+# Whether the screen found that the data cannot weigh a gap (gap_weighable()).
+screen_unweighable <- function(fit) isFALSE(fit$gap_screen$weighable)
 
 # finish_fit()'s warning when the screen finds a gap.
 warn_gap_screen <- function(fit) {

@@ -62,11 +62,15 @@ gap_detect_log_odds <- 1
 
 # The false discovery rate of the block checks, diagnose_gap()'s default `fdr`
 # (test-gap-verdict.R holds them equal). On data without a gap, Benjamini-
-# Hochberg at level q flags some block with probability about q (all nulls
-# true, it controls the family-wise rate at q), and the evidence rule can
-# fire besides: half the 5% false-alarm budget goes to the blocks. At 0.05
-# the blocks alone gave 5 false alarms in 90 trials (bench/gap-signal.R's
-# system, 24 blocks).
+# Hochberg at level q flags some block with probability at most about q (all
+# nulls true, it is Simes' test of them all, which holds its level under
+# positive dependence, as overlapping blocks have), and the evidence rule can fire
+# besides: half the 5% false-alarm budget goes to the blocks. At 0.05 a
+# tiling of 24 blocks alone gave 5 false alarms in 90 trials (bench/gap-
+# signal.R's system). The default windows scan t (scan_windows(), 207 blocks
+# there): the level is the same, and the scan's multiplicity is paid inside
+# it (false alarms 1 of 90 there and 1 of 30 on bench/gap-signal-cooling.R's
+# system, which the rule was not designed on).
 gap_block_fdr <- 0.025
 
 # Whether log odds `log_odds` of a gap against none (NA: not weighed) and
@@ -79,6 +83,19 @@ gap_shown <- function(log_odds, n_flagged = 0L) {
 # gap on the evidence alone.
 gap_found <- function(prob) gap_shown(log(prob[["other"]]) - log(prob[["none"]]))
 
+# Whether data of `n_obs` measurements can weigh a gap at all. One
+# measurement (one observed output, no replicates) is fitted as well by noise
+# as by noise plus a gap, whatever its value: the evidence cannot move and a
+# block check has nothing left to predict the block from. The screen, the
+# summary of a fit and diagnose_gap() then say so (gap_unweighable_sentence)
+# rather than "no gap".
+gap_weighable <- function(n_obs) isTRUE(n_obs > 1)
+
+gap_unweighable_sentence <- paste0(
+  "cannot tell whether there is a gap: a single measurement is fitted as well by noise as by ",
+  "a gap, so no evidence for or against one is possible (replicate it, or measure more ",
+  "settings or outputs)")
+
 # What every gap warning says theta then is (a fit without a discrepancy has
 # bent theta to absorb the gap; one with a discrepancy estimates the value
 # its discrepancy's prior defines).
@@ -88,10 +105,16 @@ gap_theta_sentence <- "theta is then a best-fitting value, not the physical one"
 # marked mode "discrepancy", then, unless the evidence finds a gap (`found`),
 # "other" only when the base model's own block checks flag blocks
 # (`where$kind` "check", reason "blocks"), else "none" (reason
-# "inconclusive" when "other" was the more probable).
-discrepancy_verdict <- function(which_tab, base, where, prob, found) {
+# "inconclusive" when "other" was the more probable); on data that cannot
+# weigh a gap (`weighable` FALSE, gap_weighable()), "none" for reason
+# "unweighable", at no probability.
+discrepancy_verdict <- function(which_tab, base, where, prob, found, weighable = TRUE) {
   verdict <- c(gap_verdict(which_tab, NULL, base, where), list(mode = "discrepancy"))
-  if (!found && identical(where$kind, "check")) {
+  if (!weighable) {
+    # no evidence is possible (gap_weighable()): neither "none" at its
+    # probability nor "other"
+    verdict[c("answer", "prob", "reason")] <- list("none", NA_real_, "unweighable")
+  } else if (!found && identical(where$kind, "check")) {
     verdict[c("answer", "prob", "reason")] <- list("other", prob[["other"]], "blocks")
   } else if (!found && verdict$answer == "other") {
     verdict[c("answer", "prob", "reason")] <- list("none", prob[["none"]], "inconclusive")

@@ -40,7 +40,9 @@
 #' refined as below, then the model with the discrepancy is refined in turn
 #' (its posterior over theta may lie elsewhere), predicted runs keeping their
 #' prediction error beside the discrepancy, so a truth between coarse runs
-#' is not called a gap. `$where` has the same blocks, but a block's `score`
+#' is not called a gap. Otherwise `$where` has blocks tiling t (the
+#' default `windows` tile it as `NULL` with `scan = FALSE` would: at most 8
+#' windows per setting, each at least one correlation length), and a block's `score`
 #' and `p_value` say where the discrepancy's posterior is away from zero: at
 #' a grid point with a discrepancy, the discrepancy given the run is
 #' multivariate t; `score` is its block mean's squared distance from zero in
@@ -157,7 +159,18 @@
 #' `score` is its mean and `p_value` its tail probability, both averaged over
 #' the exact leave-block-out posterior (computed on the runs holding 99.9%
 #' of the posterior mass). Benjamini-Hochberg at level `fdr` across blocks
-#' gives `flagged`.
+#' gives `flagged`. By default the blocks scan t: windows of every width
+#' from one fitted correlation length, doubling, up to the width of a tiling
+#' of at most 8 windows, each width at steps of half its length, so a local
+#' gap lies inside a window about its own size wherever it sits (a fixed
+#' tiling split a peak between two windows). Benjamini-Hochberg over all of
+#' them is Simes' test that no block misfits: its level holds under the
+#' positive dependence of overlapping windows, so the scan costs about the
+#' log of its number of windows in power, not a Bonferroni factor.
+#' Overlapping flagged windows of one setting count as one place: only the
+#' most significant is `flagged`. A single measurement (one observed output,
+#' no replicates) cannot weigh a gap: the verdict is then "none" for reason
+#' `"unweighable"`, at no probability, and says it cannot tell.
 #'
 #' **How much.** For each x setting B, the exact leave-B-out posterior of the
 #' base model and of each candidate predicts the held-out outputs from the
@@ -189,9 +202,10 @@
 #' @param candidates A named list of candidate effects, each a [sim_library()]
 #'   as described in Details; `NULL` (the default) or an empty list asks only
 #'   whether there is a gap, and where (see "Without candidates").
-#' @param windows Blocks over t: `NULL` (default) picks windows at least one
-#'   fitted correlation length long (at most 8 per setting); a single whole
-#'   number gives that many equal windows; a vector of more than one value
+#' @param windows Blocks over t: `NULL` (default) scans t with overlapping
+#'   windows of every width from one fitted correlation length up to that of
+#'   a tiling of at most 8 per setting (see "Where"); a single whole number
+#'   gives that many equal windows tiling t; a vector of more than one value
 #'   gives the window breaks in units of t.
 #' @param fdr False discovery rate for flagging blocks. The default, 0.025,
 #'   is half the 5% false-alarm budget on data without a gap (the evidence

@@ -171,3 +171,18 @@ test_that("a discrepancy without the ratio 0 is refused", {
   expect_error(diagnose_gap(toy$fit, discrepancy = "gp"), "gp_discrepancy",
                class = "griddy_error_input")
 })
+
+test_that("diagnose_gap() on one measurement says it cannot tell, as the screen does", {
+  # issue 33: a library of one output (one x, one t) got "no gap (P = 50%)"
+  k <- seq(0.5, 1.5, length.out = 11)
+  lib <- sim_library(data.frame(k = k), matrix(2 * k, ncol = 1))
+  fit <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50, seed = 1))
+  gap <- diagnose_gap(fit, seed = 1)
+  expect_identical(gap$verdict$reason, "unweighable")
+  expect_true(is.na(gap$verdict$prob))
+  out <- paste(capture.output(print(gap), width = 1000), collapse = " ")
+  expect_match(out, "Verdict: cannot tell (no evidence possible", fixed = TRUE)
+  expect_false(grepl("no gap (P", out, fixed = TRUE))
+  out <- paste(capture.output(print(summary(gap)), width = 1000), collapse = " ")
+  expect_match(out, "cannot tell whether there is a gap", fixed = TRUE)
+})

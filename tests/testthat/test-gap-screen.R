@@ -50,10 +50,15 @@ test_that("a fit limited by the library's resolution gets no gap warning", {
   expect_false(res$gap_warned)
 })
 
-test_that("the screen stays out of fits with a discrepancy or many cells", {
+test_that("a fit with a discrepancy keeps only the block checks of its screen", {
   sys <- screen_system(0, seed = 1)
   fit <- quiet_fit(sys, discrepancy = gp_discrepancy(ratio = c(0, 1)))$fit
-  expect_null(fit$gap_screen)
+  # its evidence is its own, exact (discrepancy_evidence()): the screen's
+  # bound stays out, its block checks are those of the model without it
+  expect_true(fit$gap_screen$discrepancy)
+  expect_identical(fit$gap_screen$log_bf, NA_real_)
+  expect_s3_class(fit$gap_screen$blocks, "data.frame")
+  expect_false(screen_shows_gap(fit))
   expect_equal(screen_runs(c(0.5, 0.5 - 1e-7, 1e-7)), c(1L, 2L))
   expect_equal(screen_runs(c(1, 0, 0)), c(1L, 2L))
 })
@@ -171,4 +176,73 @@ test_that("every gap warning says theta is then a best-fitting value, not the ph
                            discrepancy = gp_discrepancy()),
                  "theta is the best-fitting value, not the physical one: the L2 projection",
                  fixed = TRUE, class = "griddy_warning_gap")
+})
+
+test_that("a discrepancy fit warns of a local gap its evidence misses, from the same block checks", {
+  # issue 33: the discrepancy fit's warning read its evidence alone, so a
+  # second peak at one setting that calibrate() without a discrepancy warns
+  # of (test above) went unwarned with `discrepancy = gp_discrepancy()`
+  sys <- local_system(5, 1)
+  w <- NULL
+  fit <- withCallingHandlers(
+    calibrate(sys$library, sys$field, n_iter = 300, burn_in = 100, seed = 1,
+              discrepancy = gp_discrepancy()),
+    warning = function(x) {
+      w <<- c(w, list(x))
+      invokeRestart("muffleWarning")
+    })
+  expect_lt(discrepancy_evidence(fit)$log_bayes_factor, gap_detect_log_odds)
+  screen <- fit$gap_screen
+  expect_true(screen$discrepancy)
+  expect_equal(screen$n_flagged, 1L)
+  expect_equal(screen$blocks$x[screen$blocks$flagged], 2L)
+  gap <- Filter(function(x) inherits(x, "griddy_warning_gap"), w)
+  expect_length(gap, 1L)                 # once: the screen's own warning stays out
+  expect_match(conditionMessage(gap[[1]]), "(inconclusive), but the model's leave-block-out",
+               fixed = TRUE)
+  expect_match(conditionMessage(gap[[1]]), "flag 1 block (load = 2, t ", fixed = TRUE)
+  expect_match(conditionMessage(gap[[1]]), "theta is the best-fitting value", fixed = TRUE)
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
+  expect_match(out, "The data show a gap. The model's leave-block-out checks", fixed = TRUE)
+})
+
+test_that("a library of one output: the screen says no evidence is possible, not 'no gap'", {
+  # issue 33: one measurement is fitted as well by noise as by a gap
+  k <- seq(0.5, 1.5, length.out = 11)
+  lib <- sim_library(data.frame(k = k), matrix(2 * k, ncol = 1))
+  fit <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50, seed = 1))
+  expect_false(fit$gap_screen$weighable)
+  expect_true(screen_unweighable(fit))
+  expect_false(screen_shows_gap(fit))
+  out <- paste(capture.output(print(summary(fit), width = 1000)), collapse = " ")
+  expect_match(out, "Gap: griddy cannot tell whether there is a gap", fixed = TRUE)
+  # with a discrepancy the fit says the same, and gives no gap warning
+  fit_d <- suppressWarnings(calibrate(lib, field_data(2.04), n_iter = 200, burn_in = 50,
+                                      seed = 1, discrepancy = gp_discrepancy()))
+  expect_no_warning(warn_gap(fit_d), class = "griddy_warning_gap")
+  out <- paste(capture.output(print(summary(fit_d), width = 1000)), collapse = " ")
+  expect_match(out, "griddy cannot tell whether there is a gap", fixed = TRUE)
+  # replicates of the one output separate noise from a gap: weighable
+  two <- suppressWarnings(calibrate(lib, field_data(data.frame(t = 1, y = c(2.04, 2.1))),
+                                    n_iter = 200, burn_in = 50, seed = 1))
+  expect_identical(nobs(two), 2L)
+  expect_false(isFALSE(two$gap_screen$weighable))
+})
+
+test_that("a peak between two tiles of t is warned: the block checks scan t", {
+  # issue 33: a fixed tiling (8 windows of 3 outputs) split the peak at t =
+  # 0.5 (between outputs 12 and 13) over windows 10-12 and 13-15, and the
+  # screen missed it (here at 4 noise sds, evidence inconclusive)
+  sys <- local_system(4, 1)
+  res <- quiet_fit(sys)
+  screen <- res$fit$gap_screen
+  expect_lt(screen$log_bf, gap_detect_log_odds)
+  tiling <- base_check(res$fit, 8L, gap_block_fdr, screen_runs(res$fit$exact$run))$blocks
+  expect_false(any(tiling$flagged))
+  expect_true(res$gap_warned)
+  flagged <- screen$blocks[screen$blocks$flagged, ]
+  expect_equal(nrow(flagged), 1L)
+  expect_equal(flagged$x, 2L)
+  expect_lte(flagged$n, 3L)
+  expect_true(flagged$from <= 0.5 && flagged$to >= 0.478)
 })

@@ -101,3 +101,19 @@ test_that("a candidate is named only past the bar 'other' needs", {
 test_that("calibrate()'s screen and diagnose_gap() flag blocks at the same level", {
   expect_identical(formals(diagnose_gap)$fdr, gap_block_fdr)
 })
+
+test_that("a single measurement cannot weigh a gap: the verdict says so, at no probability", {
+  # issue 33: diagnose_gap() on a library of one output said "no gap, P = 50%"
+  expect_false(gap_weighable(1L))
+  expect_true(gap_weighable(2L))
+  prob <- c(none = 0.5, other = 0.5)
+  tab <- verdict_table(c("none", "other"), c(0.5, 0.5))
+  v <- discrepancy_verdict(tab, verdict_lib(), c(blocks_flagged(FALSE), list(kind = "discrepancy")),
+                           prob, FALSE, weighable = FALSE)
+  expect_identical(v[c("answer", "prob", "reason")],
+                   list(answer = "none", prob = NA_real_, reason = "unweighable"))
+  expect_match(verdict_label(v), "^cannot tell")
+  expect_match(verdict_explanation(list(verdict = v, which = tab[0, ],
+                                        shrinkage = empty_shrinkage())),
+               "cannot tell whether there is a gap", fixed = TRUE)
+})
