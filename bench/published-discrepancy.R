@@ -9,8 +9,9 @@
 # with griddy's emulator of the same runs as its math model.
 #   spot weld    Bayarri et al. (2007), shipped with the CRAN package SAVE
 #                (archived, GPL-2 | GPL-3; read from its tarball as
-#                bench/published-data.R does): 35 runs of a spot-weld FE model, 120 field welds at 12
-#                settings (replicated). Reference: SAVE's bias-corrected
+#                bench/published-data.R does): 35 runs of a spot-weld FE
+#                model, 120 field welds at 12 settings (replicated).
+#                Reference: SAVE's bias-corrected
 #                posterior (bayesfit() with a GP bias), run here with SAVE
 #                1.0's own example script inst/extdata/SpotweldExample.r
 #                (same prior, iterations and seed 0, and seeds 1 and 2)
@@ -156,8 +157,8 @@ save_fit <- function(seed) {
             save_prior[1], save_prior[2]),
     "  n.burnin = 100,",
     "  n.thin = 2)))",
-    sprintf("saveRDS(list(draws = sw@mcmcsample, seconds = proc.time()[['elapsed']] - start), '%s')",
-            out)), script)
+    "seconds <- proc.time()[['elapsed']] - start",
+    sprintf("saveRDS(list(draws = sw@mcmcsample, seconds = seconds), '%s')", out)), script)
   status <- system2(file.path(R.home("bin"), "Rscript"), script)
   if (status != 0L || !file.exists(out)) return(NULL)
   readRDS(out)
