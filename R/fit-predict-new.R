@@ -41,7 +41,7 @@ new_setting_rows <- function(lib, newdata) {
 # predict() of `fit` at newdata whose rows `hit` (new_setting_rows()) are
 # partly or wholly new settings: the library's rows through today's path
 # (same seed, so their answer is today's), the new ones through the
-# simulator, in newdata's order.
+# simulator or the emulator (fit-predict-emulated.R), in newdata's order.
 predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrepancy,
                                  simulator, run_mass) {
   lib <- fit$library
