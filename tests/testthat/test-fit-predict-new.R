@@ -307,3 +307,36 @@ test_that("a complete design's emulator (theta form) is refitted jointly for new
   expect_lt(max(abs(got - emulated_toy_simulator(th, data.frame(x = 0.35)))), 0.02)
   expect_true(all(attr(got, "sd") > 0))
 })
+
+test_that("an .rds chunk library (disk_library) predicts at new settings as in memory", {
+  m <- machine()
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(m$library, dir, chunk_size = 100)
+  on_disk <- disk_library(dir, trust = TRUE)
+  fits <- lapply(list(m$library, on_disk), function(lib) {
+    suppressWarnings(calibrate(lib, m$field, n_iter = 600, burn_in = 100, seed = 1,
+                               discrepancy = knowledge()))
+  })
+  p <- lapply(fits, predict, newdata = data.frame(x = c(3, 6)), ndraws = 200, seed = 1,
+              simulator = m$simulator)
+  expect_identical(p[[2]], p[[1]])
+  expect_true(all(is.na(p[[1]]$observed[2]) & is.finite(p[[1]]$pred_upper)))
+})
+
+test_that("a refined fit of an emulated library predicts new settings from its base's emulator", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 400)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 600, burn_in = 100,
+                                    seed = 1))
+  refined <- suppressWarnings(refine(fit, seed = 1))
+  expect_s3_class(refined$library, "refined_library")
+  at <- data.frame(x = 0.65)
+  p <- predict(refined, newdata = at, ndraws = 500, seed = 1)
+  truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
+  expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.9)
+  # its runs are the refined library's, added ones included
+  runs <- unique(refined$draws$run)
+  expect_true(any(runs > lib_n_runs(lib)))
+  expect_error(predict(refined, newdata = data.frame(x = 2)), "outside the design's",
+               class = "griddy_error_prediction")
+})
