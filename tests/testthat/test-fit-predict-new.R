@@ -340,3 +340,16 @@ test_that("a refined fit of an emulated library predicts new settings from its b
   expect_error(predict(refined, newdata = data.frame(x = 2)), "outside the design's",
                class = "griddy_error_prediction")
 })
+
+test_that("an emulated library's fit with a discrepancy extends it to new settings", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 1000)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 800, burn_in = 200,
+                                    seed = 1, discrepancy = gp_discrepancy()))
+  at <- data.frame(x = 0.65)
+  p <- predict(fit, newdata = at, ndraws = 1000, seed = 1)
+  truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
+  expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.9)
+  alone <- predict(fit, newdata = at, ndraws = 1000, seed = 1, discrepancy = FALSE)
+  expect_gt(mean(p$upper - p$lower), mean(alone$upper - alone$lower))
+})
