@@ -67,17 +67,22 @@ emulated_outputs <- function(lib, theta, x_new) {
     gp <- design_gp(list(theta = as.matrix(d$theta), y = d$y, x = as.matrix(d$x)), x_new)
   }
   theta <- as.matrix(theta)[, gp$theta_names, drop = FALSE]
-  if (gp$mode == "theta") {
-    pred <- emulator_mean_sd(gp, gp_scale(gp, theta))
-  } else {
-    parts <- lapply(seq_len(nrow(x_new)), function(k) {
-      emulator_mean_sd(gp, gp_scale(gp, cbind(x_new[rep(k, nrow(theta)), , drop = FALSE],
-                                              theta)))
-    })
-    pred <- list(mean = do.call(cbind, lapply(parts, `[[`, "mean")),
-                 sd = do.call(cbind, lapply(parts, `[[`, "sd")))
-  }
-  structure(unname(pred$mean), sd = unname(pred$sd))
+  # chunks of runs: ppgasp holds a runs x design-runs matrix per call
+  chunks <- split(seq_len(nrow(theta)), (seq_len(nrow(theta)) - 1L) %/% 2000L)
+  parts <- lapply(chunks, function(rows) emulator_at(gp, theta[rows, , drop = FALSE], x_new))
+  structure(unname(do.call(rbind, lapply(parts, `[[`, "mean"))),
+            sd = unname(do.call(rbind, lapply(parts, `[[`, "sd"))))
+}
+
+# emulated_outputs() for one chunk of runs: list(mean, sd), the simulator's
+# layout.
+emulator_at <- function(gp, theta, x_new) {
+  if (gp$mode == "theta") return(emulator_mean_sd(gp, gp_scale(gp, theta)))
+  parts <- lapply(seq_len(nrow(x_new)), function(k) {
+    emulator_mean_sd(gp, gp_scale(gp, cbind(x_new[rep(k, nrow(theta)), , drop = FALSE], theta)))
+  })
+  list(mean = do.call(cbind, lapply(parts, `[[`, "mean")),
+       sd = do.call(cbind, lapply(parts, `[[`, "sd")))
 }
 
 # ppgasp's mean and predictive sd of every output at scaled inputs z
