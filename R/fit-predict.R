@@ -109,6 +109,7 @@
 #' class `griddy_error_prediction` that names what does not reach them. (At
 #' the library's own settings the bands are today's, without the emulator's
 #' error, which the likelihood carried.)
+#' @seealso [predict.griddy_stream()], the same from a [griddy_stream()]'s exact posterior.
 #' @references Bayarri, M. J., Berger, J. O., Paulo, R., Sacks, J., Cafeo,
 #'   J. A., Cavendish, J., Lin, C.-H. and Tu, J. (2007). A framework for
 #'   validation of computer models. *Technometrics* 49(2), 138-154.
