@@ -52,7 +52,7 @@ test_that("a stream predicts at a new setting as the closed-form Student t", {
   expect_true(is.na(both$setting[2]))
 })
 
-test_that("a stream's noise groups and AR(1) noise extend to new settings as a fit's", {
+test_that("a stream's noise groups (and AR(1) grid) extend to new settings as a fit's", {
   sys <- bump_sys(bump = 0, n_t = 6)
   t <- lib_t(sys$library)
   simulator <- function(theta, x) {
@@ -60,17 +60,24 @@ test_that("a stream's noise groups and AR(1) noise extend to new settings as a f
              numeric(nrow(x) * length(t))))
   }
   groups <- rep(c("a", "b"), each = 3)
+  # group b (the last three t) five times noisier
+  y <- matrix(sys$field$y, 3)
+  set.seed(5)
+  y[, 4:6] <- y[, 4:6] + stats::rnorm(9, sd = 0.25)
+  field <- field_data(y, x = data.frame(amp = 1:3), t = t)
   s <- update(griddy_stream(sys$library, rho_t = c(0, 0.5), noise_groups = groups),
-              y = sys$field)
-  fit <- suppressWarnings(calibrate(sys$library, sys$field, rho_t = c(0, 0.5), n_iter = 3000,
+              y = field)
+  fit <- suppressWarnings(calibrate(sys$library, field, rho_t = c(0, 0.5), n_iter = 3000,
                                     burn_in = 200, seed = 1, noise_groups = groups))
   ps <- predict(s, newdata = data.frame(amp = 4), ndraws = 4000, seed = 1,
                 simulator = simulator)
   pf <- predict(fit, newdata = data.frame(amp = 4), ndraws = 3000, seed = 1,
                 simulator = simulator)
   expect_equal(ps$mean, pf$mean, tolerance = 1e-3)
-  expect_equal(ps$pred_upper - ps$pred_lower, pf$pred_upper - pf$pred_lower, tolerance = 0.1)
-  by_x <- update(griddy_stream(sys$library, noise_groups = "x"), y = sys$field)
+  width <- ps$pred_upper - ps$pred_lower
+  expect_equal(width, pf$pred_upper - pf$pred_lower, tolerance = 0.1)
+  expect_gt(min(width[4:6]), 2 * max(width[1:3]))
+  by_x <- update(griddy_stream(sys$library, noise_groups = "x"), y = field)
   expect_error(predict(by_x, newdata = data.frame(amp = 4), simulator = simulator),
                class = "griddy_error_unsupported")
 })
