@@ -10,7 +10,7 @@
 # dashed lines); otherwise one panel per setting against t (or against the
 # settings' labels), the new settings' panels titled "(new)".
 plot_ppc_new <- function(fit, newdata, level = 0.95, discrepancy = has_discrepancy(fit), ...) {
-  lib <- fit$library
+  lib <- predicted_library(fit)
   x_lib <- lib_x(lib)
   nd <- as.data.frame(as_numeric_matrix(newdata[names(x_lib)], "newdata"))
   all <- unique(rbind(x_lib, nd[is.na(match_setting_rows(nd, x_lib)), , drop = FALSE]))
@@ -90,4 +90,9 @@ ppc_new_panels <- function(pred, lib) {
     ggplot2::facet_wrap(ggplot2::vars(.data$setting), scales = "free_y") +
     ggplot2::scale_x_continuous(n.breaks = 4, guide = ggplot2::guide_axis(check.overlap = TRUE)) +
     ggplot2::labs(x = "t")
+}
+
+# The library of what the ppc plot predicts from: a fit's, or a stream's.
+predicted_library <- function(object) {
+  if (inherits(object, "griddy_stream")) object$state$library else object$library
 }

@@ -285,11 +285,11 @@ library_ticks <- function(theta, bars) {
 plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...) {
   # settings the library does not hold: predicted beside its own (fit-plot-new.R)
   newdata <- list(...)$newdata
-  if (!is.null(new_setting_rows(fit$library, newdata))) {
+  lib <- predicted_library(fit)
+  if (!is.null(new_setting_rows(lib, newdata))) {
     return(plot_ppc_new(fit, level = level, discrepancy = discrepancy, ...))
   }
   pred <- predict(fit, level = level, discrepancy = discrepancy, ...)
-  lib <- fit$library
   place <- cell_places(lib, pred[[setting_column(lib)]])
   pred <- cbind(place$cells, pred[c("observed", "mean", "lower", "upper", "pred_lower",
                                     "pred_upper")])
