@@ -21,7 +21,14 @@
 #'   band with the fitted noise, against t, one panel per x setting
 #'   (titled by its values, "load = 6"); with one output per setting, against
 #'   the setting: its value when the library has one x column, its label
-#'   when several.
+#'   when several. With `newdata` holding settings the library does not hold
+#'   (and `simulator`, or an [emulated_library()] whose design reaches them;
+#'   see [predict.griddy_fit()]), the prediction there is drawn beside the
+#'   library's settings, in orange: with one x column and one output per
+#'   setting on one continuous x axis (bands joined across the settings,
+#'   the library's range of x between dashed lines, beyond which the
+#'   prediction extrapolates); otherwise one panel per setting, the new
+#'   ones titled "(new)" (in x's order when there is one x column).
 #' * `"pairs"`: the joint posterior of every pair of \eqn{\theta} columns,
 #'   the draws binned in two dimensions, so that ridges (parameters that
 #'   trade off) show; the truth is marked when given. With one pair the axes
@@ -42,7 +49,8 @@
 #'   marked in red on the `"posterior"` and `"pairs"` plots.
 #' @param max_points For `"trace"`, the most draws per chain drawn.
 #' @param ... Passed to [predict.griddy_fit()] for `"ppc"` (e.g. `level`,
-#'   `ndraws`, `seed`, `discrepancy`), and to [discrepancy_posterior()] for
+#'   `ndraws`, `seed`, `discrepancy`, and `newdata`, `simulator`, `run_mass`
+#'   for new settings), and to [discrepancy_posterior()] for
 #'   `"discrepancy"` (`level`, `ndraws`, `seed`).
 #' @return A ggplot object.
 #' @examples
@@ -54,6 +62,19 @@
 #' fit_d <- calibrate(ex$library, ex$field, n_iter = 1000, burn_in = 200, seed = 1,
 #'                    discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
 #' plot(fit_d, "discrepancy", ndraws = 200, seed = 1)
+
+#' # predicting beyond the library: the simple machine (simulator theta x,
+#' # reality theta x / (1 + x / 20)), calibrated on x in [0.2, 4]
+#' x <- data.frame(x = seq(0.2, 4, length.out = 11))
+#' theta <- data.frame(theta = seq(0.3, 1, by = 0.0025))
+#' lib <- sim_library(theta, outer(theta$theta, x$x), x = x)
+#' set.seed(1)
+#' field <- field_data(matrix(0.65 * x$x / (1 + x$x / 20) + rnorm(11, sd = 0.01)), x = x)
+#' fit_m <- calibrate(lib, field, n_iter = 2000, burn_in = 200, seed = 1,
+#'                    discrepancy = gp_discrepancy(zero_at = data.frame(x = 0),
+#'                                                 flat_at = data.frame(x = 0)))
+#' plot(fit_m, "ppc", newdata = data.frame(x = seq(4.5, 6, by = 0.5)),
+#'      simulator = function(theta, x) outer(theta$theta, x$x), seed = 1)
 #' @importFrom ggplot2 .data
 #' @export
 plot.griddy_fit <- function(x, type = c("trace", "posterior", "ppc", "pairs", "discrepancy"),
@@ -262,8 +283,13 @@ library_ticks <- function(theta, bars) {
 }
 
 plot_ppc <- function(fit, level = 0.95, discrepancy = has_discrepancy(fit), ...) {
+  # settings the library does not hold: predicted beside its own (fit-plot-new.R)
+  newdata <- list(...)$newdata
+  lib <- predicted_library(fit)
+  if (!is.null(new_setting_rows(lib, newdata))) {
+    return(plot_ppc_new(fit, level = level, discrepancy = discrepancy, ...))
+  }
   pred <- predict(fit, level = level, discrepancy = discrepancy, ...)
-  lib <- fit$library
   place <- cell_places(lib, pred[[setting_column(lib)]])
   pred <- cbind(place$cells, pred[c("observed", "mean", "lower", "upper", "pred_lower",
                                     "pred_upper")])

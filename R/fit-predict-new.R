@@ -41,34 +41,43 @@ new_setting_rows <- function(lib, newdata) {
 # predict() of `fit` at newdata whose rows `hit` (new_setting_rows()) are
 # partly or wholly new settings: the library's rows through today's path
 # (same seed, so their answer is today's), the new ones through the
-# simulator, in newdata's order.
+# simulator or the emulator (fit-predict-emulated.R), in newdata's order.
 predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrepancy,
                                  simulator, run_mass) {
   lib <- fit$library
   new <- which(is.na(hit))
+  x_new <- as.data.frame(as_numeric_matrix(newdata[new, names(lib_x(lib)), drop = FALSE],
+                                           "newdata"))
+  rownames(x_new) <- NULL
   if (is.null(simulator)) {
-    griddy_abort(
-      "`newdata` row(s) ", show_some(new), " (", show_some(setting_text(lib, newdata[new, ,
-        drop = FALSE])), ") are not x settings of the library, and the library holds the ",
-      "simulator's outputs at its own settings only. To predict there, pass ",
-      "`simulator = function(theta, x)`: a function of a data frame of theta rows and a ",
-      "data frame of x settings that returns one row per theta row with the outputs at ",
-      "those settings (blocks of the library's ", lib_n_t(lib), " t value(s) by setting); ",
-      "predict() runs it at the posterior's runs. (Prediction from an emulator over x is ",
-      "not available yet.)", class = c("prediction", "input"))
-  }
-  if (!is.function(simulator)) {
-    griddy_abort("`simulator` must be NULL or a function(theta, x); received ",
-                 class(simulator)[1], ".")
+    reach <- design_reach(lib, x_new)
+    if (!reach$ok) {
+      griddy_abort(
+        "`newdata` row(s) ", show_some(new), " (", show_some(setting_text(lib, x_new)),
+        ") are not x settings of the library, which holds the simulator's outputs at its ",
+        "own settings only, and ", reach$why, ". To predict there, pass ",
+        "`simulator = function(theta, x)`: a function of a data frame of theta rows and a ",
+        "data frame of x settings that returns one row per theta row with the outputs at ",
+        "those settings (blocks of the library's ", lib_n_t(lib), " t value(s) by setting); ",
+        "predict() runs it at the posterior's runs. Without a simulator, predict() ",
+        "predicts at new settings only from the emulator of an emulated_library() whose ",
+        "design's range of x holds them.", class = c("prediction", "input"))
+    }
+    require_package("RobustGaSP", "to predict from an emulated library's emulator")
+    outputs <- function(theta) emulated_outputs(lib, theta, x_new)
+  } else {
+    if (!is.function(simulator)) {
+      griddy_abort("`simulator` must be NULL or a function(theta, x); received ",
+                   class(simulator)[1], ".")
+    }
+    n_out <- nrow(x_new) * lib_n_t(lib)
+    outputs <- function(theta) simulate_at(simulator, theta, x_new, n_out)
   }
   if (!is.numeric(run_mass) || length(run_mass) != 1L || !is.finite(run_mass) ||
       run_mass <= 0 || run_mass > 1) {
     griddy_abort("`run_mass` must be a single number in (0, 1]; received ",
                  paste(format(run_mass), collapse = ", "), ".")
   }
-  x_new <- as.data.frame(as_numeric_matrix(newdata[new, names(lib_x(lib)), drop = FALSE],
-                                           "newdata"))
-  rownames(x_new) <- NULL
   old <- which(!is.na(hit))
   parts <- list()
   if (length(old) > 0L) {
@@ -76,7 +85,7 @@ predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrep
                                 ndraws = ndraws, seed = seed, discrepancy = discrepancy)
   }
   parts$new <- with_seed(seed, predict_at_new(fit, x_new, level, ndraws, discrepancy,
-                                              simulator, run_mass))
+                                              outputs, run_mass))
   n_t <- lib_n_t(lib)
   out <- do.call(rbind, unname(parts))
   out <- out[order(rep(c(old, new), each = n_t)), , drop = FALSE]
@@ -92,8 +101,10 @@ setting_text <- function(lib, x) {
 
 # The prediction's table at new settings `x_new` (a data frame over the
 # library's x columns): predict()'s columns, `x` (the setting's library row)
-# NA and `observed` NA.
-predict_at_new <- function(fit, x_new, level, ndraws, discrepancy, simulator, run_mass) {
+# NA and `observed` NA. `outputs(theta)` gives the outputs at x_new of the
+# runs `theta` (the simulator's, or an emulator's with attribute "sd", its
+# predictive sd, whose error each draw then carries).
+predict_at_new <- function(fit, x_new, level, ndraws, discrepancy, outputs, run_mass) {
   lib <- fit$library
   n_t <- lib_n_t(lib)
   probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
@@ -101,8 +112,8 @@ predict_at_new <- function(fit, x_new, level, ndraws, discrepancy, simulator, ru
   G <- if (discrepancy) attr(attr(fit$setup$discrepancy, "kernels"), "sensitivity")
   near <- if (!is.null(G)) sensitivity_runs(lib, fit$draws$run, ncol(G))
   runs <- sort(unique(c(carry$run, near)))
-  Y_all <- simulate_at(simulator, lib_theta(lib)[runs, , drop = FALSE], x_new,
-                       nrow(x_new) * n_t)
+  Y_all <- outputs(lib_theta(lib)[runs, , drop = FALSE])
+  err_sd <- attr(Y_all, "sd")
   Y <- Y_all[match(carry$run, runs), , drop = FALSE]
   w <- carry$freq / sum(carry$freq)
   mean <- colSums(Y * w)
@@ -110,12 +121,20 @@ predict_at_new <- function(fit, x_new, level, ndraws, discrepancy, simulator, ru
   kept <- which(fit$draws$run %in% carry$run)
   pick <- kept[unique(round(seq(1, length(kept), length.out = min(ndraws, length(kept)))))]
   drawn <- Y[match(fit$draws$run[pick], carry$run), , drop = FALSE]
+  if (!is.null(err_sd)) {
+    # the emulator's error at each draw's run: Gaussian, mean 0 (pointwise
+    # bands need only its sd)
+    s <- err_sd[match(fit$draws$run[pick], runs), , drop = FALSE]
+    drawn <- drawn + s * stats::rnorm(length(s))
+  }
   if (discrepancy) {
     E <- if (!is.null(G)) new_sensitivity_rows(lib, G, near,
                                                Y_all[match(near, runs), , drop = FALSE])
     delta <- new_delta(fit, x_new, kept, pick, E)
     mean <- mean + delta$mean
     drawn <- drawn + delta$draws
+    bounds <- apply(drawn, 2, stats::quantile, probs = probs, names = FALSE)
+  } else if (!is.null(err_sd)) {
     bounds <- apply(drawn, 2, stats::quantile, probs = probs, names = FALSE)
   } else {
     bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)

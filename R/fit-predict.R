@@ -11,8 +11,9 @@
 #'   of x settings, with the library's x columns: the prediction is then at
 #'   those settings, in that order, at every t of the library (a `t` column
 #'   is not read). A library holds the simulator's outputs at its own
-#'   settings only: other settings need `simulator` (see Details, New
-#'   settings), and without it are an error of class
+#'   settings only: other settings need `simulator`, or an
+#'   [emulated_library()] whose design reaches them (see Details, New
+#'   settings), and are otherwise an error of class
 #'   `griddy_error_prediction`.
 #' @param level Probability of the central intervals.
 #' @param ndraws How many draws (evenly spaced over the kept ones) to add noise
@@ -85,6 +86,30 @@
 #' the same \eqn{\theta} (the best-fitting one) at every setting. Far out,
 #' the projection's share grows with the sensitivities, so an orthogonal
 #' discrepancy's mean need not revert to 0 there.
+#'
+#' **Without a simulator**, new settings are predicted from an emulator over
+#' x where the library has one: a library built by [emulated_library()]
+#' (or [read_calibration_inputs()] from a design; also as the base of a
+#' [refine()]d library) whose design reaches them. "Reaches" means: every
+#' x column of the new setting lies inside the design runs' range of that
+#' column, give or take 5% of its width, the range inside which
+#' [emulated_library()] does not warn of extrapolation. A joint design's
+#' emulator, \eqn{(x, \theta) \to} outputs, predicts there as it predicted
+#' the library; a design complete at the library's settings has an
+#' emulator of \eqn{\theta} only, so a joint one is fitted to its runs for
+#' the new settings (RobustGaSP, once per call). The emulator's mean stands
+#' for the simulator's outputs at the posterior's runs, and its predictive
+#' sd for its error: each draw adds a Gaussian error of that sd to its run's
+#' outputs, so `lower`, `upper`, `pred_lower` and `pred_upper` carry the
+#' emulation error (pointwise; `mean` is unchanged by it). Inside the range
+#' the sd grows where the design is sparse (corners of a joint design's
+#' \eqn{(x, \theta)} box that no run visited), and the bands with it.
+#' Beyond the range, where the emulator reverts to its mean and its error
+#' is unmeasured, and for any other library, new settings are an error of
+#' class `griddy_error_prediction` that names what does not reach them. (At
+#' the library's own settings the bands are today's, without the emulator's
+#' error, which the likelihood carried.)
+#' @seealso [predict.griddy_stream()], the same from a [griddy_stream()]'s exact posterior.
 #' @references Bayarri, M. J., Berger, J. O., Paulo, R., Sacks, J., Cafeo,
 #'   J. A., Cavendish, J., Lin, C.-H. and Tu, J. (2007). A framework for
 #'   validation of computer models. *Technometrics* 49(2), 138-154.

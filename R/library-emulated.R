@@ -252,6 +252,8 @@ build_emulated_library <- function(theta, y, x, t, settings, n_runs) {
 # emulator's leave-one-out error (RMS).
 emulated_design_runs <- function(library) nrow(library$design$theta)
 emulated_loo_rms <- function(library) library$loo_rms
+# The design runs (theta, x, y at the library's t), for predict() at new settings.
+emulated_design <- function(library) library$design
 
 assert_distinct_design <- function(m) {
   key <- do.call(paste, c(lapply(seq_len(ncol(m)), function(j) sprintf("%.12g", m[, j])),

@@ -13,14 +13,23 @@
 #' probabilities before the first update), or, before any update, the
 #' current probabilities as bars.
 #'
+#' `plot(stream, "ppc")` draws the stream's predictions
+#' ([predict.griddy_stream()]) against its measurements, as
+#' `plot(fit, "ppc")` does for a fit; with `newdata` and `simulator`, at
+#' settings the library does not hold too.
+#'
 #' @param x A [griddy_stream()] or a [stream_models()].
-#' @param ... Ignored.
+#' @param type For a stream: `"posterior"` (the default) or `"ppc"`.
+#' @param ... For a stream's `"ppc"`, passed to [predict.griddy_stream()]
+#'   (`level`, `ndraws`, `seed`, `newdata`, `simulator`, `run_mass`);
+#'   otherwise ignored.
 #' @return A ggplot object (print it to draw it).
 #' @seealso [griddy_stream()], [stream_models()]
 #' @examples
 #' ex <- griddy_example()
 #' s <- update(griddy_stream(ex$library), y = ex$field)
 #' plot(s)
+#' plot(s, "ppc", ndraws = 200, seed = 1)
 #' rival <- sim_library(ex$library$theta, 0.9 * ex$library$y, x = ex$library$x,
 #'                      t = ex$library$t)
 #' m <- stream_models(spring = griddy_stream(ex$library), damped = griddy_stream(rival))
@@ -31,7 +40,9 @@ NULL
 
 #' @rdname plot.griddy_stream
 #' @export
-plot.griddy_stream <- function(x, ...) {
+plot.griddy_stream <- function(x, type = c("posterior", "ppc"), ...) {
+  type <- assert_choice(type, "type", c("posterior", "ppc"), vector_default = TRUE)
+  if (type == "ppc") return(plot_ppc(x, discrepancy = FALSE, ...))
   state <- x$state
   n <- nobs(x)
   run <- if (n > 0L) stream_margins(x)$run else normalise_log(state$log_prior_run)

@@ -264,3 +264,41 @@ test_that("one output per setting: ppc and discrepancy plots place settings by t
   expect_identical(as.character(p0$data$position), "single setting")
   expect_no_error(ggplot2::ggplotGrob(p0))
 })
+
+test_that("the ppc plot shows predictions at new settings beside the library's", {
+  lib <- sim_library(data.frame(k = seq(1, 3, by = 0.01)), outer(seq(1, 3, by = 0.01), 1:4),
+                     x = data.frame(pos = 1:4))
+  fit <- suppressWarnings(calibrate(lib, field_data(c(2.1, 3.9, 6.2, 7.8)), n_iter = 600,
+                                    burn_in = 100, seed = 1))
+  linear <- function(theta, x) outer(theta$k, x$pos)
+  pp <- plot(fit, "ppc", newdata = data.frame(pos = c(2, 5.5, 6)), simulator = linear,
+             ndraws = 200, seed = 1)
+  # one continuous x axis: the library's settings, then the new ones
+  expect_identical(pp$data$position, c(1:4, 5.5, 6))
+  expect_identical(pp$data$new, rep(c(FALSE, TRUE), c(4, 2)))
+  expect_equal(pp$data[5:6, c("mean", "lower", "upper")],
+               predict(fit, newdata = pp$data[1:6, "pos", drop = FALSE], ndraws = 200, seed = 1,
+                       simulator = linear)[5:6, c("mean", "lower", "upper")],
+               ignore_attr = TRUE)
+  built <- ggplot2::ggplot_build(pp)
+  expect_equal(built$data[[4]]$xintercept, c(1, 4))
+  expect_equal(nrow(built$data[[5]]), 2)
+  expect_match(pp$labels$subtitle, "through the\\s+simulator")
+  expect_error(plot(fit, "ppc", newdata = data.frame(pos = 6)),
+               class = "griddy_error_prediction")
+  # settings all in the library: today's ppc of those settings
+  expect_identical(plot(fit, "ppc", newdata = data.frame(pos = 2:3), ndraws = 50,
+                        seed = 1)$labels$title, "Posterior predictive check")
+})
+
+test_that("the ppc plot of an emulated library shows its new settings' panels in x order", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 500)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 400, burn_in = 100,
+                                    seed = 1))
+  pp <- plot(fit, "ppc", newdata = data.frame(x = c(0.95, 0.35)), ndraws = 100, seed = 1)
+  expect_identical(levels(pp$data$setting),
+                   c("x = 0.20", "x = 0.35 (new)", "x = 0.50", "x = 0.80", "x = 0.95 (new)"))
+  expect_match(pp$labels$subtitle, "emulator")
+  expect_s3_class(ggplot2::ggplot_build(pp), "ggplot_built")
+})

@@ -244,3 +244,112 @@ test_that("noise groups by t and the field's sd carry to new settings", {
                simulator = simulator)
   expect_true(all(is.na(p$pred_lower)) && all(is.finite(p$lower)))
 })
+
+# The emulated toy (helper-emulated.R) as a simulator: one row per theta,
+# blocks of its 10 times by setting.
+emulated_toy_simulator <- function(theta, x) {
+  theta <- as.matrix(theta[c("k", "c")])
+  do.call(cbind, lapply(x$x, function(v) emulated_sim(v, theta)))
+}
+
+test_that("an emulated library predicts inside its design's x range from its emulator", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library()
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 2000, burn_in = 200,
+                                    seed = 1))
+  at <- data.frame(x = c(0.35, 0.95))
+  p <- predict(fit, newdata = at, ndraws = 2000, seed = 1)
+  truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
+  expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.95)
+  # as the simulator's prediction, within the emulator's error
+  ps <- predict(fit, newdata = at, ndraws = 2000, seed = 1, simulator = emulated_toy_simulator)
+  expect_lt(max(abs(p$mean - ps$mean)), 0.02)
+  # at t = 0 the toy is sin(x) whatever theta: the simulator's band is a
+  # point, the emulator's is its own error, +-1.96 sd of it
+  t0 <- which(p$t == 0)
+  expect_equal(ps$upper[t0] - ps$lower[t0], c(0, 0))
+  run <- which.max(tabulate(fit$draws$run))
+  sd <- attr(emulated_outputs(lib, lib_theta(lib)[run, , drop = FALSE], at), "sd")[1, t0]
+  expect_equal((p$upper[t0] - p$lower[t0]) / (2 * 1.96 * sd), c(1, 1), tolerance = 0.15)
+  # library settings keep today's answer
+  expect_identical(predict(fit, newdata = data.frame(x = 0.5), ndraws = 300, seed = 1),
+                   predict(fit, newdata = data.frame(x = 0.5), ndraws = 300, seed = 1,
+                           simulator = emulated_toy_simulator))
+})
+
+test_that("beyond the design's x range, or without a design, new settings are classed errors", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 300)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 300, burn_in = 50,
+                                    seed = 1))
+  expect_error(predict(fit, newdata = data.frame(x = c(0.5, 0.6, 1.5))),
+               "x = 1.5 outside the design's \\[0.003", class = "griddy_error_prediction")
+  # 5% of the design's width beyond it is still reached (emulated_library()'s rule)
+  expect_true(design_reach(lib, data.frame(x = 1.01))$ok)
+  expect_false(design_reach(lib, data.frame(x = 1.04))$ok)
+  m <- machine()
+  expect_error(predict(machine_fit(m, n_iter = 300), newdata = data.frame(x = 3)),
+               "not emulated from a design", class = "griddy_error_prediction")
+})
+
+test_that("a complete design's emulator (theta form) is refitted jointly for new settings", {
+  skip_if_not_installed("RobustGaSP")
+  theta <- expand.grid(k = seq(1, 3, length.out = 6), c = seq(0.1, 0.5, length.out = 5))
+  grid <- merge(data.frame(x = c(0.2, 0.5, 0.8)), theta)
+  y <- t(vapply(seq_len(nrow(grid)), function(i) {
+    emulated_sim(grid$x[i], as.matrix(grid[i, c("k", "c")]))
+  }, numeric(10)))
+  lib <- emulated_library(grid[c("k", "c")], y, x = grid["x"], t = seq(0, 2, length.out = 10),
+                          settings = data.frame(x = c(0.2, 0.5, 0.8)), n_runs = 1000, seed = 1)
+  expect_identical(lib_design_emulator(lib)$mode, "theta")
+  th <- data.frame(k = c(1.5, 2.5), c = c(0.2, 0.4))
+  got <- emulated_outputs(lib, th, data.frame(x = 0.35))
+  expect_lt(max(abs(got - emulated_toy_simulator(th, data.frame(x = 0.35)))), 0.02)
+  expect_true(all(attr(got, "sd") > 0))
+})
+
+test_that("an .rds chunk library (disk_library) predicts at new settings as in memory", {
+  m <- machine()
+  dir <- withr::local_tempfile(pattern = "griddy-lib-")
+  write_rds_chunks(m$library, dir, chunk_size = 100)
+  on_disk <- disk_library(dir, trust = TRUE)
+  fits <- lapply(list(m$library, on_disk), function(lib) {
+    suppressWarnings(calibrate(lib, m$field, n_iter = 600, burn_in = 100, seed = 1,
+                               discrepancy = knowledge()))
+  })
+  p <- lapply(fits, predict, newdata = data.frame(x = c(3, 6)), ndraws = 200, seed = 1,
+              simulator = m$simulator)
+  expect_identical(p[[2]], p[[1]])
+  expect_true(all(is.na(p[[1]]$observed[2]) & is.finite(p[[1]]$pred_upper)))
+})
+
+test_that("a refined fit of an emulated library predicts new settings from its base's emulator", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 400)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 600, burn_in = 100,
+                                    seed = 1))
+  refined <- suppressWarnings(refine(fit, seed = 1))
+  expect_s3_class(refined$library, "refined_library")
+  at <- data.frame(x = 0.65)
+  p <- predict(refined, newdata = at, ndraws = 500, seed = 1)
+  truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
+  expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.9)
+  # its runs are the refined library's, added ones included
+  runs <- unique(refined$draws$run)
+  expect_true(any(runs > lib_n_runs(lib)))
+  expect_error(predict(refined, newdata = data.frame(x = 2)), "outside the design's",
+               class = "griddy_error_prediction")
+})
+
+test_that("an emulated library's fit with a discrepancy extends it to new settings", {
+  skip_if_not_installed("RobustGaSP")
+  lib <- emulated_toy_library(n_runs = 1000)
+  fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 800, burn_in = 200,
+                                    seed = 1, discrepancy = gp_discrepancy()))
+  at <- data.frame(x = 0.65)
+  p <- predict(fit, newdata = at, ndraws = 1000, seed = 1)
+  truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
+  expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.9)
+  alone <- predict(fit, newdata = at, ndraws = 1000, seed = 1, discrepancy = FALSE)
+  expect_gt(mean(p$upper - p$lower), mean(alone$upper - alone$lower))
+})

@@ -57,3 +57,23 @@ test_that("plot() of stream_models() draws the probabilities as the data arrived
   expect_equal(d$prob[d$model == "damped" & d$step > 0], h$prob_damped)
   expect_identical(levels(d$model), c("spring", "damped"))
 })
+
+test_that("plot(stream, \"ppc\") draws its predictions, at new settings too", {
+  x <- data.frame(x = seq(0.2, 4, length.out = 6))
+  theta <- data.frame(theta = seq(0.3, 1, by = 0.005))
+  lib <- sim_library(theta, outer(theta$theta, x$x), x = x)
+  set.seed(1)
+  s <- update(griddy_stream(lib), y = field_data(matrix(0.65 * x$x + stats::rnorm(6, sd = 0.05)),
+                                                 x = x))
+  pp <- plot(s, "ppc", ndraws = 200, seed = 1)
+  expect_identical(pp$data$position, x$x)
+  expect_equal(pp$data$mean, predict(s, ndraws = 200, seed = 1)$mean)
+  simulator <- function(theta, x) outer(theta$theta, x$x)
+  pn <- plot(s, "ppc", newdata = data.frame(x = 6), simulator = simulator, ndraws = 200,
+             seed = 1)
+  expect_identical(pn$data$position, c(x$x, 6))
+  expect_identical(pn$data$new, rep(c(FALSE, TRUE), c(6, 1)))
+  expect_s3_class(ggplot2::ggplot_build(pn), "ggplot_built")
+  expect_error(plot(s, "ppc", newdata = data.frame(x = 6)), class = "griddy_error_prediction")
+  expect_error(plot(s, "trace"), class = "griddy_error_input")
+})
