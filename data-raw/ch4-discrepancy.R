@@ -43,7 +43,7 @@
 # Usage, from the package root with griddy and RobustCalibration installed
 # (or GRIDDY_LOAD_ALL=true to use pkgload::load_all()):
 #   GRIDDY_LOAD_ALL=true Rscript data-raw/ch4-discrepancy.R
-# About 12-18 minutes on a shared 2-core machine, plus 1-5 to build the two
+# About 19 minutes on a shared 2-core machine (load 2-5), plus 1-5 to build the two
 # libraries unless CH4_INPUTS names a cache (stored as settings$script_s).
 script_start <- proc.time()[["elapsed"]]
 source("bench/helpers.R")
