@@ -102,7 +102,9 @@ test_that("delta's posterior is 0 where it is known to be, and flat where it is 
   at <- which(post$amp == 1 & abs(post$t - 0.5) < 1e-12)
   expect_lt(abs(post$mean[at]), 1e-8)
   expect_lt(post$sd[at], 1e-6)
-  expect_gt(max(abs(post$mean)), 0.1)  # the bump at amp 3 is still seen
+  # the bump (0.4 at amp 3) is still seen: the largest mean is 0.11 with the
+  # lengths up to 1, 0.10 with the length 3 that knowledge adds (issue 34)
+  expect_gt(max(abs(post$mean)), 0.05)
   # with noise groups, every group's discrepancy is conditioned on the knowledge
   grouped <- suppressWarnings(
     calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100, seed = 1, noise_groups = "x",

@@ -280,3 +280,41 @@ test_that("gp_discrepancy() refuses length scales whose squares underflow or ove
                                                         length_t = 1e-100))
   expect_true(is.finite(exact$log_evidence))
 })
+
+test_that("with zero_at or flat_at the default length_x grid reaches 3, without it 1 (issue 34)", {
+  expect_equal(gp_discrepancy()$length_x, c(0.1, 0.3, 1))
+  expect_equal(gp_discrepancy(orthogonal = FALSE)$length_x, c(0.1, 0.3, 1))
+  expect_equal(gp_discrepancy(zero_at = data.frame(x = 0))$length_x, c(0.1, 0.3, 1, 3))
+  expect_equal(gp_discrepancy(flat_at = data.frame(x = 0), orthogonal = TRUE)$length_x,
+               c(0.1, 0.3, 1, 3))
+  # a grid the user gives is kept, with knowledge or without
+  expect_equal(gp_discrepancy(zero_at = data.frame(x = 0), length_x = c(1, 0.5))$length_x,
+               c(0.5, 1))
+  expect_equal(gp_discrepancy()$length_t, c(0.1, 0.3, 1))
+})
+
+test_that("the simple machine's band at x = 6 holds reality with zero_at and flat_at (issue 34)", {
+  # Brynjarsdottir and O'Hagan's simple machine, noise seed 1: with the old
+  # grid (lengths up to 1) the process reverted to 0 beyond x = 4 and the
+  # band for a new measurement at x = 6 missed reality's 0.65 * 36 / 26;
+  # with 3 in the grid it holds it (9 of 10 seeds, bench/length-grid.R)
+  x <- data.frame(x = seq(0.2, 4, length.out = 11))
+  theta <- data.frame(theta = seq(0.3, 1, by = 0.0025))
+  lib <- sim_library(theta, outer(theta$theta, x$x), x = x)
+  set.seed(1)
+  field <- field_data(matrix(0.65 * x$x / (1 + x$x / 20) + stats::rnorm(11, sd = 0.01)), x = x)
+  known <- function(...) {
+    gp_discrepancy(zero_at = data.frame(x = 0), flat_at = data.frame(x = 0), ...)
+  }
+  band <- function(disc) {
+    fit <- suppressWarnings(calibrate(lib, field, discrepancy = disc, n_iter = 4000,
+                                      burn_in = 500, seed = 1))
+    predict(fit, newdata = data.frame(x = 6), seed = 1,
+            simulator = function(theta, x) outer(theta$theta, x$x))
+  }
+  truth <- 0.65 * 6 / (1 + 6 / 20)
+  now <- band(known())
+  expect_true(now$pred_lower <= truth && truth <= now$pred_upper)
+  before <- band(known(length_x = c(0.1, 0.3, 1)))
+  expect_false(before$pred_lower <= truth && truth <= before$pred_upper)
+})
