@@ -209,14 +209,18 @@ stream_components <- function(state, model_prob, columns) {
   subset <- function(keep) {
     run <- (keep - 1L) %% N + 1L
     g <- (keep - 1L) %/% N + 1L
+    w <- joint[keep] * model_prob
+    # each noise group's squared scales (b + C/2) / (a + n/2), once
+    scale2 <- lapply(seq_along(state$labels), function(k) {
+      if (!k %in% groups) return(NULL)
+      (state$prior$rate + state$C[cbind(run, g + G * (k - 1L))] / 2) /
+        (state$prior$shape + state$n[k] / 2)
+    })
     at <- function(j) {
       column <- columns[j]
-      k <- groups[j]
-      a <- state$prior$shape + state$n[k] / 2
-      b <- state$prior$rate + state$C[cbind(run, g + G * (k - 1L))] / 2
       cond <- ar1_conditional(neighbours[[j]], state, run, g, column)
-      list(w = joint[keep] * model_prob, m = state$outputs[run, column] + cond$mean,
-           s = sqrt(b / a * cond$var), nu = nu[j])
+      list(w = w, m = state$outputs[run, column] + cond$mean,
+           s = sqrt(scale2[[groups[j]]] * cond$var), nu = nu[j])
     }
     list(at = at)
   }
@@ -243,8 +247,8 @@ fit_components <- function(fit, model_prob, columns) {
   subset <- function(keep) {
     run <- (keep - 1L) %% N + 1L
     s <- sqrt((fit$prior$rate + fit$C[keep] / 2) / a)
-    at <- function(j) list(w = joint[keep] * model_prob, m = outputs[run, columns[j]], s = s,
-                           nu = nu)
+    w <- joint[keep] * model_prob
+    at <- function(j) list(w = w, m = outputs[run, columns[j]], s = s, nu = nu)
     list(at = at)
   }
   list(w = as.vector(joint) * model_prob, subset = subset)
@@ -320,19 +324,23 @@ prune_components <- function(w, tail = 1e-6) {
 
 # c(gain, gain_model) at one candidate from each model's components there.
 candidate_information <- function(comps) {
-  w <- unlist(lapply(comps, `[[`, "w"), use.names = FALSE)
+  one <- length(comps) == 1L
+  glue <- function(field) if (one) comps[[1]][[field]] else
+    unlist(lapply(comps, `[[`, field), use.names = FALSE)
+  w <- glue("w")
   total <- sum(w)
-  m <- unlist(lapply(comps, `[[`, "m"), use.names = FALSE)
-  s <- unlist(lapply(comps, `[[`, "s"), use.names = FALSE)
-  nu <- unlist(lapply(comps, function(cm) rep_len(cm$nu, length(cm$w))), use.names = FALSE)
-  h_mix <- mixture_entropy(w / total, m, s, nu)
+  nus <- vapply(comps, `[[`, 0, "nu")
+  nu <- if (all(nus == nus[1])) nus[1] else rep(nus, lengths(lapply(comps, `[[`, "w")))
+  s <- glue("s")
+  h_mix <- mixture_entropy(w / total, glue("m"), s, nu)
   gain <- h_mix - sum(w / total * t_entropy(nu, s))
-  gain_model <- if (length(comps) > 1L) {
+  gain_model <- if (!one) {
+    mass <- vapply(comps, function(cm) sum(cm$w), numeric(1))
     h_models <- vapply(comps, function(cm) {
       if (length(cm$w) == 0L) return(0)
-      mixture_entropy(cm$w / sum(cm$w), cm$m, cm$s, rep_len(cm$nu, length(cm$w)))
+      mixture_entropy(cm$w / sum(cm$w), cm$m, cm$s, cm$nu)
     }, numeric(1))
-    h_mix - sum(vapply(comps, function(cm) sum(cm$w), numeric(1)) / total * h_models)
+    h_mix - sum(mass / total * h_models)
   } else {
     NA_real_
   }
@@ -407,36 +415,13 @@ mixture_density <- function(y, mc) {
 # location (width a quarter of the scale) and log scale (width 0.05), per
 # degrees of freedom, become one with their weight, mean and variance
 # (squared scale: the weighted mean square scale plus the locations'
-# variance). While too many remain, the bins widen.
+# variance). While too many remain, the bins widen (src/merge_components.cpp).
 merge_components <- function(w, m, s, nu, max_components) {
-  width <- c(location = 0.25, scale = 0.05)
-  ls <- log(s)
+  if (length(w) <= 1L) return(list(w = w, m = m, s = s, nu = rep_len(nu, length(w))))
   nus <- unique(nu)
-  repeat {
-    sb <- floor((ls - min(ls)) / width[["scale"]])
-    h <- width[["location"]] * exp(min(ls) + sb * width[["scale"]])
-    mb <- floor((m - min(m)) / h)
-    nb <- if (length(nus) == 1L) 0 else match(nu, nus) - 1
-    # one integer per bin; counted with tabulate() while they number at most
-    # 10^6 (a hash over 10^5 components per candidate would cost more than
-    # everything else), else the bins widen at once
-    span <- c(max(sb) + 1, max(mb) + 1)
-    n_bins <- length(nus) * prod(span)
-    if (n_bins > 1e6) {
-      width <- width * sqrt(n_bins / 1e6) * 1.1
-      next
-    }
-    key <- as.integer((nb * span[1] + sb) * span[2] + mb) + 1L
-    n_key <- sum(tabulate(key, n_bins) > 0L)
-    if (n_key <= max_components) break
-    width <- width * sqrt(n_key / max_components) * 1.1
-  }
-  if (n_key == length(w)) return(list(w = w, m = m, s = s, nu = nu))
-  sums <- rowsum(cbind(w, w * m, w * m^2, w * s^2, w * nu), key, reorder = FALSE)
-  W <- sums[, 1]
-  M <- sums[, 2] / W
-  S2 <- sums[, 4] / W + pmax(sums[, 3] / W - M^2, 0)
-  list(w = W, m = M, s = sqrt(S2), nu = sums[, 5] / W)
+  cls <- if (length(nus) == 1L) rep(1L, length(w)) else match(rep_len(nu, length(w)), nus)
+  out <- merge_components_cpp(w, m, s, cls, length(nus), 0.25, 0.05, max_components)
+  list(w = out$w, m = out$m, s = sqrt(out$s2), nu = nus[out$nu_class])
 }
 
 # Gauss-Legendre nodes and weights on (0, 1) (Golub-Welsch).

@@ -10,10 +10,15 @@
 # model replaces the sine by a quadratic. Field: one run's response plus
 # noise sd 0.05, measured at cells drawn at random.
 #
-# Usage, from the package root: Rscript bench/next-measurement.R
-# Options (environment): NEXT_RUNS (default 1e5). Writes
+# Usage, from the package root, with griddy installed (R CMD INSTALL .; a
+# pkgload::load_all() build compiles C++ without optimisation):
+#   Rscript bench/next-measurement.R
+# Options (environment): NEXT_RUNS (default 1e5), GRIDDY_NEW_LIB (a library
+# holding the griddy to test). Writes
 # bench/results/next-measurement.csv and .md. About a minute here.
-pkgload::load_all(".", quiet = TRUE)
+source("bench/helpers.R")
+if (nzchar(new_griddy_lib())) .libPaths(c(new_griddy_lib(), .libPaths()))
+suppressPackageStartupMessages(library(griddy))
 N <- as.numeric(Sys.getenv("NEXT_RUNS", "1e5"))
 xs <- 1:10
 tt <- seq(0, 1, length.out = 10)
