@@ -341,8 +341,9 @@ candidate_information <- function(comps) {
   nus <- vapply(comps, `[[`, 0, "nu")
   nu <- if (all(nus == nus[1])) nus[1] else rep(nus, lengths(lapply(comps, `[[`, "w")))
   s <- glue("s")
-  h_mix <- mixture_entropy(w / total, glue("m"), s, nu)
-  gain <- h_mix - sum(w / total * t_entropy(nu, s))
+  log_s <- log(s)
+  h_mix <- mixture_entropy(w / total, glue("m"), s, nu, log_s = log_s)
+  gain <- h_mix - sum(w / total * t_entropy(nu, s, log_s))
   gain_model <- if (!one) {
     mass <- vapply(comps, function(cm) sum(cm$w), numeric(1))
     h_models <- vapply(comps, function(cm) {
@@ -358,8 +359,8 @@ candidate_information <- function(comps) {
 
 # The entropy of a Student-t with nu degrees of freedom and scale s: log s
 # plus a constant of nu, computed once per distinct nu.
-t_entropy <- function(nu, s) {
-  log(s) + by_distinct(nu, function(v) {
+t_entropy <- function(nu, s, log_s = log(s)) {
+  log_s + by_distinct(nu, function(v) {
     (v + 1) / 2 * (digamma((v + 1) / 2) - digamma(v / 2)) + log(sqrt(v) * beta(v / 2, 0.5))
   })
 }
@@ -384,8 +385,8 @@ by_distinct <- function(v, f) {
 # The entropy of the mixture sum w t_nu(m, s) (w sums to 1): merged
 # (merge_components()), then sum_j w_j [H(p_j) + KL(p_j || p)], each KL by
 # Gauss-Legendre quadrature over the component's quantiles.
-mixture_entropy <- function(w, m, s, nu, max_components = 64L) {
-  mc <- merge_components(w, m, s, nu, max_components)
+mixture_entropy <- function(w, m, s, nu, max_components = 64L, log_s = log(s)) {
+  mc <- merge_components(w, m, s, nu, max_components, log_s)
   if (length(mc$w) == 1L) return(t_entropy(mc$nu, mc$s))
   rule <- legendre_rule()
   Q <- length(rule$u)
@@ -426,11 +427,11 @@ mixture_density <- function(y, mc) {
 # degrees of freedom, become one with their weight, mean and variance
 # (squared scale: the weighted mean square scale plus the locations'
 # variance). While too many remain, the bins widen (src/merge_components.cpp).
-merge_components <- function(w, m, s, nu, max_components) {
+merge_components <- function(w, m, s, nu, max_components, log_s = log(s)) {
   if (length(w) <= 1L) return(list(w = w, m = m, s = s, nu = rep_len(nu, length(w))))
   nus <- unique(nu)
   cls <- if (length(nus) == 1L) rep(1L, length(w)) else match(rep_len(nu, length(w)), nus)
-  out <- merge_components_cpp(w, m, s, cls, length(nus), 0.25, 0.05, max_components)
+  out <- merge_components_cpp(w, m, s, log_s, cls, length(nus), 0.25, 0.05, max_components)
   list(w = out$w, m = out$m, s = sqrt(out$s2), nu = nus[out$nu_class])
 }
 

@@ -17,14 +17,13 @@
 
 // [[Rcpp::export]]
 Rcpp::List merge_components_cpp(Rcpp::NumericVector w, Rcpp::NumericVector m,
-                                Rcpp::NumericVector s, Rcpp::IntegerVector nu_class,
+                                Rcpp::NumericVector s, Rcpp::NumericVector ls,
+                                Rcpp::IntegerVector nu_class,
                                 int n_classes, double width_location, double width_scale,
                                 int max_components) {
   const R_xlen_t n = w.size();
-  std::vector<double> ls(n);
   double ls_min = R_PosInf, ls_max = R_NegInf, m_min = R_PosInf, m_max = R_NegInf;
   for (R_xlen_t i = 0; i < n; ++i) {
-    ls[i] = std::log(s[i]);
     ls_min = std::min(ls_min, ls[i]);
     ls_max = std::max(ls_max, ls[i]);
     m_min = std::min(m_min, m[i]);
