@@ -33,6 +33,10 @@ memory_pass_cpp <- function(y) {
     .Call(`_griddy_memory_pass_cpp`, y)
 }
 
+merge_components_cpp <- function(w, m, s, ls, nu_class, n_classes, width_location, width_scale, max_components) {
+    .Call(`_griddy_merge_components_cpp`, w, m, s, ls, nu_class, n_classes, width_location, width_scale, max_components)
+}
+
 other_drops_cpp <- function(Y, y, Mx, Mts, Ws, x_first, x_count, threads = 1L) {
     .Call(`_griddy_other_drops_cpp`, Y, y, Mx, Mts, Ws, x_first, x_count, threads)
 }

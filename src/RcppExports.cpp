@@ -126,6 +126,25 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// merge_components_cpp
+Rcpp::List merge_components_cpp(Rcpp::NumericVector w, Rcpp::NumericVector m, Rcpp::NumericVector s, Rcpp::NumericVector ls, Rcpp::IntegerVector nu_class, int n_classes, double width_location, double width_scale, int max_components);
+RcppExport SEXP _griddy_merge_components_cpp(SEXP wSEXP, SEXP mSEXP, SEXP sSEXP, SEXP lsSEXP, SEXP nu_classSEXP, SEXP n_classesSEXP, SEXP width_locationSEXP, SEXP width_scaleSEXP, SEXP max_componentsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type w(wSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type m(mSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type s(sSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type ls(lsSEXP);
+    Rcpp::traits::input_parameter< Rcpp::IntegerVector >::type nu_class(nu_classSEXP);
+    Rcpp::traits::input_parameter< int >::type n_classes(n_classesSEXP);
+    Rcpp::traits::input_parameter< double >::type width_location(width_locationSEXP);
+    Rcpp::traits::input_parameter< double >::type width_scale(width_scaleSEXP);
+    Rcpp::traits::input_parameter< int >::type max_components(max_componentsSEXP);
+    rcpp_result_gen = Rcpp::wrap(merge_components_cpp(w, m, s, ls, nu_class, n_classes, width_location, width_scale, max_components));
+    return rcpp_result_gen;
+END_RCPP
+}
 // other_drops_cpp
 Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx, const Rcpp::List& Mts, const Rcpp::List& Ws, const Rcpp::IntegerVector& x_first, const Rcpp::IntegerVector& x_count, int threads);
 RcppExport SEXP _griddy_other_drops_cpp(SEXP YSEXP, SEXP ySEXP, SEXP MxSEXP, SEXP MtsSEXP, SEXP WsSEXP, SEXP x_firstSEXP, SEXP x_countSEXP, SEXP threadsSEXP) {
@@ -293,6 +312,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
+    {"_griddy_merge_components_cpp", (DL_FUNC) &_griddy_merge_components_cpp, 9},
     {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 8},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},

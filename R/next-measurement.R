@@ -1,0 +1,445 @@
+#' Where to measure next
+#'
+#' Ranks candidate measurements (an x setting of the library and an output
+#' coordinate t) by the information a measurement there is expected to bring
+#' about the unknowns: the mutual information, in nats, between the new
+#' measurement and the (library run, correlation grid point) of the exact
+#' posterior, and for [stream_models()] the model too. The setting where the
+#' runs (or the models) that the data so far leave in play disagree most,
+#' relative to the noise, comes first; a setting where every run gives the
+#' same output brings (almost) nothing.
+#'
+#' **What is computed.** Given the data so far, the posterior is a mixture
+#' over components \eqn{k} = (run \eqn{i}, grid point \eqn{g}\[, model
+#' \eqn{M}\]) with exact weights \eqn{w_k} ([posterior_exact()]). Given
+#' \eqn{k}, with \eqn{\tau} integrated out under its Gamma posterior, a new
+#' measurement at cell \eqn{c} is Student-t with \eqn{2a + n} degrees of
+#' freedom (\eqn{a} the prior shape, \eqn{n} the measurements so far in the
+#' cell's noise group), location the run's output at \eqn{c} and squared
+#' scale \eqn{(b + C_{ig}/2) / (a + n/2)} (\eqn{C_{ig}} the run's quadratic
+#' form in that group): the exact conditional predictive. Under an AR(1)
+#' correlation over t (a stream's `rho_t`), the location adds the
+#' conditional mean given the run's residuals at the nearest measured
+#' coordinates before and after \eqn{c} at that setting, and the scale
+#' shrinks by the conditional variance (the AR(1) is Markov, so these
+#' neighbours are all that matter). The gain is
+#' \deqn{I = H\left(\sum_k w_k p_k\right) - \sum_k w_k H(p_k),}
+#' and `gain_model` the same with the models' predictive mixtures as the
+#' components. The models weigh in with their probabilities as the next
+#' update takes them (flattened by `forgetting`, see [stream_models()]).
+#' \eqn{\tau} is a nuisance here: the information about it alone is not
+#' counted.
+#'
+#' **How.** The component entropies are closed-form. The mixture's is
+#' \eqn{\sum_j w_j [H(p_j) + KL(p_j \| p)]}, each Kullback-Leibler term by
+#' 32-point Gauss-Legendre quadrature over the component's quantiles (its
+#' integrand, the log ratio of a component to the mixture, is bounded and
+#' tends to constants in the tails). Before that, components below the last
+#' \eqn{10^{-6}} of the mass are dropped, and components whose locations lie
+#' within a quarter of their scale (and whose scales agree to 5%) are merged
+#' into one with the same weight, mean and variance; if more than 64 remain,
+#' the bins widen until 64 do (the answer is then an approximation, from
+#' coarser components, which loses some of the information that separates
+#' close runs). Against adaptive quadrature the mixture entropy agrees to
+#' about 10^-3 nats. Numerical noise below zero is returned as 0.
+#'
+#' **Scope.** Candidates are cells the library has (its x settings and t);
+#' a setting without runs is an error (class `griddy_error_new_setting`).
+#' For a [calibrate()] fit, grid points with a correlation (`rho_x` or
+#' `rho_t` other than 0), a discrepancy, noise groups, relative `sd` or
+#' emulated runs are not handled (class `griddy_error_unsupported`): give
+#' the same data to a [griddy_stream()], which takes `rho_t` and noise
+#' groups. Under an AR(1) correlation a cell measured already cannot be
+#' measured again (the stream refuses it), so it is an error here too. With
+#' the vague default prior, a noise group without a measurement has no
+#' proper predictive (its degrees of freedom are \eqn{2a \approx 0}): take a
+#' measurement first, or give the stream a proper prior (shape at least
+#' 1/2).
+#'
+#' @param object A [griddy_stream()], a [stream_models()], or a
+#'   [calibrate()] fit (see Scope).
+#' @param candidates A data.frame of candidate measurements, one per row:
+#'   the library's x columns (none when it has a single setting) and `t`
+#'   (which may be left out when the library has a single output
+#'   coordinate). `NULL` (the default): every cell of the library.
+#' @param about What the information is about when ranking: `"all"` (the
+#'   runs, grid points and models) or `"model"` (the model indicator alone;
+#'   [stream_models()] only).
+#' @return A data.frame, best candidate first: the candidate's row in
+#'   `candidates` (`candidate`), its x columns and `t`, `gain` (expected
+#'   information about everything unknown, nats) and, for [stream_models()],
+#'   `gain_model` (about the model alone). It is sorted by `gain`, or by
+#'   `gain_model` under `about = "model"`.
+#' @seealso [griddy_stream()], [stream_models()], [posterior_exact()]
+#' @references Lindley, D. V. (1956). On a measure of the information
+#'   provided by an experiment. *Annals of Mathematical Statistics* 27(4),
+#'   986-1005.
+#' @examples
+#' ex <- griddy_example()
+#' s <- update(griddy_stream(ex$library), y = ex$field$y[1, 1:2],
+#'             x = ex$field$x[1, , drop = FALSE], t = ex$library$t[1:2])
+#' head(next_measurement(s), 3)
+#' # which measurement best tells two models apart
+#' rival <- sim_library(ex$library$theta, 0.9 * ex$library$y, x = ex$library$x,
+#'                      t = ex$library$t)
+#' m <- stream_models(spring = griddy_stream(ex$library, prior = list(shape = 1, rate = 1)),
+#'                    damped = griddy_stream(rival, prior = list(shape = 1, rate = 1)))
+#' head(next_measurement(m, about = "model"), 3)
+#' @export
+next_measurement <- function(object, candidates = NULL, about = c("all", "model")) {
+  about <- match.arg(about)
+  models <- if (inherits(object, "griddy_stream_models")) {
+    object$state$streams
+  } else if (inherits(object, c("griddy_stream", "griddy_fit"))) {
+    list(object)
+  } else {
+    griddy_abort("`object` must be a griddy_stream, a stream_models() or a calibrate() fit; ",
+                 "received ", class(object)[1], ".")
+  }
+  if (about == "model" && length(models) < 2L) {
+    griddy_abort("`about = \"model\"` needs a stream_models(): one model leaves nothing to ",
+                 "tell apart.")
+  }
+  if (length(models) > 1L) assert_streams_in_step(object$state)
+  # the models' probabilities before the next measurement: flattened by the
+  # forgetting exponent, as update() does before weighing it
+  model_prob <- if (length(models) > 1L) {
+    exp(normalise_log_prob(object$state$forgetting * object$state$log_prob))
+  } else {
+    1
+  }
+  first <- model_library(models[[1]])
+  cand <- candidate_cells(first, candidates)
+  if (is.null(candidates)) cand <- drop_unmeasurable(cand, models)
+  parts <- Map(function(mod, p) {
+    model_components(mod, p, candidate_cells(model_library(mod), cand$table)$column)
+  }, models, model_prob)
+  keep <- prune_components(lapply(parts, `[[`, "w"))
+  parts <- Map(function(part, k) part$subset(k), parts, keep)
+  gains <- vapply(seq_along(cand$column), function(j) {
+    candidate_information(lapply(parts, function(part) part$at(j)))
+  }, numeric(2))
+  out <- cbind(data.frame(candidate = cand$row), cand$table)
+  out$gain <- gains[1, ]
+  if (length(models) > 1L) out$gain_model <- gains[2, ]
+  key <- if (about == "model") out$gain_model else out$gain
+  out <- out[order(-key, out$candidate), , drop = FALSE]
+  rownames(out) <- NULL
+  out
+}
+
+model_library <- function(object) {
+  if (inherits(object, "griddy_fit")) object$library else object$state$library
+}
+
+# The library output column (blocks of n_t by x setting) of each candidate,
+# and the candidates as a table (x columns and t).
+candidate_cells <- function(lib, candidates) {
+  x_lib <- lib_x(lib)
+  t_lib <- lib_t(lib)
+  n_t <- length(t_lib)
+  if (is.null(candidates)) {
+    candidates <- setting_cells(lib, seq_len(lib_n_x(lib)))[c(names(x_lib), "t")]
+  }
+  if (is.data.frame(candidates)) rownames(candidates) <- NULL
+  if (!is.data.frame(candidates) || nrow(candidates) < 1L) {
+    griddy_abort("`candidates` must be NULL or a data.frame with one row per candidate; ",
+                 "received ", class(candidates)[1],
+                 if (is.data.frame(candidates)) " with no rows", ".")
+  }
+  if (is.null(candidates$t)) {
+    if (n_t > 1L) {
+      griddy_abort("`candidates` needs a column `t`: the library has ", n_t,
+                   " output coordinates.", class = "shape")
+    }
+    candidates$t <- t_lib
+  }
+  missing_cols <- setdiff(names(x_lib), names(candidates))
+  if (length(missing_cols) > 0L) {
+    griddy_abort("`candidates` lacks the library's x column(s) ", show_some(missing_cols), ".")
+  }
+  table <- candidates[c(names(x_lib), "t")]
+  setting <- if (is.null(x_lib)) rep(1L, nrow(table)) else
+    match_setting_rows(as.data.frame(as_numeric_matrix(table[names(x_lib)], "candidates")),
+                       x_lib)
+  j <- vapply(assert_numeric_vector(table$t, "candidates$t"), function(v) {
+    hit <- which(same_values(t_lib, v))
+    if (length(hit) == 0L) NA_integer_ else hit[which.min(abs(t_lib[hit] - v))]
+  }, integer(1))
+  bad <- which(is.na(setting) | is.na(j))
+  if (length(bad) > 0L) {
+    griddy_abort("`candidates` row(s) ", show_some(bad), " are not cells of the library (an ",
+                 "x setting and a t it has runs at): next_measurement() weighs the runs' ",
+                 "outputs there, and a setting without runs has none.", class = "new_setting")
+  }
+  rownames(table) <- NULL
+  list(table = table, column = (setting - 1L) * n_t + j, row = seq_len(nrow(table)))
+}
+
+# The default candidates less the cells a stream under AR(1) has measured
+# already (it takes no replicate there).
+drop_unmeasurable <- function(cand, models) {
+  taken <- Reduce(`|`, lapply(models, function(mod) {
+    if (inherits(mod, "griddy_fit") || !mod$state$markov) return(FALSE)
+    mod$state$measured[candidate_cells(mod$state$library, cand$table)$column]
+  }), FALSE)
+  if (all(taken)) {
+    griddy_abort("Every cell of the library was measured already, and under an AR(1) ",
+                 "correlation over t the stream takes no replicate: no candidate is left.",
+                 class = "unsupported")
+  }
+  list(table = cand$table[!taken, , drop = FALSE], column = cand$column[!taken],
+       row = cand$row[!taken])
+}
+
+# ---- the components of one model ----------------------------------------------
+
+# The mixture components (run, grid point) of one model, with their weights
+# `w` (times the model's probability) and, once subset() to the kept ones,
+# at(j): the Student-t predictive of each component at candidate j
+# (location m, scale s, degrees of freedom nu; see next_measurement()).
+model_components <- function(object, model_prob, columns) {
+  if (inherits(object, "griddy_fit")) fit_components(object, model_prob, columns) else
+    stream_components(object$state, model_prob, columns)
+}
+
+stream_components <- function(state, model_prob, columns) {
+  N <- nrow(state$outputs)
+  G <- length(state$rho_t)
+  joint <- if (sum(state$n) == 0L) {
+    normalise_log(outer(state$log_prior_run, state$log_prior_grid, "+"))
+  } else {
+    exact_from_problem(stream_problem(state), joint = TRUE)$joint
+  }
+  groups <- state$group[columns]
+  nu <- 2 * state$prior$shape + state$n[groups]
+  check_degrees(nu)
+  neighbours <- lapply(columns, stream_neighbours, state = state)
+  subset <- function(keep) {
+    run <- (keep - 1L) %% N + 1L
+    g <- (keep - 1L) %/% N + 1L
+    w <- joint[keep] * model_prob
+    # each noise group's squared scales (b + C/2) / (a + n/2), once
+    scale2 <- lapply(seq_along(state$labels), function(k) {
+      if (!k %in% groups) return(NULL)
+      (state$prior$rate + state$C[cbind(run, g + G * (k - 1L))] / 2) /
+        (state$prior$shape + state$n[k] / 2)
+    })
+    at <- function(j) {
+      column <- columns[j]
+      cond <- ar1_conditional(neighbours[[j]], state, run, g, column)
+      list(w = w, m = state$outputs[run, column] + cond$mean,
+           s = sqrt(scale2[[groups[j]]] * cond$var), nu = nu[j])
+    }
+    list(at = at)
+  }
+  list(w = as.vector(joint) * model_prob, subset = subset)
+}
+
+fit_components <- function(fit, model_prob, columns) {
+  setup <- fit$setup
+  if (any(unlist(setup$rho_x) != 0) || any(setup$rho_t != 0) || !is.null(setup$discrepancy) ||
+      length(setup$group_sizes) > 1L || !is.null(setup$dense$scale) ||
+      any(lib_predicted(fit$library))) {
+    griddy_abort("next_measurement() of a calibrate() fit takes independent noise with one ",
+                 "precision and simulated runs only (no rho_x or rho_t other than 0, no ",
+                 "discrepancy, noise groups, relative sd or emulated runs). Give the data to ",
+                 "a griddy_stream() (rho_t and noise groups), and rank from it.",
+                 class = "unsupported")
+  }
+  joint <- exact_from_problem(fit, joint = TRUE)$joint
+  N <- nrow(joint)
+  outputs <- lib_outputs(fit$library)
+  a <- fit$prior$shape + fit$n_obs / 2
+  nu <- 2 * a
+  check_degrees(nu)
+  subset <- function(keep) {
+    run <- (keep - 1L) %% N + 1L
+    s <- sqrt((fit$prior$rate + fit$C[keep] / 2) / a)
+    w <- joint[keep] * model_prob
+    at <- function(j) list(w = w, m = outputs[run, columns[j]], s = s, nu = nu)
+    list(at = at)
+  }
+  list(w = as.vector(joint) * model_prob, subset = subset)
+}
+
+check_degrees <- function(nu) {
+  if (any(nu < 1)) {
+    griddy_abort("A candidate's noise group has no proper predictive yet: its Student-t has ",
+                 format(min(nu), digits = 3), " degrees of freedom (2 x prior shape + ",
+                 "measurements in the group). Take a measurement in that group first, or ",
+                 "give the stream a proper prior on tau (shape at least 1/2).",
+                 class = "improper_prior")
+  }
+}
+
+# The nearest measured outputs before and after `column` at its x setting in
+# its noise group (NA where none), for the AR(1) conditional; under AR(1) a
+# cell measured already cannot be measured again.
+stream_neighbours <- function(state, column) {
+  none <- list(before = NA_integer_, after = NA_integer_)
+  if (!state$markov) return(none)
+  if (state$measured[column]) {
+    n_t <- lib_n_t(state$library)
+    griddy_abort("Candidate output ", column, " (x setting ", (column - 1L) %/% n_t + 1L,
+                 ", t = ", format(lib_t(state$library)[(column - 1L) %% n_t + 1L]),
+                 ") was measured already: under an AR(1) correlation over t the stream ",
+                 "takes no replicate, so it is no candidate.", class = "unsupported")
+  }
+  n_t <- lib_n_t(state$library)
+  setting <- (column - 1L) %/% n_t
+  cols <- state$data$column
+  same <- cols[(cols - 1L) %/% n_t == setting & state$group[cols] == state$group[column]]
+  before <- same[same < column]
+  after <- same[same > column]
+  list(before = if (length(before)) max(before) else NA_integer_,
+       after = if (length(after)) min(after) else NA_integer_)
+}
+
+# The AR(1) conditional mean (added to the run's output) and variance factor
+# of a new residual at `column` given the runs' residuals at the nearest
+# measured neighbours before (e1, lag correlation p1) and after (e2, p2):
+# mean (p1 (1 - p2^2) e1 + p2 (1 - p1^2) e2) / (1 - p1^2 p2^2), variance
+# (1 - p1^2)(1 - p2^2) / (1 - p1^2 p2^2), which is p1 e1 and 1 - p1^2 with
+# no neighbour after (p2 = 0).
+ar1_conditional <- function(nb, state, run, g, column) {
+  if (is.na(nb$before) && is.na(nb$after)) return(list(mean = 0, var = 1))
+  n_t <- lib_n_t(state$library)
+  pos <- function(col) state$s_unit[(col - 1L) %% n_t + 1L]
+  resid <- function(col) state$data$y[match(col, state$data$column)] - state$outputs[run, col]
+  rho <- state$rho_t[g]
+  p1 <- if (is.na(nb$before)) 0 else rho^(pos(column) - pos(nb$before))
+  p2 <- if (is.na(nb$after)) 0 else rho^(pos(nb$after) - pos(column))
+  e1 <- if (is.na(nb$before)) 0 else resid(nb$before)
+  e2 <- if (is.na(nb$after)) 0 else resid(nb$after)
+  d <- 1 - p1^2 * p2^2
+  list(mean = (p1 * (1 - p2^2) * e1 + p2 * (1 - p1^2) * e2) / d,
+       var = (1 - p1^2) * (1 - p2^2) / d)
+}
+
+# The components to keep: the largest weights over all models carrying
+# 1 - 1e-6 of the mass (positions in each model's weights).
+prune_components <- function(w, tail = 1e-6) {
+  all_w <- unlist(w, use.names = FALSE)
+  o <- order(all_w, decreasing = TRUE)
+  n_keep <- min(length(o), sum(cumsum(all_w[o]) < (1 - tail) * sum(all_w)) + 1L)
+  kept <- logical(length(all_w))
+  kept[o[seq_len(n_keep)]] <- TRUE
+  ends <- cumsum(lengths(w))
+  lapply(seq_along(w), function(m) which(kept[(ends[m] - length(w[[m]]) + 1L):ends[m]]))
+}
+
+# ---- the information of one candidate -------------------------------------------
+
+# c(gain, gain_model) at one candidate from each model's components there.
+candidate_information <- function(comps) {
+  one <- length(comps) == 1L
+  glue <- function(field) if (one) comps[[1]][[field]] else
+    unlist(lapply(comps, `[[`, field), use.names = FALSE)
+  w <- glue("w")
+  total <- sum(w)
+  nus <- vapply(comps, `[[`, 0, "nu")
+  nu <- if (all(nus == nus[1])) nus[1] else rep(nus, lengths(lapply(comps, `[[`, "w")))
+  s <- glue("s")
+  log_s <- log(s)
+  h_mix <- mixture_entropy(w / total, glue("m"), s, nu, log_s = log_s)
+  gain <- h_mix - sum(w / total * t_entropy(nu, s, log_s))
+  gain_model <- if (!one) {
+    mass <- vapply(comps, function(cm) sum(cm$w), numeric(1))
+    h_models <- vapply(comps, function(cm) {
+      if (length(cm$w) == 0L) return(0)
+      mixture_entropy(cm$w / sum(cm$w), cm$m, cm$s, cm$nu)
+    }, numeric(1))
+    h_mix - sum(mass / total * h_models)
+  } else {
+    NA_real_
+  }
+  c(max(gain, 0), max(gain_model, 0))
+}
+
+# The entropy of a Student-t with nu degrees of freedom and scale s: log s
+# plus a constant of nu, computed once per distinct nu.
+t_entropy <- function(nu, s, log_s = log(s)) {
+  log_s + by_distinct(nu, function(v) {
+    (v + 1) / 2 * (digamma((v + 1) / 2) - digamma(v / 2)) + log(sqrt(v) * beta(v / 2, 0.5))
+  })
+}
+
+# The log density of a Student-t at standardised z (scale left out); nu one
+# value, or one per column of the matrix z.
+t_log_kernel <- function(z, nu) {
+  const <- lgamma((nu + 1) / 2) - lgamma(nu / 2) - log(nu * pi) / 2
+  if (length(nu) == 1L) return(const - (nu + 1) / 2 * log1p(z^2 / nu))
+  r <- nrow(z)
+  rep(const, each = r) - rep((nu + 1) / 2, each = r) * log1p(z^2 / rep(nu, each = r))
+}
+
+# f(v) for each element of v, evaluated once per distinct value (the
+# degrees of freedom take one value per model and noise group).
+by_distinct <- function(v, f) {
+  u <- unique(v)
+  if (length(u) == 1L) return(rep(f(u), length(v)))
+  f(u)[match(v, u)]
+}
+
+# The entropy of the mixture sum w t_nu(m, s) (w sums to 1): merged
+# (merge_components()), then sum_j w_j [H(p_j) + KL(p_j || p)], each KL by
+# Gauss-Legendre quadrature over the component's quantiles.
+mixture_entropy <- function(w, m, s, nu, max_components = 64L, log_s = log(s)) {
+  mc <- merge_components(w, m, s, nu, max_components, log_s)
+  if (length(mc$w) == 1L) return(t_entropy(mc$nu, mc$s))
+  rule <- legendre_rule()
+  Q <- length(rule$u)
+  nus <- unique(mc$nu)
+  quantiles <- vapply(nus, function(v) stats::qt(rule$u, v), numeric(Q))
+  z <- matrix(quantiles, Q)[, match(mc$nu, nus), drop = FALSE]   # Q x components
+  y <- as.vector(z * rep(mc$s, each = Q) + rep(mc$m, each = Q))   # the nodes
+  log_p <- log(mixture_density(y, mc))
+  log_pj <- t_log_kernel(z, mc$nu) - rep(log(mc$s), each = Q)
+  kl <- colSums(rule$weight * (log_pj - matrix(log_p, Q)))
+  sum(mc$w * (t_entropy(mc$nu, mc$s) + kl))
+}
+
+# The mixture's density at y: the squared standardised distances from a
+# matrix product (about the components' centre, which keeps the
+# cancellation small), then one matrix-vector product per distinct nu.
+# Each node lies within a component's central 99.7% (or so), so the
+# density there never underflows.
+mixture_density <- function(y, mc) {
+  centre <- sum(mc$w * mc$m)
+  yc <- y - centre
+  mu <- mc$m - centre
+  inv <- 1 / mc$s^2
+  # (rounding may leave a distance of 0 slightly negative: harmless in log(1 + Z2 / v))
+  Z2 <- cbind(yc^2, yc, 1) %*% rbind(inv, -2 * mu * inv, mu^2 * inv)
+  p <- numeric(length(y))
+  for (v in unique(mc$nu)) {
+    j <- which(mc$nu == v)
+    const <- exp(lgamma((v + 1) / 2) - lgamma(v / 2) - log(v * pi) / 2)
+    D <- exp(-(v + 1) / 2 * log(1 + Z2[, j, drop = FALSE] / v))
+    p <- p + const * as.vector(D %*% (mc$w[j] / mc$s[j]))
+  }
+  p
+}
+
+# Components merged into at most `max_components`: those in one bin of
+# location (width a quarter of the scale) and log scale (width 0.05), per
+# degrees of freedom, become one with their weight, mean and variance
+# (squared scale: the weighted mean square scale plus the locations'
+# variance). While too many remain, the bins widen (src/merge_components.cpp).
+merge_components <- function(w, m, s, nu, max_components, log_s = log(s)) {
+  if (length(w) <= 1L) return(list(w = w, m = m, s = s, nu = rep_len(nu, length(w))))
+  nus <- unique(nu)
+  cls <- if (length(nus) == 1L) rep(1L, length(w)) else match(rep_len(nu, length(w)), nus)
+  out <- merge_components_cpp(w, m, s, log_s, cls, length(nus), 0.25, 0.05, max_components)
+  list(w = out$w, m = out$m, s = sqrt(out$s2), nu = nus[out$nu_class])
+}
+
+# Gauss-Legendre nodes and weights on (0, 1) (Golub-Welsch).
+legendre_rule <- function(n = 32L) {
+  k <- seq_len(n - 1L)
+  J <- matrix(0, n, n)
+  J[cbind(k, k + 1L)] <- J[cbind(k + 1L, k)] <- k / sqrt(4 * k^2 - 1)
+  e <- eigen(J, symmetric = TRUE)
+  list(u = (e$values + 1) / 2, weight = e$vectors[1, ]^2)
+}
