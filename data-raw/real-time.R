@@ -27,8 +27,8 @@
 #
 # Run from the package root after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/real-time.R
-# Took 151 s on a shared 2-core machine at load about 2 (mostly the libraries;
-# the schedules about 55 s).
+# Took 421 s on a shared 2-core machine at load about 2 (the libraries about
+# 90 s, the schedules the rest, most of it ranking 20 candidates per step).
 
 library(griddy)
 t_script <- proc.time()[["elapsed"]]
@@ -124,17 +124,20 @@ per_height <- do.call(rbind, lapply(c("patch", "disc"), function(truth_contact) 
 # order) at each cleat height; "chosen" measures the first row of
 # next_measurement(m, cands, about = "model"), "low then high" is the
 # schedule above (the whole low pass, then the high one), "alternating"
-# takes the two heights in turn. All three take the first measurement on
+# takes the two heights in turn. "chosen, skipping" may also skip ahead:
+# its candidates are the next `window` samples at each cleat, and the
+# samples it skips are not measured. All four take the first measurement on
 # the low cleat: before it the streams' vague prior on tau gives no proper
 # predictive, so next_measurement() has nothing to rank. A fresh pair of exact streams per trial;
-# the same measured passes for all three schedules of a seed. Count:
+# the same measured passes for all schedules of a seed. Count:
 # measurements until P(true model) first reaches 0.99 (as
 # bench/next-measurement-model-choice.R). P(true model) is stored for the
 # first `horizon` measurements; a trial goes on past them until it settles
 # (or runs out of the 200 measurements).
 choice_seeds <- seeds[["noise"]] + 100L + seq_len(20)
 horizon <- 40L
-schedules <- c("chosen", "low then high", "alternating")
+schedules <- c("chosen", "chosen, skipping", "low then high", "alternating")
+window <- 10L
 choice_trial <- function(true_contact, seed) {
   passes <- list(pass(heights[1], true_contact, seed), pass(heights[2], true_contact, seed + 1000L))
   y_at <- lapply(passes, function(f) f$y[1, keep])
@@ -149,17 +152,25 @@ choice_trial <- function(true_contact, seed) {
     settled <- NA_integer_
     for (step in seq_len(2L * n_t)) {
       open <- which(done < n_t)
-      j <- switch(schedule,
-        "low then high" = open[1],
-        "alternating" = if (length(open) == 2L) (step - 1L) %% 2L + 1L else open,
-        "chosen" = if (step == 1L) open[1] else {
-          cands <- data.frame(height = heights[open], t = t_at[done[open] + 1L])
-          t0 <- Sys.time()
-          best <- next_measurement(m, cands, about = "model")
-          rank_ms <- c(rank_ms, 1000 * as.numeric(difftime(Sys.time(), t0, units = "secs")))
-          open[best$candidate[1]]
-        })
-      done[j] <- done[j] + 1L
+      if (length(open) == 0L) break      # a skipping schedule can run out of samples
+      if (step == 1L || schedule %in% c("low then high", "alternating")) {
+        j <- if (step == 1L || schedule == "low then high" || length(open) == 1L) open[1] else
+          (step - 1L) %% 2L + 1L
+        next_i <- done[j] + 1L
+      } else {
+        # candidates: the next sample at each cleat, or the next `window`
+        reach <- if (schedule == "chosen") 1L else window
+        cands <- do.call(rbind, lapply(open, function(h) {
+          i <- seq(done[h] + 1L, min(done[h] + reach, n_t))
+          data.frame(h = h, i = i, height = heights[h], t = t_at[i])
+        }))
+        t0 <- Sys.time()
+        best <- next_measurement(m, cands[c("height", "t")], about = "model")$candidate[1]
+        rank_ms <- c(rank_ms, 1000 * as.numeric(difftime(Sys.time(), t0, units = "secs")))
+        j <- cands$h[best]
+        next_i <- cands$i[best]
+      }
+      done[j] <- next_i
       update(m, y = y_at[[j]][done[j]], x = data.frame(height = heights[j]), t = t_at[done[j]])
       p_true <- exp(m$state$log_prob[[true_contact]])
       if (step <= horizon) prob <- c(prob, p_true)
@@ -173,7 +184,7 @@ choice_trial <- function(true_contact, seed) {
          path = data.frame(true_contact = true_contact, seed = seed, schedule = schedule,
                            step = seq_along(prob), prob_true = prob,
                            height = heights[chosen_h[seq_along(prob)]]),
-         rank_ms = rank_ms)
+         rank_ms = if (length(rank_ms)) data.frame(schedule = schedule, ms = rank_ms))
   })
 }
 t_choice <- proc.time()[["elapsed"]]
@@ -193,8 +204,8 @@ lookahead <- do.call(rbind, lapply(c("patch", "disc"), function(tc) {
 choice <- list(
   settle = do.call(rbind, lapply(trials, `[[`, "summary")),
   paths = do.call(rbind, lapply(trials, `[[`, "path")),
-  rank_ms = unlist(lapply(trials, `[[`, "rank_ms")), lookahead = lookahead,
-  settings = list(seeds = choice_seeds, horizon = horizon, threshold = 0.99,
+  rank_ms = do.call(rbind, lapply(trials, `[[`, "rank_ms")), lookahead = lookahead,
+  settings = list(seeds = choice_seeds, horizon = horizon, threshold = 0.99, window = window,
                   schedules = schedules),
   seconds = proc.time()[["elapsed"]] - t_choice)
 
@@ -214,6 +225,6 @@ print(summary(history$update_ms))
 print(stats::aggregate(measurements ~ true_contact + schedule, choice$settle,
                        function(v) c(median = stats::median(v), n = length(v)),
                        na.action = na.pass))
-print(summary(choice$rank_ms))
+print(tapply(choice$rank_ms$ms, choice$rank_ms$schedule, summary))
 print(lookahead)
 cat("seconds:", real_time$session$script_seconds, "\n")
