@@ -19,12 +19,16 @@
 # probabilities, each model's exact posterior mean and 95% interval of k and
 # c, its effective number of runs, and the time of the update (the whole R
 # call: the streams' updates and their evidences). Everything lands in
-# inst/extdata/real_time.rds (xz-compressed, a few kB), which the vignette
-# reads; nothing there is computed at knit time.
+# inst/extdata/real_time.rds (xz-compressed, a few tens of kB), which the
+# vignette reads; nothing there is computed at knit time. Then (issue 34,
+# item 3) the rig chooses its next cleat by next_measurement() against two
+# fixed schedules, over 20 noise seeds per true contact (see "Where to
+# measure next" below), stored in real_time$choice.
 #
 # Run from the package root after installing griddy:
 #   R_LIBS=<private lib> Rscript data-raw/real-time.R
-# Took 112 s on a shared 2-core machine at load about 2 (mostly the libraries).
+# Took 421 s on a shared 2-core machine at load about 2 (the libraries about
+# 90 s, the schedules the rest, most of it ranking 20 candidates per step).
 
 library(griddy)
 t_script <- proc.time()[["elapsed"]]
@@ -113,8 +117,100 @@ per_height <- do.call(rbind, lapply(c("patch", "disc"), function(truth_contact) 
   }))
 }))
 
+# Where to measure next (issue 34, item 3): the rig chooses its next cleat
+# height. Here the tyre is measured with one contact throughout (the true
+# model: patch, then again disc), 20 noise seeds each. At every step the
+# candidates are the next not-yet-measured t (in the same every-5th-sample
+# order) at each cleat height; "chosen" measures the first row of
+# next_measurement(m, cands, about = "model"), "low then high" is the
+# schedule above (the whole low pass, then the high one), "alternating"
+# takes the two heights in turn. "chosen, skipping" may also skip ahead:
+# its candidates are the next `window` samples at each cleat, and the
+# samples it skips are not measured. All four take the first measurement on
+# the low cleat: before it the streams' vague prior on tau gives no proper
+# predictive, so next_measurement() has nothing to rank. A fresh pair of exact streams per trial;
+# the same measured passes for all schedules of a seed. Count:
+# measurements until P(true model) first reaches 0.99 (as
+# bench/next-measurement-model-choice.R). P(true model) is stored for the
+# first `horizon` measurements; a trial goes on past them until it settles
+# (or runs out of the 200 measurements).
+choice_seeds <- seeds[["noise"]] + 100L + seq_len(20)
+horizon <- 40L
+schedules <- c("chosen", "chosen, skipping", "low then high", "alternating")
+window <- 10L
+choice_trial <- function(true_contact, seed) {
+  passes <- list(pass(heights[1], true_contact, seed), pass(heights[2], true_contact, seed + 1000L))
+  y_at <- lapply(passes, function(f) f$y[1, keep])
+  t_at <- low$t[keep]
+  n_t <- length(keep)
+  lapply(schedules, function(schedule) {
+    m <- do.call(stream_models, new_streams())
+    done <- c(0L, 0L)                    # measured so far at each height
+    prob <- numeric(0)
+    rank_ms <- numeric(0)
+    chosen_h <- integer(0)
+    settled <- NA_integer_
+    for (step in seq_len(2L * n_t)) {
+      open <- which(done < n_t)
+      if (length(open) == 0L) break      # a skipping schedule can run out of samples
+      if (step == 1L || schedule %in% c("low then high", "alternating")) {
+        j <- if (step == 1L || schedule == "low then high" || length(open) == 1L) open[1] else
+          (step - 1L) %% 2L + 1L
+        next_i <- done[j] + 1L
+      } else {
+        # candidates: the next sample at each cleat, or the next `window`
+        reach <- if (schedule == "chosen") 1L else window
+        cands <- do.call(rbind, lapply(open, function(h) {
+          i <- seq(done[h] + 1L, min(done[h] + reach, n_t))
+          data.frame(h = h, i = i, height = heights[h], t = t_at[i])
+        }))
+        t0 <- Sys.time()
+        best <- next_measurement(m, cands[c("height", "t")], about = "model")$candidate[1]
+        rank_ms <- c(rank_ms, 1000 * as.numeric(difftime(Sys.time(), t0, units = "secs")))
+        j <- cands$h[best]
+        next_i <- cands$i[best]
+      }
+      done[j] <- next_i
+      update(m, y = y_at[[j]][done[j]], x = data.frame(height = heights[j]), t = t_at[done[j]])
+      p_true <- exp(m$state$log_prob[[true_contact]])
+      if (step <= horizon) prob <- c(prob, p_true)
+      chosen_h <- c(chosen_h, j)
+      if (is.na(settled) && p_true >= 0.99) settled <- step
+      if (!is.na(settled) && step >= horizon) break
+    }
+    list(summary = data.frame(true_contact = true_contact, seed = seed, schedule = schedule,
+                              measurements = settled, rank_ms_median = if (length(rank_ms))
+                                stats::median(rank_ms) else NA_real_),
+         path = data.frame(true_contact = true_contact, seed = seed, schedule = schedule,
+                           step = seq_along(prob), prob_true = prob,
+                           height = heights[chosen_h[seq_along(prob)]]),
+         rank_ms = if (length(rank_ms)) data.frame(schedule = schedule, ms = rank_ms))
+  })
+}
+t_choice <- proc.time()[["elapsed"]]
+trials <- unlist(lapply(c("patch", "disc"), function(tc) {
+  unlist(lapply(choice_seeds, function(sd) choice_trial(tc, sd)), recursive = FALSE)
+}), recursive = FALSE)
+# why the chosen schedule is what it is: after the first measurement (low
+# cleat, first sample) of the first seed, next_measurement() over the first
+# six samples of each cleat, whether or not time order allows them yet
+lookahead <- do.call(rbind, lapply(c("patch", "disc"), function(tc) {
+  m <- do.call(stream_models, new_streams())
+  f <- pass(heights[1], tc, choice_seeds[1])
+  update(m, y = f$y[1, keep[1]], x = data.frame(height = heights[1]), t = low$t[keep[1]])
+  cands <- expand.grid(t = low$t[keep[1:6]], height = heights)[-1, c("height", "t")]
+  cbind(true_contact = tc, next_measurement(m, cands, about = "model"))
+}))
+choice <- list(
+  settle = do.call(rbind, lapply(trials, `[[`, "summary")),
+  paths = do.call(rbind, lapply(trials, `[[`, "path")),
+  rank_ms = do.call(rbind, lapply(trials, `[[`, "rank_ms")), lookahead = lookahead,
+  settings = list(seeds = choice_seeds, horizon = horizon, threshold = 0.99, window = window,
+                  schedules = schedules),
+  seconds = proc.time()[["elapsed"]] - t_choice)
+
 real_time <- list(
-  history = history, final_check = do.call(rbind, final_check), per_height = per_height,
+  history = history, choice = choice, final_check = do.call(rbind, final_check), per_height = per_height,
   settings = list(n_runs = n_runs, heights = heights, truth = truth, noise_sd = noise_sd,
                   every = every, forgetting = forgetting, rho_t = rho_t, seeds = seeds,
                   n_t = length(low$t)),
@@ -126,4 +222,9 @@ saveRDS(real_time, "inst/extdata/real_time.rds", compress = "xz")
 print(real_time$final_check)
 print(real_time$per_height)
 print(summary(history$update_ms))
+print(stats::aggregate(measurements ~ true_contact + schedule, choice$settle,
+                       function(v) c(median = stats::median(v), n = length(v)),
+                       na.action = na.pass))
+print(tapply(choice$rank_ms$ms, choice$rank_ms$schedule, summary))
+print(lookahead)
 cat("seconds:", real_time$session$script_seconds, "\n")
