@@ -6,6 +6,8 @@
 # data-raw/gap-nocandidates.R (sourced up to its trials).
 pkgload::load_all(".", quiet = TRUE)
 src <- readLines("data-raw/gap-nocandidates.R")
+# without its load_all(): a second load_all() in one session fails (pkgload 1.3.2, rlang 1.1.5)
+src <- src[!grepl("^pkgload::load_all", src)]
 eval(parse(text = src[seq_len(grep("^# truth on the library", src) - 1L)]))
 trials <- expand.grid(seed = 1:3, n_grid = c(11, 7))
 rows <- lapply(seq_len(nrow(trials)), function(i) {
