@@ -454,16 +454,25 @@ discrepancy_kernels <- function(library, kernels) {
                                       attr(kernels, "flat_at"))
   cells <- if (!is.null(knowledge)) cell_observations(library)
   lapply(seq_len(nrow(kernels)), function(k) {
-    K_x <- if (is.na(kernels$length_x[k])) matrix(1, 1, 1) else exp(-d2_x / kernels$length_x[k]^2)
-    K_t <- if (is.na(kernels$length_t[k])) matrix(1, 1, 1) else exp(-d2_t / kernels$length_t[k]^2)
-    K <- condition_kernel(kronecker(K_x, K_t), cells, knowledge, kernels$length_x[k],
-                          kernels$length_t[k])
-    K <- project(K)
-    if (is.null(kernels$ratio)) return(K)
-    scaled_kernel(K, attr(kernels, "observed"),
-                  scaled_lambda_z(kernels$ratio[k], length(attr(kernels, "observed")),
-                                  c(kernels$length_x[k], kernels$length_t[k])))
+    kernel_at(kernels, k, d2_x, d2_t, cells, knowledge, project)
   })
+}
+
+# The kernel of grid point k of `kernels` over cells whose squared scaled
+# distances are d2_x (between x settings) and d2_t (between t): squared
+# exponential (constant along an axis without a length), conditioned on the
+# knowledge at `cells`, projected (`project`) and scaled (S-GaSP) where the
+# discrepancy asks. The fit's kernels and predict()'s at new settings
+# (extended_kernels()) are both made here.
+kernel_at <- function(kernels, k, d2_x, d2_t, cells, knowledge, project) {
+  axis <- function(d2, len) if (is.na(len)) d2 * 0 + 1 else exp(-d2 / len^2)
+  K <- kronecker(axis(d2_x, kernels$length_x[k]), axis(d2_t, kernels$length_t[k]))
+  K <- condition_kernel(K, cells, knowledge, kernels$length_x[k], kernels$length_t[k])
+  K <- project(K)
+  if (is.null(kernels$ratio)) return(K)
+  scaled_kernel(K, attr(kernels, "observed"),
+                scaled_lambda_z(kernels$ratio[k], length(attr(kernels, "observed")),
+                                c(kernels$length_x[k], kernels$length_t[k])))
 }
 
 # ---- a scaled discrepancy (S-GaSP) ---------------------------------------------

@@ -73,11 +73,7 @@ predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrep
     n_out <- nrow(x_new) * lib_n_t(lib)
     outputs <- function(theta) simulate_at(simulator, theta, x_new, n_out)
   }
-  if (!is.numeric(run_mass) || length(run_mass) != 1L || !is.finite(run_mass) ||
-      run_mass <= 0 || run_mass > 1) {
-    griddy_abort("`run_mass` must be a single number in (0, 1]; received ",
-                 paste(format(run_mass), collapse = ", "), ".")
-  }
+  assert_run_mass(run_mass)
   old <- which(!is.na(hit))
   parts <- list()
   if (length(old) > 0L) {
@@ -309,16 +305,7 @@ extended_kernels <- function(library, kernels, x_new, E = NULL,
                 d = rep(0L, n_x * n_t))
   lapply(seq_len(nrow(kernels)), function(k) {
     if (!k %in% used) return(NULL)
-    K_x <- if (is.na(kernels$length_x[k])) matrix(1, n_x, n_x) else
-      exp(-d2_x / kernels$length_x[k]^2)
-    K_t <- if (is.na(kernels$length_t[k])) matrix(1, 1, 1) else exp(-d2_t / kernels$length_t[k]^2)
-    K <- condition_kernel(kronecker(K_x, K_t), cells, knowledge, kernels$length_x[k],
-                          kernels$length_t[k])
-    K <- project(K)
-    if (is.null(kernels$ratio)) return(K)
-    scaled_kernel(K, attr(kernels, "observed"),
-                  scaled_lambda_z(kernels$ratio[k], length(attr(kernels, "observed")),
-                                  c(kernels$length_x[k], kernels$length_t[k])))
+    kernel_at(kernels, k, d2_x, d2_t, cells, knowledge, project)
   })
 }
 

@@ -67,11 +67,7 @@ predict.griddy_stream <- function(object, newdata = NULL, level = 0.95, ndraws =
       "(see ?predict.griddy_fit); received ", class(simulator)[1], ".",
       class = c("prediction", "input"))
   }
-  if (!is.numeric(run_mass) || length(run_mass) != 1L || !is.finite(run_mass) ||
-      run_mass <= 0 || run_mass > 1) {
-    griddy_abort("`run_mass` must be a single number in (0, 1]; received ",
-                 paste(format(run_mass), collapse = ", "), ".")
-  }
+  assert_run_mass(run_mass)
   old <- which(!is.na(hit))
   parts <- list()
   if (length(old) > 0L) {

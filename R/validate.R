@@ -378,3 +378,14 @@ assert_misfit_scale <- function(C, y_field, n_obs) {
                "factor (e.g. multiply both by ", format(10^-round(log10(scale)), digits = 3),
                ", or change their units) before calibrating.", class = "scale")
 }
+
+# predict()'s `run_mass`: the share of the posterior whose runs are
+# simulated at new settings.
+assert_run_mass <- function(run_mass) {
+  if (!is.numeric(run_mass) || length(run_mass) != 1L || !is.finite(run_mass) ||
+      run_mass <= 0 || run_mass > 1) {
+    griddy_abort("`run_mass` must be a single number in (0, 1]; received ",
+                 paste(format(run_mass), collapse = ", "), ".")
+  }
+  invisible(run_mass)
+}
