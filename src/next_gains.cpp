@@ -5,6 +5,7 @@
 // by Gauss-Legendre quadrature, as candidate_information() defines them.
 // R's vector passes per candidate cost more than this whole loop.
 #include <Rcpp.h>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 #include "merge_components.h"
@@ -104,6 +105,13 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
   std::vector<double> w, m, s, ls, mw, mm, ms, mls;
   std::vector<int> cls, mcls;
   std::vector<double> class_nu;
+  int n_groups_max = 1;
+  for (int mod = 0; mod < M; ++mod) {
+    const Rcpp::List part = models[mod];
+    const Rcpp::NumericMatrix scale2 = part["scale2"];
+    n_groups_max = std::max(n_groups_max, static_cast<int>(scale2.ncol()));
+  }
+  std::vector<std::vector<double>> cache_s(M * n_groups_max), cache_ls(M * n_groups_max);
   for (int j = 0; j < n_candidates; ++j) {
     w.clear(); m.clear(); s.clear(); ls.clear(); cls.clear();
     class_nu.clear();
@@ -146,12 +154,28 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
           mean += (p1[gi] * (1 - p2[gi] * p2[gi]) * e1 + p2[gi] * (1 - p1[gi] * p1[gi]) * e2) /
                   d[gi];
         }
-        const double si = std::sqrt(sc[i] * var[gi]);
         w.push_back(pw[i]);
         m.push_back(mean);
-        s.push_back(si);
-        ls.push_back(std::log(si));
         cls.push_back(c + 1);
+      }
+      // without neighbours the scales are the group's at every candidate:
+      // their logs are computed once per (model, group)
+      std::vector<double>& cs = cache_s[mod * n_groups_max + group[j]];
+      std::vector<double>& cls_ = cache_ls[mod * n_groups_max + group[j]];
+      if (!(has_b || has_a) && !cs.empty()) {
+        s.insert(s.end(), cs.begin(), cs.end());
+        ls.insert(ls.end(), cls_.begin(), cls_.end());
+      } else {
+        const size_t first = s.size();
+        for (long i = 0; i < K; ++i) {
+          const double si = std::sqrt(sc[i] * var[g[i]]);
+          s.push_back(si);
+          ls.push_back(std::log(si));
+        }
+        if (!(has_b || has_a)) {
+          cs.assign(s.begin() + first, s.end());
+          cls_.assign(ls.begin() + first, ls.end());
+        }
       }
       start[mod + 1] = w.size();
     }
