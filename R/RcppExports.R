@@ -37,6 +37,10 @@ merge_components_cpp <- function(w, m, s, ls, nu_class, n_classes, width_locatio
     .Call(`_griddy_merge_components_cpp`, w, m, s, ls, nu_class, n_classes, width_location, width_scale, max_components)
 }
 
+next_gains_cpp <- function(models, n_candidates, u, weight, max_components) {
+    .Call(`_griddy_next_gains_cpp`, models, n_candidates, u, weight, max_components)
+}
+
 other_drops_cpp <- function(Y, y, Mx, Mts, Ws, x_first, x_count, threads = 1L) {
     .Call(`_griddy_other_drops_cpp`, Y, y, Mx, Mts, Ws, x_first, x_count, threads)
 }

@@ -116,9 +116,9 @@ next_measurement <- function(object, candidates = NULL, about = c("all", "model"
   }, models, model_prob)
   keep <- prune_components(lapply(parts, `[[`, "w"))
   parts <- Map(function(part, k) part$subset(k), parts, keep)
-  gains <- vapply(seq_along(cand$column), function(j) {
-    candidate_information(lapply(parts, function(part) part$at(j)))
-  }, numeric(2))
+  rule <- legendre_rule()
+  gains <- next_gains_cpp(lapply(parts, `[[`, "cpp"), length(cand$column), rule$u,
+                          rule$weight, 64L)
   out <- cbind(data.frame(candidate = cand$row), cand$table)
   out$gain <- gains[1, ]
   if (length(models) > 1L) out$gain_model <- gains[2, ]
@@ -231,7 +231,12 @@ stream_components <- function(state, model_prob, columns) {
       list(w = w, m = state$outputs[run, column] + cond$mean,
            s = sqrt(scale2[[groups[j]]] * cond$var), nu = nu[j])
     }
-    list(at = at)
+    used <- sort(unique(groups))
+    scale_matrix <- matrix(unlist(scale2[used]), length(keep))
+    list(at = at, cpp = c(list(w = w, run = run - 1L, g = g - 1L, rho = state$rho_t,
+                               outputs = state$outputs, scale2 = scale_matrix, nu = nu,
+                               column = columns - 1L, group = match(groups, used) - 1L),
+                          stream_neighbour_table(state, neighbours, columns)))
   }
   list(w = as.vector(joint) * model_prob, subset = subset)
 }
@@ -258,7 +263,14 @@ fit_components <- function(fit, model_prob, columns) {
     s <- sqrt((fit$prior$rate + fit$C[keep] / 2) / a)
     w <- joint[keep] * model_prob
     at <- function(j) list(w = w, m = outputs[run, columns[j]], s = s, nu = nu)
-    list(at = at)
+    J <- length(columns)
+    none <- rep(-1L, J)
+    list(at = at, cpp = list(w = w, run = run - 1L, g = rep(0L, length(keep)), rho = 0,
+                             outputs = outputs, scale2 = matrix(s^2, length(keep)),
+                             nu = rep(nu, J), column = columns - 1L, group = integer(J),
+                             before = none, after = none, y_before = numeric(J),
+                             y_after = numeric(J), lag_before = numeric(J),
+                             lag_after = numeric(J)))
   }
   list(w = as.vector(joint) * model_prob, subset = subset)
 }
@@ -294,6 +306,25 @@ stream_neighbours <- function(state, column) {
   after <- same[same > column]
   list(before = if (length(before)) max(before) else NA_integer_,
        after = if (length(after)) min(after) else NA_integer_)
+}
+
+# The neighbours of each candidate for next_gains_cpp(): columns (0-based,
+# -1 for none), their measured values and their distances in unit t.
+stream_neighbour_table <- function(state, neighbours, columns) {
+  n_t <- lib_n_t(state$library)
+  pos <- function(col) state$s_unit[(col - 1L) %% n_t + 1L]
+  side <- function(name) {
+    col <- vapply(neighbours, `[[`, 0L, name)
+    found <- !is.na(col)
+    y <- lag <- numeric(length(col))
+    y[found] <- state$data$y[match(col[found], state$data$column)]
+    lag[found] <- abs(pos(columns[found]) - pos(col[found]))
+    list(col = ifelse(found, col - 1L, -1L), y = y, lag = lag)
+  }
+  b <- side("before")
+  a <- side("after")
+  list(before = b$col, after = a$col, y_before = b$y, y_after = a$y, lag_before = b$lag,
+       lag_after = a$lag)
 }
 
 # The AR(1) conditional mean (added to the run's output) and variance factor

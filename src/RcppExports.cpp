@@ -145,6 +145,21 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// next_gains_cpp
+Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates, const std::vector<double>& u, const std::vector<double>& weight, int max_components);
+RcppExport SEXP _griddy_next_gains_cpp(SEXP modelsSEXP, SEXP n_candidatesSEXP, SEXP uSEXP, SEXP weightSEXP, SEXP max_componentsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type models(modelsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_candidates(n_candidatesSEXP);
+    Rcpp::traits::input_parameter< const std::vector<double>& >::type u(uSEXP);
+    Rcpp::traits::input_parameter< const std::vector<double>& >::type weight(weightSEXP);
+    Rcpp::traits::input_parameter< int >::type max_components(max_componentsSEXP);
+    rcpp_result_gen = Rcpp::wrap(next_gains_cpp(models, n_candidates, u, weight, max_components));
+    return rcpp_result_gen;
+END_RCPP
+}
 // other_drops_cpp
 Rcpp::NumericMatrix other_drops_cpp(const arma::mat& Y, const arma::vec& y, const arma::mat& Mx, const Rcpp::List& Mts, const Rcpp::List& Ws, const Rcpp::IntegerVector& x_first, const Rcpp::IntegerVector& x_count, int threads);
 RcppExport SEXP _griddy_other_drops_cpp(SEXP YSEXP, SEXP ySEXP, SEXP MxSEXP, SEXP MtsSEXP, SEXP WsSEXP, SEXP x_firstSEXP, SEXP x_countSEXP, SEXP threadsSEXP) {
@@ -313,6 +328,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
     {"_griddy_merge_components_cpp", (DL_FUNC) &_griddy_merge_components_cpp, 9},
+    {"_griddy_next_gains_cpp", (DL_FUNC) &_griddy_next_gains_cpp, 5},
     {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 8},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},

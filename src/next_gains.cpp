@@ -1,0 +1,215 @@
+// next_measurement()'s per-candidate work (R/next-measurement.R) in one pass
+// over all candidates: each kept component's Student-t predictive at the
+// candidate (location, scale; AR(1) conditional on the nearest measured
+// neighbours), the merge (merge_components.h), and the mixture entropies
+// by Gauss-Legendre quadrature, as candidate_information() defines them.
+// R's vector passes per candidate cost more than this whole loop.
+#include <Rcpp.h>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+#include "merge_components.h"
+
+namespace {
+
+double t_entropy_const(double v) {
+  return (v + 1) / 2 * (R::digamma((v + 1) / 2) - R::digamma(v / 2)) +
+         std::log(std::sqrt(v) * R::beta(v / 2, 0.5));
+}
+
+double t_log_const(double v) {
+  return R::lgammafn((v + 1) / 2) - R::lgammafn(v / 2) - std::log(v * M_PI) / 2;
+}
+
+// the quadrature nodes (Student-t quantiles at the rule's u) of each nu met
+struct Quantiles {
+  const std::vector<double>& u;
+  std::vector<double> nus;
+  std::vector<std::vector<double>> z;
+  explicit Quantiles(const std::vector<double>& u_) : u(u_) {}
+  const std::vector<double>& at(double v) {
+    for (size_t k = 0; k < nus.size(); ++k) if (nus[k] == v) return z[k];
+    nus.push_back(v);
+    std::vector<double> q(u.size());
+    for (size_t i = 0; i < u.size(); ++i) q[i] = R::qt(u[i], v, 1, 0);
+    z.push_back(q);
+    return z.back();
+  }
+};
+
+// The entropy of sum w t_nu(m, s) (w sums to 1): merged, then
+// sum_j w_j [H(p_j) + KL(p_j || p)] by quadrature over p_j's quantiles.
+double mixture_entropy(const std::vector<double>& w, const std::vector<double>& m,
+                       const std::vector<double>& s, const std::vector<double>& ls,
+                       const std::vector<int>& cls, const std::vector<double>& class_nu,
+                       const std::vector<double>& weight, Quantiles& quant,
+                       int max_components) {
+  const long n = w.size();
+  if (n == 0) return 0;
+  griddy::Merged mc;
+  if (n == 1) {
+    mc.w = w;
+    mc.m = m;
+    mc.s2 = {s[0] * s[0]};
+    mc.nu_class = cls;
+  } else {
+    griddy::merge_components(w.data(), m.data(), s.data(), ls.data(), cls.data(), n,
+                             class_nu.size(), 0.25, 0.05, max_components, mc);
+  }
+  const size_t J = mc.w.size();
+  std::vector<double> sj(J), nu(J), c_log(J), c_ent(J), amp(J);
+  for (size_t j = 0; j < J; ++j) {
+    sj[j] = std::sqrt(mc.s2[j]);
+    nu[j] = class_nu[mc.nu_class[j] - 1];
+    c_log[j] = t_log_const(nu[j]);
+    c_ent[j] = t_entropy_const(nu[j]);
+    amp[j] = std::exp(c_log[j]) * mc.w[j] / sj[j];
+  }
+  if (J == 1) return std::log(sj[0]) + c_ent[0];
+  const size_t Q = weight.size();
+  double h = 0;
+  for (size_t j = 0; j < J; ++j) {
+    const std::vector<double>& z = quant.at(nu[j]);
+    double kl = 0;
+    for (size_t q = 0; q < Q; ++q) {
+      const double y = z[q] * sj[j] + mc.m[j];
+      double p = 0;
+      for (size_t k = 0; k < J; ++k) {
+        const double d = (y - mc.m[k]) / sj[k];
+        p += amp[k] * std::exp(-(nu[k] + 1) / 2 * std::log(1 + d * d / nu[k]));
+      }
+      const double log_pj = c_log[j] - (nu[j] + 1) / 2 * std::log1p(z[q] * z[q] / nu[j]) -
+                            std::log(sj[j]);
+      kl += weight[q] * (log_pj - std::log(p));
+    }
+    h += mc.w[j] * (std::log(sj[j]) + c_ent[j] + kl);
+  }
+  return h;
+}
+
+}  // namespace
+
+// models: per model a list of w, run, g (0-based, per kept component), rho
+// (per grid point), outputs (runs x library columns), scale2 (components x
+// noise groups: (b + C/2) / (a + n/2)), and per candidate: column, group
+// (0-based), nu, before/after (measured neighbour columns, -1 for none),
+// y_before/y_after, lag_before/lag_after (distances in unit t). Returns
+// 2 x candidates: gain, gain_model (NA with one model).
+// [[Rcpp::export]]
+Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
+                                   const std::vector<double>& u,
+                                   const std::vector<double>& weight, int max_components) {
+  const int M = models.size();
+  Quantiles quant(u);
+  Rcpp::NumericMatrix out(2, n_candidates);
+  std::vector<double> w, m, s, ls, mw, mm, ms, mls;
+  std::vector<int> cls, mcls;
+  std::vector<double> class_nu;
+  int n_groups_max = 1;
+  for (int mod = 0; mod < M; ++mod) {
+    const Rcpp::List part = models[mod];
+    const Rcpp::NumericMatrix scale2 = part["scale2"];
+    n_groups_max = std::max(n_groups_max, static_cast<int>(scale2.ncol()));
+  }
+  std::vector<std::vector<double>> cache_s(M * n_groups_max), cache_ls(M * n_groups_max);
+  for (int j = 0; j < n_candidates; ++j) {
+    w.clear(); m.clear(); s.clear(); ls.clear(); cls.clear();
+    class_nu.clear();
+    std::vector<long> start(M + 1, 0);
+    std::vector<int> model_class(M);
+    for (int mod = 0; mod < M; ++mod) {
+      const Rcpp::List part = models[mod];
+      const Rcpp::NumericVector pw = part["w"], rho = part["rho"], nu = part["nu"];
+      const Rcpp::IntegerVector run = part["run"], g = part["g"], column = part["column"],
+                                group = part["group"], before = part["before"],
+                                after = part["after"];
+      const Rcpp::NumericVector y_before = part["y_before"], y_after = part["y_after"],
+                                lag_before = part["lag_before"], lag_after = part["lag_after"];
+      const Rcpp::NumericMatrix outputs = part["outputs"], scale2 = part["scale2"];
+      const int N = outputs.nrow();
+      const double* col = &outputs[static_cast<R_xlen_t>(column[j]) * N];
+      const double* sc = &scale2[static_cast<R_xlen_t>(group[j]) * scale2.nrow()];
+      const bool has_b = before[j] >= 0, has_a = after[j] >= 0;
+      const double* col_b = has_b ? &outputs[static_cast<R_xlen_t>(before[j]) * N] : nullptr;
+      const double* col_a = has_a ? &outputs[static_cast<R_xlen_t>(after[j]) * N] : nullptr;
+      const int G = rho.size();
+      std::vector<double> p1(G, 0.0), p2(G, 0.0), d(G, 1.0), var(G, 1.0);
+      for (int k = 0; k < G; ++k) {
+        if (has_b) p1[k] = std::pow(rho[k], lag_before[j]);
+        if (has_a) p2[k] = std::pow(rho[k], lag_after[j]);
+        d[k] = 1 - p1[k] * p1[k] * p2[k] * p2[k];
+        var[k] = (1 - p1[k] * p1[k]) * (1 - p2[k] * p2[k]) / d[k];
+      }
+      size_t c = 0;
+      while (c < class_nu.size() && class_nu[c] != nu[j]) ++c;
+      if (c == class_nu.size()) class_nu.push_back(nu[j]);
+      model_class[mod] = c + 1;
+      const long K = pw.size();
+      for (long i = 0; i < K; ++i) {
+        const int r = run[i], gi = g[i];
+        double mean = col[r];
+        if (has_b || has_a) {
+          const double e1 = has_b ? y_before[j] - col_b[r] : 0.0;
+          const double e2 = has_a ? y_after[j] - col_a[r] : 0.0;
+          mean += (p1[gi] * (1 - p2[gi] * p2[gi]) * e1 + p2[gi] * (1 - p1[gi] * p1[gi]) * e2) /
+                  d[gi];
+        }
+        w.push_back(pw[i]);
+        m.push_back(mean);
+        cls.push_back(c + 1);
+      }
+      // without neighbours the scales are the group's at every candidate:
+      // their logs are computed once per (model, group)
+      std::vector<double>& cs = cache_s[mod * n_groups_max + group[j]];
+      std::vector<double>& cls_ = cache_ls[mod * n_groups_max + group[j]];
+      if (!(has_b || has_a) && !cs.empty()) {
+        s.insert(s.end(), cs.begin(), cs.end());
+        ls.insert(ls.end(), cls_.begin(), cls_.end());
+      } else {
+        const size_t first = s.size();
+        for (long i = 0; i < K; ++i) {
+          const double si = std::sqrt(sc[i] * var[g[i]]);
+          s.push_back(si);
+          ls.push_back(std::log(si));
+        }
+        if (!(has_b || has_a)) {
+          cs.assign(s.begin() + first, s.end());
+          cls_.assign(ls.begin() + first, ls.end());
+        }
+      }
+      start[mod + 1] = w.size();
+    }
+    double total = 0;
+    for (double v : w) total += v;
+    std::vector<double> wn(w.size());
+    for (size_t i = 0; i < w.size(); ++i) wn[i] = w[i] / total;
+    const double h_mix = mixture_entropy(wn, m, s, ls, cls, class_nu, weight, quant,
+                                         max_components);
+    std::vector<double> class_ent(class_nu.size());
+    for (size_t c = 0; c < class_nu.size(); ++c) class_ent[c] = t_entropy_const(class_nu[c]);
+    double h_comp = 0;
+    for (size_t i = 0; i < w.size(); ++i) h_comp += wn[i] * (ls[i] + class_ent[cls[i] - 1]);
+    out(0, j) = std::max(h_mix - h_comp, 0.0);
+    out(1, j) = NA_REAL;
+    if (M > 1) {
+      double h_models = 0;
+      for (int mod = 0; mod < M; ++mod) {
+        const long a = start[mod], b = start[mod + 1];
+        if (b == a) continue;
+        double mass = 0;
+        for (long i = a; i < b; ++i) mass += w[i];
+        mw.assign(b - a, 0.0);
+        for (long i = a; i < b; ++i) mw[i - a] = w[i] / mass;
+        mm.assign(m.begin() + a, m.begin() + b);
+        ms.assign(s.begin() + a, s.begin() + b);
+        mls.assign(ls.begin() + a, ls.begin() + b);
+        mcls.assign(b - a, 1);
+        std::vector<double> one_nu = {class_nu[model_class[mod] - 1]};
+        h_models += mass / total * mixture_entropy(mw, mm, ms, mls, mcls, one_nu, weight,
+                                                   quant, max_components);
+      }
+      out(1, j) = std::max(h_mix - h_models, 0.0);
+    }
+  }
+  return out;
+}
