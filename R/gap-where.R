@@ -223,13 +223,16 @@ distinct_flags <- function(flagged, p_value, blocks, win) {
 }
 
 # Posterior-mean residual field of the base model and its size in noise sds
-# (each point's own, with relative sd); NA at missing cells.
+# (each value's own: relative sd, replicated cell means); NA at missing
+# cells.
 gap_map <- function(ctx, tm, w) {
   wr <- rowSums(w)
   # sum_j wr_j (y - Y_j), without the runs x data points residuals
   resid <- ctx$y * sum(wr) - term_mean(tm, wr)
   sigma <- sqrt(sum(w * (ctx$prior$rate + tm$Q / 2) / (ctx$prior$shape + ctx$n / 2)))
-  if (!is.null(ctx$sd)) sigma <- sigma * ctx$sd
+  # each value's own sd: a replicated cell's mean has 1 / sqrt(n_rep) of a
+  # measurement's (scaled by one measurement's, its z was too small)
+  if (!is.null(ctx$sd_y)) sigma <- sigma * ctx$sd_y
   data.frame(x = rep(seq_len(ctx$n_x), each = ctx$n_t), t = rep(ctx$t, ctx$n_x),
              residual = resid, z = resid / sigma)
 }

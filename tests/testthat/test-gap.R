@@ -161,6 +161,15 @@ test_that("replicated field data with candidates: exact evidence, the withheld e
   }
 })
 
+test_that("the gap map of replicated data is in the cell means' own sds", {
+  # with 3 replicates the map scaled each cell mean's residual by one
+  # measurement's sd: on data without a gap its z had sd 0.62, not about 1
+  rep3 <- replicated_gap(0)
+  gap <- diagnose_gap(rep3$fit, list(quadratic = rep3$quad), seed = 1)
+  expect_gt(stats::sd(gap$map$z), 0.8)
+  expect_lt(stats::sd(gap$map$z), 1.3)
+})
+
 test_that("a candidate is not named below the evidence bar on data without its effect", {
   # issue 33: an effect was named at P = 0.63 on data without it. On null
   # data the quadratic's non-zero strengths are ruled out, so its Bayes
