@@ -182,14 +182,19 @@ simulate_at <- function(simulator, theta, x_new, n_out) {
 # of its t, which must be that t's group at every library setting (groups by
 # t or one group). Groups by x setting give a new setting no precision.
 new_cell_groups <- function(fit, n_new) {
-  lib <- fit$library
   group <- fit$setup$pattern$group
-  if (is.null(group)) return(rep(1L, n_new * lib_n_t(lib)))
-  by_t <- matrix(group, lib_n_t(lib))
+  if (is.null(group)) return(rep(1L, n_new * lib_n_t(fit$library)))
+  groups_by_t(group, lib_n_t(fit$library), n_new, "fit")
+}
+
+# The groups `group` (library order) of a fit's or stream's (`what`) cells
+# at `n_new` new settings, each cell its t's group.
+groups_by_t <- function(group, n_t, n_new, what) {
+  by_t <- matrix(group, n_t)
   if (any(by_t != by_t[, 1])) {
     griddy_abort("predict() at new x settings needs noise groups that depend on t only ",
-                 "(one group, or labels per output coordinate): this fit's groups vary ",
-                 "over the x settings, so a new setting has no noise precision.",
+                 "(one group, or labels per output coordinate): this ", what, "'s groups ",
+                 "vary over the x settings, so a new setting has no noise precision.",
                  class = "unsupported")
   }
   rep(by_t[, 1], n_new)

@@ -138,14 +138,7 @@ stream_predict_new <- function(stream, p, x_new, level, ndraws, simulator, run_m
 # The noise group of each cell at `n_new` new settings: its t's, which must
 # be that t's group at every library setting.
 stream_new_groups <- function(state, n_new) {
-  by_t <- matrix(state$group, lib_n_t(state$library))
-  if (any(by_t != by_t[, 1])) {
-    griddy_abort("predict() at new x settings needs noise groups that depend on t only ",
-                 "(one group, or labels per output coordinate): this stream's groups vary ",
-                 "over the x settings, so a new setting has no noise precision.",
-                 class = "unsupported")
-  }
-  rep(by_t[, 1], n_new)
+  groups_by_t(state$group, lib_n_t(state$library), n_new, "stream")
 }
 
 # Noise of a new measurement for the draws `d` (stream_draws()) at `n_set`

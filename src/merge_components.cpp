@@ -1,5 +1,6 @@
-// The merging of next_measurement()'s mixture components (R/next-measurement.R,
-// merge_components()): one pass over the components per bin width
+// The merging of next_measurement()'s mixture components, for the tests'
+// plain-R reference merge_components() (tests/testthat/helper-next-measurement.R):
+// one pass over the components per bin width
 // (the work is in merge_components.h, shared with next_gains_cpp()).
 //
 // A component falls in the bin of (degrees-of-freedom class, log-scale bin

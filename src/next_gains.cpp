@@ -2,7 +2,8 @@
 // over all candidates: each kept component's Student-t predictive at the
 // candidate (location, scale; AR(1) conditional on the nearest measured
 // neighbours), the merge (merge_components.h), and the mixture entropies
-// by Gauss-Legendre quadrature, as candidate_information() defines them.
+// by Gauss-Legendre quadrature, as the tests' plain-R reference
+// candidate_information() (tests/testthat/helper-next-measurement.R) does.
 // R's vector passes per candidate cost more than this whole loop.
 #include <Rcpp.h>
 #include <algorithm>
