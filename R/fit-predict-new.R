@@ -82,11 +82,60 @@ predict_new_settings <- function(fit, newdata, hit, level, ndraws, seed, discrep
   }
   parts$new <- with_seed(seed, predict_at_new(fit, x_new, level, ndraws, discrepancy,
                                               outputs, run_mass))
+  if (!has_discrepancy(fit)) warn_unwidened_extrapolation(fit, x_new)
   n_t <- lib_n_t(lib)
   out <- do.call(rbind, unname(parts))
   out <- out[order(rep(c(old, new), each = n_t)), , drop = FALSE]
   rownames(out) <- NULL
   out
+}
+
+# A fit without a discrepancy assumes the simulator is right everywhere, so
+# its band beyond the measured settings is the simulator's spread over the
+# posterior plus noise: nothing in it grows with the distance from the
+# measurements, and it can be as narrow outside as inside (measured in
+# vignette("prediction"): 0.99-1.02 times without a discrepancy). Say so
+# where it matters, at new settings outside the measured range.
+warn_unwidened_extrapolation <- function(fit, x_new) {
+  out <- outside_measured_range(fit, x_new)
+  if (!any(out)) return(invisible())
+  lib <- fit$library
+  griddy_warn(
+    "predict() extrapolates at ", show_some(setting_text(lib, x_new[out, , drop = FALSE])),
+    ", outside the range of the measured settings (",
+    measured_range_text(fit), "). This fit has no discrepancy, so its band there assumes ",
+    "the simulator is right where no measurement tested it, and does not widen with the ",
+    "distance from the measurements. For a band that carries what the simulator may miss ",
+    "there, calibrate with `discrepancy = gp_discrepancy()` (with `zero_at`/`flat_at` if ",
+    "you know where the gap vanishes).", class = "extrapolation")
+}
+
+# The x settings of the library that hold at least one measured cell.
+measured_settings <- function(fit) {
+  lib <- fit$library
+  seen <- matrix(!is.na(fit$y_field), nrow = lib_n_t(lib))
+  lib_x(lib)[colSums(seen) > 0L, , drop = FALSE]
+}
+
+# TRUE for each row of `x_new` with some x column outside the measured
+# settings' range of that column (beyond rounding).
+outside_measured_range <- function(fit, x_new) {
+  x_seen <- measured_settings(fit)
+  out <- logical(nrow(x_new))
+  for (nm in names(x_seen)) {
+    r <- range(x_seen[[nm]])
+    tol <- 1e-8 * max(1, abs(r))
+    out <- out | x_new[[nm]] < r[1] - tol | x_new[[nm]] > r[2] + tol
+  }
+  out
+}
+
+measured_range_text <- function(fit) {
+  x_seen <- measured_settings(fit)
+  paste(vapply(names(x_seen), function(nm) {
+    paste0(nm, " from ", format(min(x_seen[[nm]]), digits = 4), " to ",
+           format(max(x_seen[[nm]]), digits = 4))
+  }, ""), collapse = ", ")
 }
 
 # "x = 5" for each row of a data frame of settings, over the library's x columns.

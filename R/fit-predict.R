@@ -87,6 +87,15 @@
 #' the projection's share grows with the sensitivities, so an orthogonal
 #' discrepancy's mean need not revert to 0 there.
 #'
+#' **Without a discrepancy** the fit assumes the simulator is right at every
+#' setting, so beyond the measured settings its band is the simulator's
+#' spread over the posterior plus the noise: nothing in it grows with the
+#' distance from the measurements, and it can be as narrow outside the
+#' measured range as inside (as measured in `vignette("prediction")`). New
+#' settings outside the range of the measured settings (per x column; library
+#' settings without field data do not count) give a warning of class
+#' `griddy_warning_extrapolation` that says so.
+#'
 #' **Without a simulator**, new settings are predicted from an emulator over
 #' x where the library has one: a library built by [emulated_library()]
 #' (or [read_calibration_inputs()] from a design; also as the base of a

@@ -271,14 +271,18 @@ test_that("the ppc plot shows predictions at new settings beside the library's",
   fit <- suppressWarnings(calibrate(lib, field_data(c(2.1, 3.9, 6.2, 7.8)), n_iter = 600,
                                     burn_in = 100, seed = 1))
   linear <- function(theta, x) outer(theta$k, x$pos)
-  pp <- plot(fit, "ppc", newdata = data.frame(pos = c(2, 5.5, 6)), simulator = linear,
-             ndraws = 200, seed = 1)
+  # beyond pos = 4 a fit without a discrepancy says its band assumes the simulator
+  expect_warning(pp <- plot(fit, "ppc", newdata = data.frame(pos = c(2, 5.5, 6)),
+                            simulator = linear, ndraws = 200, seed = 1),
+                 class = "griddy_warning_extrapolation")
   # one continuous x axis: the library's settings, then the new ones
   expect_identical(pp$data$position, c(1:4, 5.5, 6))
   expect_identical(pp$data$new, rep(c(FALSE, TRUE), c(4, 2)))
   expect_equal(pp$data[5:6, c("mean", "lower", "upper")],
-               predict(fit, newdata = pp$data[1:6, "pos", drop = FALSE], ndraws = 200, seed = 1,
-                       simulator = linear)[5:6, c("mean", "lower", "upper")],
+               suppressWarnings(predict(fit, newdata = pp$data[1:6, "pos", drop = FALSE],
+                                        ndraws = 200, seed = 1, simulator = linear),
+                                classes = "griddy_warning_extrapolation")[5:6, c("mean", "lower",
+                                                                                 "upper")],
                ignore_attr = TRUE)
   built <- ggplot2::ggplot_build(pp)
   expect_equal(built$data[[4]]$xintercept, c(1, 4))
@@ -296,7 +300,8 @@ test_that("the ppc plot of an emulated library shows its new settings' panels in
   lib <- emulated_toy_library(n_runs = 500)
   fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 400, burn_in = 100,
                                     seed = 1))
-  pp <- plot(fit, "ppc", newdata = data.frame(x = c(0.95, 0.35)), ndraws = 100, seed = 1)
+  pp <- suppressWarnings(plot(fit, "ppc", newdata = data.frame(x = c(0.95, 0.35)), ndraws = 100,
+                              seed = 1), classes = "griddy_warning_extrapolation")
   expect_identical(levels(pp$data$setting),
                    c("x = 0.20", "x = 0.35 (new)", "x = 0.50", "x = 0.80", "x = 0.95 (new)"))
   expect_match(pp$labels$subtitle, "emulator")

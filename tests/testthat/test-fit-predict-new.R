@@ -18,6 +18,12 @@ machine_fit <- function(m, n_iter = 2000, ...) {
                                "griddy_warning_convergence", "griddy_warning_prior"))
 }
 
+# predict() beyond the measured settings, where a fit without a discrepancy
+# says that its band assumes the simulator is right (tested on its own below)
+extrapolate <- function(...) {
+  suppressWarnings(predict(...), classes = "griddy_warning_extrapolation")
+}
+
 knowledge <- function() {
   gp_discrepancy(zero_at = data.frame(x = 0), flat_at = data.frame(x = 0))
 }
@@ -52,8 +58,9 @@ test_that("a linear simulator's prediction at a new setting is the closed-form S
   s <- sqrt(sum((y - theta_hat * x)^2) / (length(y) - 1))
   q <- stats::qt(0.975, length(y) - 1)
   x0 <- 6
-  p <- predict(fit, newdata = data.frame(x = x0), ndraws = 6000, seed = 1,
-               simulator = m$simulator)
+  expect_warning(p <- predict(fit, newdata = data.frame(x = x0), ndraws = 6000, seed = 1,
+                              simulator = m$simulator),
+                 class = "griddy_warning_extrapolation")
   sd_mean <- x0 * s / sqrt(sxx)
   expect_equal(p$mean, x0 * theta_hat, tolerance = 0.15 * sd_mean / (x0 * theta_hat))
   half <- q * sd_mean
@@ -135,6 +142,32 @@ test_that("the discrepancy band widens outside the calibrated range", {
   expect_equal(far$mean, alone$mean, tolerance = 1e-6)
 })
 
+test_that("without a discrepancy, extrapolation is said to assume the simulator is right", {
+  m <- machine(gap = FALSE)
+  fit <- machine_fit(m, n_iter = 800)
+  # inside the measured range (between settings): no warning
+  expect_no_warning(predict(fit, newdata = data.frame(x = 1.1), ndraws = 200, seed = 1,
+                            simulator = m$simulator))
+  w <- expect_warning(predict(fit, newdata = data.frame(x = c(1.1, 5)), ndraws = 200, seed = 1,
+                              simulator = m$simulator),
+                      class = "griddy_warning_extrapolation")
+  expect_match(conditionMessage(w), "x = 5,")
+  expect_false(grepl("x = 1.1", conditionMessage(w), fixed = TRUE))
+  expect_match(conditionMessage(w), "x from 0.2 to 4")
+  # the measured range, not the library's: a library setting without field data is outside
+  y <- m$field$y
+  y[11, 1] <- NA
+  fit_short <- suppressWarnings(calibrate(m$library, field_data(y, x = m$x), n_iter = 800,
+                                          burn_in = 100, seed = 1))
+  expect_warning(predict(fit_short, newdata = data.frame(x = 3.9), ndraws = 200, seed = 1,
+                         simulator = m$simulator),
+                 "x from 0.2 to 3.62", class = "griddy_warning_extrapolation")
+  # a discrepancy fit's band widens there instead: no warning
+  fit_d <- machine_fit(m, n_iter = 800, discrepancy = knowledge())
+  expect_no_warning(predict(fit_d, newdata = data.frame(x = 5), ndraws = 200, seed = 1,
+                            simulator = m$simulator))
+})
+
 test_that("only the runs carrying run_mass of the posterior are simulated", {
   m <- machine(sd = 0.05, step = 0.0005, gap = FALSE)
   fit <- machine_fit(m)
@@ -143,11 +176,11 @@ test_that("only the runs carrying run_mass of the posterior are simulated", {
     seen$n <- c(seen$n, nrow(theta))
     outer(theta$theta, x$x)
   }
-  predict(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 0.9)
+  extrapolate(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 0.9)
   freq <- sort(tabulate(fit$draws$run), decreasing = TRUE)
   expect_equal(sum(seen$n), which(cumsum(freq) >= 0.9 * sum(freq))[1])
   seen$n <- NULL
-  predict(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 1)
+  extrapolate(fit, newdata = data.frame(x = 6), simulator = counting, run_mass = 1)
   expect_equal(sum(seen$n), sum(freq > 0))
 })
 
@@ -211,7 +244,7 @@ test_that("a refined fit predicts at new settings from the runs refine() added t
     seen$theta <- c(seen$theta, theta$theta)
     outer(theta$theta, x$x)
   }
-  p <- predict(refined, newdata = data.frame(x = 6), simulator = recording, seed = 1)
+  p <- extrapolate(refined, newdata = data.frame(x = 6), simulator = recording, seed = 1)
   expect_true(all(seen$theta %in% lib_theta(refined$library)$theta))
   expect_true(any(!seen$theta %in% lib_theta(coarse)$theta))
   expect_true(p$lower <= 6 * 0.65 && 6 * 0.65 <= p$upper)
@@ -227,20 +260,20 @@ test_that("noise groups by t and the field's sd carry to new settings", {
   y <- matrix(sys$field$y, 3)
   grouped <- suppressWarnings(calibrate(sys$library, sys$field, n_iter = 400, burn_in = 100,
                                         seed = 1, noise_groups = rep(c("a", "b"), each = 3)))
-  p <- predict(grouped, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+  p <- extrapolate(grouped, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
                simulator = simulator)
   expect_true(all(is.finite(p$pred_lower) & p$pred_lower < p$lower))
   # an sd per t is the same at every setting: a new setting's noise has it
   per_t <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = rep(c(1, 3), each = 3))
   fit <- suppressWarnings(calibrate(sys$library, per_t, n_iter = 400, burn_in = 100, seed = 1))
-  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 2000, seed = 1,
+  p <- extrapolate(fit, newdata = data.frame(amp = 4), ndraws = 2000, seed = 1,
                simulator = simulator)
   noise <- (p$pred_upper - p$pred_lower) - (p$upper - p$lower)
   expect_gt(min(noise[4:6]), 2 * max(noise[1:3]))
   # an sd per setting is not known at a new one: no predictive bound there
   per_x <- field_data(y, x = data.frame(amp = 1:3), t = t, sd = c(1, 2, 3))
   fit <- suppressWarnings(calibrate(sys$library, per_x, n_iter = 400, burn_in = 100, seed = 1))
-  p <- predict(fit, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
+  p <- extrapolate(fit, newdata = data.frame(amp = 4), ndraws = 300, seed = 1,
                simulator = simulator)
   expect_true(all(is.na(p$pred_lower)) && all(is.finite(p$lower)))
 })
@@ -258,11 +291,11 @@ test_that("an emulated library predicts inside its design's x range from its emu
   fit <- suppressWarnings(calibrate(lib, emulated_toy_field(), n_iter = 2000, burn_in = 200,
                                     seed = 1))
   at <- data.frame(x = c(0.35, 0.95))
-  p <- predict(fit, newdata = at, ndraws = 2000, seed = 1)
+  p <- extrapolate(fit, newdata = at, ndraws = 2000, seed = 1)
   truth <- as.vector(emulated_toy_simulator(data.frame(k = 2.1, c = 0.3), at))
   expect_gte(mean(p$pred_lower <= truth & truth <= p$pred_upper), 0.95)
   # as the simulator's prediction, within the emulator's error
-  ps <- predict(fit, newdata = at, ndraws = 2000, seed = 1, simulator = emulated_toy_simulator)
+  ps <- extrapolate(fit, newdata = at, ndraws = 2000, seed = 1, simulator = emulated_toy_simulator)
   expect_lt(max(abs(p$mean - ps$mean)), 0.02)
   # at t = 0 the toy is sin(x) whatever theta: the simulator's band is a
   # point, the emulator's is its own error, +-1.96 sd of it

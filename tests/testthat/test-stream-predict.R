@@ -71,8 +71,9 @@ test_that("a stream's noise groups (and AR(1) grid) extend to new settings as a 
                                     burn_in = 200, seed = 1, noise_groups = groups))
   ps <- predict(s, newdata = data.frame(amp = 4), ndraws = 4000, seed = 1,
                 simulator = simulator)
-  pf <- predict(fit, newdata = data.frame(amp = 4), ndraws = 3000, seed = 1,
-                simulator = simulator)
+  pf <- suppressWarnings(predict(fit, newdata = data.frame(amp = 4), ndraws = 3000, seed = 1,
+                                 simulator = simulator),
+                         classes = "griddy_warning_extrapolation")
   expect_equal(ps$mean, pf$mean, tolerance = 1e-3)
   width <- ps$pred_upper - ps$pred_lower
   expect_equal(width, pf$pred_upper - pf$pred_lower, tolerance = 0.1)
