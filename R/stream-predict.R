@@ -46,13 +46,24 @@ predict.griddy_stream <- function(object, newdata = NULL, level = 0.95, ndraws =
   assert_level(level)
   ndraws <- assert_count(ndraws, "ndraws")
   seed <- assert_seed(seed)
-  state <- object$state
-  lib <- state$library
-  p <- stream_margins(object)$run
+  pieces <- stream_prediction_pieces(object, newdata, ndraws, seed, simulator, run_mass)
+  prediction_from_pieces(pieces, level)
+}
+
+# What predict() of a stream summarises, without summarising it: the cells
+# asked for in one or two pieces (the library's settings, the new ones), each
+# list(cells = the cell columns with `observed`, Y = the outputs of the runs
+# with mass there, w = their posterior weights, noisy = ndraws exact draws of
+# a new measurement), and `order`, the rows of newdata's order. A model
+# choice mixes its models' pieces (predict.griddy_stream_models()).
+stream_prediction_pieces <- function(stream, newdata, ndraws, seed, simulator, run_mass) {
+  lib <- stream$state$library
+  p <- stream_margins(stream)$run
   hit <- new_setting_rows(lib, newdata)
   if (is.null(hit)) {
     settings <- predict_settings(lib, newdata)
-    return(with_seed(seed, stream_predict_at(object, p, settings, level, ndraws)))
+    return(list(pieces = list(with_seed(seed, stream_piece_at(stream, p, settings, ndraws))),
+                order = NULL))
   }
   new <- which(is.na(hit))
   x_new <- as.data.frame(as_numeric_matrix(newdata[new, names(lib_x(lib)), drop = FALSE],
@@ -69,48 +80,55 @@ predict.griddy_stream <- function(object, newdata = NULL, level = 0.95, ndraws =
   }
   assert_run_mass(run_mass)
   old <- which(!is.na(hit))
-  parts <- list()
+  pieces <- list()
   if (length(old) > 0L) {
-    parts$old <- with_seed(seed, stream_predict_at(object, p, hit[old], level, ndraws))
+    pieces$old <- with_seed(seed, stream_piece_at(stream, p, hit[old], ndraws))
   }
-  parts$new <- with_seed(seed, stream_predict_new(object, p, x_new, level, ndraws, simulator,
-                                                  run_mass))
-  n_t <- lib_n_t(lib)
-  out <- do.call(rbind, unname(parts))
-  out <- out[order(rep(c(old, new), each = n_t)), , drop = FALSE]
+  pieces$new <- with_seed(seed, stream_piece_new(stream, p, x_new, ndraws, simulator,
+                                                 run_mass))
+  list(pieces = unname(pieces), order = order(rep(c(old, new), each = lib_n_t(lib))))
+}
+
+# predict()'s table from stream_prediction_pieces(): the weighted mean and
+# quantiles of the outputs, the quantiles of the noisy draws, in newdata's
+# order.
+prediction_from_pieces <- function(pieces, level) {
+  probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
+  out <- do.call(rbind, lapply(pieces$pieces, function(piece) {
+    w <- piece$w / sum(piece$w)
+    bounds <- apply(piece$Y, 2, weighted_quantile, w = w, probs = probs)
+    pred <- apply(piece$noisy, 2, stats::quantile, probs = probs, names = FALSE)
+    cbind(piece$cells, mean = colSums(piece$Y * w), lower = bounds[1, ], upper = bounds[2, ],
+          pred_lower = pred[1, ], pred_upper = pred[2, ])
+  }))
+  if (!is.null(pieces$order)) out <- out[pieces$order, , drop = FALSE]
   rownames(out) <- NULL
   out
 }
 
-# At the library's settings `settings` (rows of its x): exact mean and
-# bands over every run with mass, noisy draws for the predictive band.
-stream_predict_at <- function(stream, p, settings, level, ndraws) {
+# At the library's settings `settings` (rows of its x): every run with mass,
+# and noisy draws for the predictive band.
+stream_piece_at <- function(stream, p, settings, ndraws) {
   state <- stream$state
   lib <- state$library
   n_t <- lib_n_t(lib)
   cols <- as.vector(outer(seq_len(n_t), (settings - 1L) * n_t, "+"))
   runs <- which(p > 0)
-  Y <- state$outputs[runs, cols, drop = FALSE]
-  w <- p[runs] / sum(p[runs])
-  probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
-  bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   d <- stream_draws(stream, ndraws)
   noisy <- state$outputs[d$run, cols, drop = FALSE] +
     stream_noise(stream, d, state$group[cols], length(settings))
-  pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE)
   sums <- tabulate(state$data$column, ncol(state$outputs))
   totals <- vapply(split(state$data$y, factor(state$data$column,
                                               levels = seq_len(ncol(state$outputs)))),
                    sum, numeric(1))
   observed <- ifelse(sums > 0, totals / pmax(sums, 1), NA_real_)[cols]
-  cbind(setting_cells(lib, settings), observed = observed, mean = colSums(Y * w),
-        lower = bounds[1, ], upper = bounds[2, ], pred_lower = pred[1, ],
-        pred_upper = pred[2, ])
+  list(cells = cbind(setting_cells(lib, settings), observed = observed),
+       Y = state$outputs[runs, cols, drop = FALSE], w = p[runs], noisy = noisy)
 }
 
 # At new settings `x_new`: the simulator at the runs carrying `run_mass`
 # of the posterior, the draws of those runs for the predictive band.
-stream_predict_new <- function(stream, p, x_new, level, ndraws, simulator, run_mass) {
+stream_piece_new <- function(stream, p, x_new, ndraws, simulator, run_mass) {
   state <- stream$state
   lib <- state$library
   n_t <- lib_n_t(lib)
@@ -119,20 +137,15 @@ stream_predict_new <- function(stream, p, x_new, level, ndraws, simulator, run_m
   o <- visited[order(-p[visited], visited)]
   runs <- sort(o[seq_len(which(cumsum(p[o]) >= run_mass * sum(p) - 1e-12)[1])])
   Y <- simulate_at(simulator, lib_theta(lib)[runs, , drop = FALSE], x_new, nrow(x_new) * n_t)
-  w <- p[runs] / sum(p[runs])
-  probs <- c((1 - level) / 2, 1 - (1 - level) / 2)
-  bounds <- apply(Y, 2, weighted_quantile, w = w, probs = probs)
   # exact draws, those of the runs simulated (all but the left-out mass)
   d <- stream_draws(stream, ndraws)
   d <- d[d$run %in% runs, , drop = FALSE]
   noisy <- Y[match(d$run, runs), , drop = FALSE] + stream_noise(stream, d, groups, nrow(x_new))
-  pred <- apply(noisy, 2, stats::quantile, probs = probs, names = FALSE)
   cells <- stats::setNames(data.frame(rep(NA_integer_, nrow(x_new) * n_t)), setting_column(lib))
   cells <- cbind(cells, x_new[rep(seq_len(nrow(x_new)), each = n_t), , drop = FALSE],
                  t = rep(lib_t(lib), nrow(x_new)))
   rownames(cells) <- NULL
-  cbind(cells, observed = NA_real_, mean = colSums(Y * w), lower = bounds[1, ],
-        upper = bounds[2, ], pred_lower = pred[1, ], pred_upper = pred[2, ])
+  list(cells = cbind(cells, observed = NA_real_), Y = Y, w = p[runs], noisy = noisy)
 }
 
 # The noise group of each cell at `n_new` new settings: its t's, which must
@@ -163,4 +176,102 @@ stream_noise <- function(stream, d, group, n_set) {
     }
   }
   out
+}
+
+#' Predictions averaged over a model choice
+#'
+#' The prediction of a [stream_models()] choice: each model's stream
+#' predicts as [predict.griddy_stream()] does, and the models' predictions
+#' are mixed by their current posterior probabilities (Bayesian model
+#' averaging; with `forgetting` < 1, the discounted probabilities the choice
+#' holds). `mean` is the probability-weighted mean, `lower` and `upper` the
+#' quantiles of the mixture over every model's runs (each run weighted by
+#' its model's probability times its posterior mass in that model), and
+#' `pred_lower`, `pred_upper` the quantiles of `ndraws` draws of a new
+#' measurement, each from a model drawn by its probability. While the
+#' models disagree, the band spans both; once one model holds the
+#' probability, the prediction is that model's.
+#'
+#' At x settings no model's library holds, each model's simulator runs at
+#' its own posterior runs: `simulator` is then one `function(theta, x)` for
+#' every model (models that share a simulator), or a named list of them, one
+#' per model (`names(m$streams)`). The models' libraries must hold the same
+#' x settings and t values (as the same measurements reach them all); if
+#' not, the prediction is an error of class `griddy_error_unsupported`.
+#'
+#' @param object A [stream_models()] choice with at least one measurement.
+#' @param simulator `NULL`, a `function(theta, x)` (see
+#'   [predict.griddy_fit()]) used for every model, or a list of them named
+#'   by the models.
+#' @inheritParams predict.griddy_fit
+#' @return A data.frame as [predict.griddy_stream()]'s.
+#' @seealso [stream_models()], [predict.griddy_stream()], [next_measurement()]
+#' @examples
+#' ex <- griddy_example()
+#' lib <- ex$library
+#' rival <- sim_library(lib$theta, 0.9 * lib$y, x = lib$x, t = lib$t)
+#' m <- stream_models(spring = griddy_stream(lib), damped = griddy_stream(rival))
+#' m <- update(m, y = ex$field)
+#' head(predict(m, seed = 1))
+#' @export
+predict.griddy_stream_models <- function(object, newdata = NULL, level = 0.95, ndraws = 1000,
+                                         seed = NULL, simulator = NULL, run_mass = 0.999,
+                                         ...) {
+  assert_level(level)
+  ndraws <- assert_count(ndraws, "ndraws")
+  seed <- assert_seed(seed)
+  state <- object$state
+  models <- names(state$streams)
+  simulators <- model_simulators(simulator, models)
+  prob <- exp(state$log_prob)
+  per_model <- Map(function(stream, sim) {
+    stream_prediction_pieces(stream, newdata, ndraws, seed, sim, run_mass)
+  }, state$streams, simulators)
+  assert_same_cells(per_model, models)
+  # the model of each draw of a new measurement, by its probability
+  n_from <- with_seed(seed, as.vector(stats::rmultinom(1L, ndraws, prob)))
+  mixed <- lapply(seq_along(per_model[[1]]$pieces), function(k) {
+    pieces <- lapply(per_model, function(m) m$pieces[[k]])
+    list(cells = pieces[[1]]$cells,
+         Y = do.call(rbind, lapply(pieces, `[[`, "Y")),
+         w = unlist(Map(function(piece, pm) pm * piece$w / sum(piece$w), pieces, prob)),
+         noisy = do.call(rbind, Map(function(piece, n) {
+           piece$noisy[seq_len(min(n, nrow(piece$noisy))), , drop = FALSE]
+         }, pieces, n_from)))
+  })
+  prediction_from_pieces(list(pieces = mixed, order = per_model[[1]]$order), level)
+}
+
+# One simulator per model: NULL for all, one function for all, or a list
+# named by the models.
+model_simulators <- function(simulator, models) {
+  if (is.null(simulator) || is.function(simulator)) {
+    return(stats::setNames(rep(list(simulator), length(models)), models))
+  }
+  if (!is.list(simulator) || is.null(names(simulator)) ||
+      !setequal(names(simulator), models) || !all(vapply(simulator, is.function, TRUE))) {
+    griddy_abort("`simulator` must be NULL, a function(theta, x) for every model, or a list of ",
+                 "functions named by the models (", paste(models, collapse = ", "), ").",
+                 class = "input")
+  }
+  simulator[models]
+}
+
+# The models' predictions mix cell by cell only when they are of the same
+# cells: the same x settings and t values in the same order.
+assert_same_cells <- function(per_model, models) {
+  # the cells' x columns and t: all but the setting's library row (first) and `observed`
+  key <- function(m) {
+    lapply(m$pieces, function(piece) piece$cells[-c(1L, ncol(piece$cells))])
+  }
+  first <- key(per_model[[1]])
+  same <- vapply(per_model, function(m) {
+    identical(m$order, per_model[[1]]$order) && isTRUE(all.equal(key(m), first))
+  }, TRUE)
+  if (!all(same)) {
+    griddy_abort("predict() of a model choice mixes its models cell by cell, so their libraries ",
+                 "must hold the same x settings and t values; model(s) ",
+                 paste(models[!same], collapse = ", "), " differ from ", models[1], ".",
+                 class = "unsupported")
+  }
 }

@@ -92,3 +92,64 @@ test_that("a stream's new settings without a simulator are a classed error", {
                class = "griddy_error_input")
   expect_error(predict(griddy_stream(m$library)), class = "griddy_error_input")
 })
+
+# Two models of the simple machine: theta x, and a rival theta x^2 / 2.
+machine_models <- function(n_meas = 11) {
+  m <- stream_machine()
+  rival_sim <- function(theta, x) outer(theta$theta, x$x^2 / 2)
+  rival <- sim_library(lib_theta(m$library), rival_sim(lib_theta(m$library), m$x), x = m$x)
+  choice <- stream_models(line = griddy_stream(m$library), square = griddy_stream(rival))
+  y <- m$field$y[seq_len(n_meas), 1]
+  choice <- update(choice, y = y, x = m$x[seq_len(n_meas), , drop = FALSE],
+                   t = rep(1, n_meas))
+  list(m = m, choice = choice, sims = list(line = m$simulator, square = rival_sim))
+}
+
+test_that("a model choice predicts its models' predictions mixed by their probabilities", {
+  mm <- machine_models(n_meas = 2)
+  prob <- exp(mm$choice$state$log_prob)
+  expect_true(all(prob > 0.05))  # a choice not yet made
+  p <- predict(mm$choice, ndraws = 4000, seed = 1)
+  each <- lapply(mm$choice$streams, predict, ndraws = 4000, seed = 1)
+  expect_equal(p$mean, prob[1] * each$line$mean + prob[2] * each$square$mean)
+  # the bounds are the mixture's quantiles over both models' runs
+  post <- lapply(mm$choice$streams, function(s) stream_margins(s)$run)
+  Y <- rbind(lib_outputs(mm$choice$streams$line$state$library),
+             lib_outputs(mm$choice$streams$square$state$library))
+  w <- c(prob[1] * post[[1]], prob[2] * post[[2]])
+  expect_equal(p$upper, apply(Y, 2, weighted_quantile, w = w, probs = 0.975))
+  # where the models disagree most (x = 4: 4 theta against 8 theta) the band spans both
+  far <- nrow(p)
+  expect_lt(p$lower[far], min(each$line$upper[far], each$square$upper[far]))
+  expect_gt(p$upper[far], max(each$line$lower[far], each$square$lower[far]))
+  expect_equal(p$observed, each$line$observed)
+})
+
+test_that("a settled model choice predicts as its model, at new settings too", {
+  mm <- machine_models()
+  prob <- exp(mm$choice$state$log_prob)
+  expect_gt(prob[1], 1 - 1e-8)
+  at <- data.frame(x = c(1.52, 6))
+  p <- predict(mm$choice, newdata = at, ndraws = 2000, seed = 1, simulator = mm$sims)
+  line <- predict(mm$choice$streams$line, newdata = at, ndraws = 2000, seed = 1,
+                  simulator = mm$m$simulator)
+  expect_equal(p$mean, line$mean, tolerance = 1e-8)
+  expect_equal(p[c("lower", "upper")], line[c("lower", "upper")], tolerance = 1e-8)
+  expect_equal(p$pred_upper - p$pred_lower, line$pred_upper - line$pred_lower,
+               tolerance = 0.05)
+  # new settings need a simulator for every model
+  expect_error(predict(mm$choice, newdata = at, simulator = list(line = mm$m$simulator)),
+               class = "griddy_error_input")
+  expect_error(predict(mm$choice, newdata = at), class = "griddy_error_prediction")
+})
+
+test_that("models whose libraries hold other settings cannot be mixed", {
+  m <- stream_machine()
+  # settings shifted by one step: they share 10 of their 11
+  shifted <- data.frame(x = m$x$x + 0.38)
+  other <- sim_library(lib_theta(m$library), outer(lib_theta(m$library)$theta, shifted$x),
+                       x = shifted)
+  choice <- stream_models(a = griddy_stream(m$library), b = griddy_stream(other))
+  choice <- update(choice, y = 0.6, x = data.frame(x = 0.96), t = 1)
+  expect_error(predict(choice, ndraws = 50), class = "griddy_error_unsupported")
+})
