@@ -26,7 +26,7 @@ chain_diagnostics <- function(m, rhat = NULL, ess_bulk = NULL) {
     return(data.frame(ess_bulk = NA_real_, ess_tail = NA_real_, rhat = NA_real_,
                       mcse = NA_real_))
   }
-  data.frame(ess_bulk = if (is.null(ess_bulk)) quiet_cap(posterior::ess_bulk(m)) else ess_bulk,
+  data.frame(ess_bulk = if (is.null(ess_bulk)) rank_ess_bulk(m) else ess_bulk,
              ess_tail = quiet_cap(posterior::ess_tail(m)),
              rhat = if (is.null(rhat)) chain_rhat(m) else rhat,
              mcse = quiet_cap(posterior::mcse_mean(m)))
