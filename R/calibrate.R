@@ -259,10 +259,12 @@ sample_sized <- function(problem, update, control, seed, call, start, first = si
   if (short$thin > short$n_iter - short$burn_in || short$n_iter >= control$n_iter) {
     return(sample_problem(problem, update, control, seed, call, start))
   }
-  fit <- sample_problem(problem, update, short, seed, call, start)
+  tables <- sampler_tables(problem, update)
+  fit <- sample_problem(problem, update, short, seed, call, start, tables)
   if (chain_settled(fit)) return(fit)
   again <- proc.time()[["elapsed"]]
-  full <- sample_problem(problem, update, control, seed, call, again)
+  # the same tables (a pass over C at 10^6 runs is not made twice)
+  full <- sample_problem(problem, update, control, seed, call, again, tables)
   # the short run's seconds count too: its precompute as precompute, the
   # rest (its chains and their diagnostics) as sampling
   full$runtime[["precompute"]] <- full$runtime[["precompute"]] + fit$runtime[["precompute"]]
@@ -297,10 +299,12 @@ n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 # Draw the posterior of a calibration problem (validated inputs, C): the
 # sampler half of calibrate(), shared with refine(); the fit it returns is
 # finished by finish_fit(). `start` is the elapsed time at which the call
-# began (validation and precompute count from there).
+# began (validation and precompute count from there); `tables` the
+# sampler's tables, when already computed.
 sample_problem <- function(problem, update, control, seed, call,
-                           start = proc.time()[["elapsed"]]) {
-  tables <- sampler_tables(problem, update)
+                           start = proc.time()[["elapsed"]],
+                           tables = sampler_tables(problem, update)) {
+  force(tables)  # computed here, so that it counts in the precompute
   precompute <- proc.time()[["elapsed"]] - start
   run_all <- function() {
     seeds <- sample.int(.Machine$integer.max, control$chains)

@@ -19,8 +19,10 @@
 #                   the gap screen's 400 cells: no screen)
 #
 # Times: the first call of each function in the process (posterior_exact()
-# first), then the median of `reps` further calls (elapsed seconds; the
-# machine is shared, so the ratios are what count).
+# first; griddy's first calls load what they use, so these are what a
+# fresh session sees), then the median of `reps` further calls (elapsed
+# seconds) and their CPU seconds per call (user + system, every thread).
+# The machine is shared, so the ratios are what count.
 #
 # Run from the package root:
 #   R CMD INSTALL -l /tmp/lib-after . && GRIDDY_LIB=/tmp/lib-after Rscript bench/calibrate-overhead.R after
@@ -95,6 +97,12 @@ elapsed <- function(expr) {
   proc.time()[["elapsed"]] - t0
 }
 median_time <- function(f, n = reps) stats::median(vapply(seq_len(n), function(i) elapsed(f()), 0))
+# CPU seconds (user + system, every thread of the process) per call over n
+# calls: steadier than elapsed seconds on a shared machine
+cpu_time <- function(f, n = reps) {
+  t <- system.time(for (i in seq_len(n)) f())
+  (t[["user.self"]] + t[["sys.self"]]) / n
+}
 
 rows <- list()
 for (name in names(overhead_problems())) {
@@ -109,6 +117,8 @@ for (name in names(overhead_problems())) {
   first_fit <- elapsed(fit <- fit_call())
   t_exact <- median_time(exact)
   t_fit <- median_time(fit_call)
+  cpu_exact <- cpu_time(exact)
+  cpu_fit <- cpu_time(fit_call)
   parts <- vapply(seq_len(reps), function(i) fit_call()$runtime, numeric(3))
   checks <- c(
     exact_margins = median_time(function() G$exact_from_problem(fit, joint = FALSE)),
@@ -122,12 +132,15 @@ for (name in names(overhead_problems())) {
     code = label, problem = name, runs = nrow(p$theta), field_points = length(p$field_y),
     grid_points = nrow(fit$grid), n_iter = fit$control$n_iter, burn_in = fit$control$burn_in,
     first_exact_s = first_exact, first_calibrate_s = first_fit,
+    first_ratio = first_fit / first_exact,
     exact_s = t_exact, calibrate_s = t_fit, ratio = t_fit / t_exact,
+    cpu_exact_s = cpu_exact, cpu_calibrate_s = cpu_fit, cpu_ratio = cpu_fit / cpu_exact,
     precompute_s = stats::median(parts[1, ]), sampling_s = stats::median(parts[2, ]),
     checks_s = stats::median(parts[3, ]),
     t(setNames(checks, paste0("check_", names(checks), "_s"))),
     source = source_note, machine = machine_note())
-  print(rows[[name]][, c("problem", "n_iter", "exact_s", "calibrate_s", "ratio", "sampling_s",
+  print(rows[[name]][, c("problem", "n_iter", "first_ratio", "exact_s", "calibrate_s", "ratio",
+                         "cpu_ratio", "sampling_s",
                          "checks_s", paste0("check_", names(checks), "_s"))], digits = 3)
 }
 out <- do.call(rbind, rows)
