@@ -74,7 +74,6 @@ test_that("a default collapsed chain is sized to the problem, and run in full wh
                    c(sized_chain$n_iter, sized_chain$burn_in))
   expect_identical(nrow(fit$draws), sized_chain$n_iter - sized_chain$burn_in)
   expect_true(chain_settled(fit))
-  # the short chain's draws are the first of the full one's (the same seeds)
   full <- suppressWarnings(calibrate(toy$library, toy$field, seed = 1, n_iter = 35000,
                                      burn_in = 15000), classes = "griddy_warning_gap")
   expect_identical(full$control$n_iter, 35000L)
