@@ -89,8 +89,8 @@ is_flat <- function(m) abs(max(m) - min(m)) < .Machine$double.eps
 basic_rhat <- function(m) {
   if (is_flat(m)) return(NA_real_)
   n <- nrow(m)
-  means <- colMeans(m)
-  within <- mean(colSums(sweep(m, 2L, means)^2) / (n - 1))
+  means <- .colMeans(m, n, ncol(m))
+  within <- mean(.colSums((m - rep(means, each = n))^2, n, ncol(m)) / (n - 1))
   between <- n * stats::var(means)
   sqrt((between / within + n - 1) / n)
 }
@@ -127,10 +127,11 @@ basic_ess <- function(m) {
   n_chains <- ncol(m)
   n <- nrow(m)
   if (n < 3L || is_flat(m)) return(NA_real_)
-  acov <- rowMeans(apply(m, 2L, chain_autocovariance))
+  acov <- .rowMeans(vapply(seq_len(n_chains), function(k) chain_autocovariance(m[, k]),
+                           numeric(n)), n, n_chains)
   mean_var <- acov[1] * n / (n - 1)
   var_plus <- mean_var * (n - 1) / n
-  if (n_chains > 1L) var_plus <- var_plus + stats::var(colMeans(m))
+  if (n_chains > 1L) var_plus <- var_plus + stats::var(.colMeans(m, n, n_chains))
   rho <- rep.int(0, n)
   t <- 0
   even <- 1
