@@ -152,7 +152,10 @@
 #' @param rho_x,rho_t Correlation grids over x settings and output coordinate,
 #'   each in \[0, 1): see [rho_grid()]. 0 (the default) means independence.
 #' @param n_iter Total iterations per chain, burn-in included.
-#' @param burn_in Iterations discarded at the start of each chain.
+#' @param burn_in Iterations discarded at the start of each chain. When
+#'   neither `n_iter` nor `burn_in` is given, the collapsed update's chains
+#'   are sized to the problem: 5,000 iterations (1,000 burn-in) when those
+#'   settle, else `control`'s (see [griddy_control()]).
 #' @param thin Keep every `thin`-th iteration after the burn-in.
 #' @param chains Number of chains.
 #' @param prior The Gamma prior on \eqn{\tau}: a list with `shape` (a) and
@@ -231,11 +234,55 @@ calibrate <- function(library, field, rho_x = 0, rho_t = 0, n_iter = control$n_i
   control <- assert_control(control)
   seed <- assert_seed(seed)
   update <- assert_choice(update, "update", c("collapsed", "thesis"), vector_default = TRUE)
+  sized <- missing(n_iter) && missing(burn_in) && isTRUE(control$sized) &&
+    update == "collapsed"
   control <- sampler_control(n_iter, burn_in, thin, chains, progress)
   problem <- calibration_problem(library, field, rho_x, rho_t, prior, x_power, run_weights,
                                  noise_groups, update, discrepancy)
   check_update_groups(problem, update)
-  finish_fit(sample_problem(problem, update, control, seed, call, start))
+  if (!sized) return(finish_fit(sample_problem(problem, update, control, seed, call, start)))
+  finish_fit(sample_sized(problem, update, control, seed, call, start))
+}
+
+# The default chain of a collapsed-update calibrate() (see ?griddy_control):
+# this long first, and the full `control` length only when its draws have
+# not settled (chain_settled()).
+sized_chain <- list(n_iter = 5000L, burn_in = 1000L)
+# Vehtari et al. (2021) ask for a bulk ESS above 400 before R-hat and the
+# ESS themselves are trusted.
+sized_min_effective <- 400
+
+sample_sized <- function(problem, update, control, seed, call, start, first = sized_chain) {
+  short <- control
+  short$n_iter <- first$n_iter
+  short$burn_in <- first$burn_in
+  if (short$thin > short$n_iter - short$burn_in || short$n_iter >= control$n_iter) {
+    return(sample_problem(problem, update, control, seed, call, start))
+  }
+  tables <- sampler_tables(problem, update)
+  fit <- sample_problem(problem, update, short, seed, call, start, tables)
+  if (chain_settled(fit)) return(fit)
+  again <- proc.time()[["elapsed"]]
+  # the same tables (a pass over C at 10^6 runs is not made twice)
+  full <- sample_problem(problem, update, control, seed, call, again, tables)
+  # the short run's seconds count too: its precompute as precompute, the
+  # rest (its chains and their diagnostics) as sampling
+  full$runtime[["precompute"]] <- full$runtime[["precompute"]] + fit$runtime[["precompute"]]
+  full$runtime[["sampling"]] <- full$runtime[["sampling"]] + again - start -
+    fit$runtime[["precompute"]]
+  full
+}
+
+# Whether a fit's chains pass the convergence checks (warn_convergence()'s
+# rules) with at least sized_min_effective effective draws of the run index.
+chain_settled <- function(fit) {
+  diagnostics <- stored_diagnostics(fit)
+  exact_run <- exact_margins(fit)$run
+  tv <- run_tv_distance(fit$draws$run, exact_run)
+  problems <- convergence_problems(diagnostics$rhat, tv,
+                                   expected_tv(exact_run, diagnostics$effective_draws))
+  length(problems$rhat) == 0L && !problems$tv &&
+    diagnostics$effective_draws >= sized_min_effective
 }
 
 # The thesis's update draws theta given one tau: it has no form for several.
@@ -252,10 +299,12 @@ n_noise_groups <- function(problem) length(problem$setup$group_sizes)
 # Draw the posterior of a calibration problem (validated inputs, C): the
 # sampler half of calibrate(), shared with refine(); the fit it returns is
 # finished by finish_fit(). `start` is the elapsed time at which the call
-# began (validation and precompute count from there).
+# began (validation and precompute count from there); `tables` the
+# sampler's tables, when already computed.
 sample_problem <- function(problem, update, control, seed, call,
-                           start = proc.time()[["elapsed"]]) {
-  tables <- sampler_tables(problem, update)
+                           start = proc.time()[["elapsed"]],
+                           tables = sampler_tables(problem, update)) {
+  force(tables)  # computed here, so that it counts in the precompute
   precompute <- proc.time()[["elapsed"]] - start
   run_all <- function() {
     seeds <- sample.int(.Machine$integer.max, control$chains)

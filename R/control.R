@@ -12,6 +12,18 @@
 #'   35,000).
 #' @param burn_in Iterations dropped from the start of each chain (15,000 in
 #'   the thesis).
+#'
+#'   **Sized to the problem.** When neither `n_iter` nor `burn_in` is given
+#'   (here or to [calibrate()]), a collapsed-update [calibrate()] first runs
+#'   each chain for 5,000 iterations, 1,000 of them burn-in, and keeps that
+#'   run when its draws pass the convergence checks (see [calibrate()]) with
+#'   at least 400 effective draws of the run index; otherwise it runs the
+#'   chains again for `n_iter` and `burn_in` (the thesis's 35,000 and
+#'   15,000). With one correlation grid point the collapsed update draws
+#'   every iteration independently from the exact posterior, so 4,000 kept
+#'   draws are 4,000 independent ones, the number Stan's default run keeps.
+#'   The fit's `control` holds the length that ran. The thesis's update, and
+#'   every other function, runs `n_iter` and `burn_in` as they are.
 #' @param thin Keep every `thin`-th draw after the burn-in.
 #' @param chains Number of chains; under a parallel `future` plan they run on
 #'   its workers.
@@ -34,9 +46,10 @@
 griddy_control <- function(n_iter = 35000, burn_in = 15000, thin = 1, chains = 1,
                            max_runs = 4000, runs_per_round = NULL,
                            progress = interactive()) {
+  sized <- missing(n_iter) && missing(burn_in)
   sampling <- sampler_settings(n_iter, burn_in, thin, chains)
   structure(
-    c(sampling,
+    c(sampling, list(sized = sized),
       list(max_runs = assert_count(max_runs, "max_runs"),
            runs_per_round = if (!is.null(runs_per_round)) {
              assert_count(runs_per_round, "runs_per_round")
@@ -77,6 +90,10 @@ print.griddy_control <- function(x, ...) {
   cat("  chains:     ", x$chains, " x ", format(x$n_iter, big.mark = ","),
       " iterations, ", format(x$burn_in, big.mark = ","), " burn-in, thin ", x$thin, "\n",
       sep = "")
+  if (isTRUE(x$sized)) {
+    cat("              (calibrate(): ", format(sized_chain$n_iter, big.mark = ","), " and ",
+        format(sized_chain$burn_in, big.mark = ","), " while the chains settle)\n", sep = "")
+  }
   cat("  refinement: at most ", format(x$max_runs, big.mark = ","), " runs, ",
       if (is.null(x$runs_per_round)) "runs per round by the number of parameters" else
         paste(x$runs_per_round, "per round"), "\n", sep = "")

@@ -67,8 +67,10 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
 base_check <- function(matched, windows, fdr, runs = NULL) {
   ctx <- gap_context(matched)
   if (is.null(runs)) runs <- seq_len(lib_n_runs(matched$library))
+  # a library without predicted runs has C the plain forms: not recomputed
   terms <- matched_terms(ctx, lib_outputs(matched$library, runs), matched$log_prior_run[runs],
-                         matched$C[runs, , drop = FALSE], matched$library)
+                         matched$C[runs, , drop = FALSE], matched$library,
+                         is_plain = is.null(run_errors(matched$library)))
   terms$rows <- runs
   gap_where(ctx, terms, windows, fdr)
 }

@@ -80,7 +80,15 @@ discrepancy_fit_blocks <- function(fit) {
   }, griddy_error = function(e) NULL)
 }
 
-screen_discrepancy <- function() gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])
+# Built once per session: gp_discrepancy() checks its grids each time, which
+# took a third of a small calibrate() (it is the same object every time).
+screen_discrepancy <- function() {
+  if (is.null(screen_cache$discrepancy)) {
+    screen_cache$discrepancy <- gp_discrepancy(ratio = gp_discrepancy()$ratio[-1])
+  }
+  screen_cache$discrepancy
+}
+screen_cache <- new.env(parent = emptyenv())
 
 # The problem of the screen: library rows `runs` of a fit at its grid point
 # g, with `discrepancy` added to the fit's noise pattern (its observed

@@ -78,9 +78,17 @@ idle_cores <- function(logical, physical = physical_cores(), loadavg = read_load
   min(physical, logical - others)
 }
 
-read_loadavg <- function() {
-  tryCatch(readLines("/proc/loadavg", n = 1L, warn = FALSE)[1],
-           error = function(e) "", warning = function(w) "")
+# The line is read at most once a second (the kernel updates its averages
+# every 5 s): one calibrate() asks for the threads several times, and each
+# read took 5% of a small fit's call.
+read_loadavg <- function(max_age = 1) {
+  now <- proc.time()[["elapsed"]]
+  if (is.null(thread_cache$loadavg) || now - thread_cache$loadavg_at > max_age) {
+    thread_cache$loadavg <- tryCatch(readLines("/proc/loadavg", n = 1L, warn = FALSE)[1],
+                                     error = function(e) "", warning = function(w) "")
+    thread_cache$loadavg_at <- now
+  }
+  thread_cache$loadavg
 }
 
 physical_cores <- function() {

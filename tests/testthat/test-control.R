@@ -66,3 +66,42 @@ test_that("calibrate(control =) gives the draws of the same settings given one b
   expect_error(calibrate(toy$library, toy$field, control = griddy_control), "griddy_control",
                class = "griddy_error_input")
 })
+
+test_that("a default collapsed chain is sized to the problem, and run in full when it has not settled", {
+  toy <- toy_ar1(n_runs = 200, n_t = 30, sd = 0.3, lag_cor = 0)
+  fit <- suppressWarnings(calibrate(toy$library, toy$field, seed = 1), classes = "griddy_warning_gap")
+  expect_identical(c(fit$control$n_iter, fit$control$burn_in),
+                   c(sized_chain$n_iter, sized_chain$burn_in))
+  expect_identical(nrow(fit$draws), sized_chain$n_iter - sized_chain$burn_in)
+  expect_true(chain_settled(fit))
+  full <- suppressWarnings(calibrate(toy$library, toy$field, seed = 1, n_iter = 35000,
+                                     burn_in = 15000), classes = "griddy_warning_gap")
+  expect_identical(full$control$n_iter, 35000L)
+  # a length given, here or in griddy_control(), or the thesis's update, runs as given
+  given <- suppressWarnings(calibrate(toy$library, toy$field, seed = 1, burn_in = 15000),
+                            classes = "griddy_warning_gap")
+  expect_identical(given$control$n_iter, 35000L)
+  expect_false(griddy_control(n_iter = 35000)$sized)
+  expect_true(griddy_control(chains = 2)$sized)
+  # too few effective draws: not settled (200 draws, fewer than 400)
+  short <- suppressWarnings(calibrate(toy$library, toy$field, seed = 1, n_iter = 300,
+                                      burn_in = 100), classes = "griddy_warning_gap")
+  expect_false(chain_settled(short))
+  expect_lt(short$diagnostics$effective_draws, sized_min_effective)
+})
+
+test_that("a sized chain that has not settled runs again at the full length", {
+  toy <- toy_ar1(n_runs = 200, n_t = 30, sd = 0.3, lag_cor = 0)
+  problem <- local_problem(toy$library, toy$field)
+  control <- sampler_control(3000, 1000, 1, 1, FALSE)
+  # a first run of 200 kept draws has fewer than 400 effective ones
+  fit <- sample_sized(problem, "collapsed", control, seed = 1, call = NULL,
+                      start = proc.time()[["elapsed"]], first = list(n_iter = 300L, burn_in = 100L))
+  expect_identical(fit$control$n_iter, 3000L)
+  expect_identical(nrow(fit$draws), 2000L)
+  expect_identical(fit$draws, sample_problem(problem, "collapsed", control, 1, NULL)$draws)
+  # one that has settled is kept
+  kept <- sample_sized(problem, "collapsed", control, seed = 1, call = NULL,
+                       start = proc.time()[["elapsed"]], first = list(n_iter = 1500L, burn_in = 500L))
+  expect_identical(kept$control$n_iter, 1500L)
+})

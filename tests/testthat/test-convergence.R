@@ -106,3 +106,25 @@ test_that("the distance over the runs either posterior visits is the distance ov
   }
   expect_equal(run_tv_distance(rep(6L, 3), exact), 1)
 })
+
+test_that("rank_rhat() and rank_ess_bulk() give posterior's rhat() and ess_bulk()", {
+  set.seed(2)
+  cases <- list(
+    matrix(stats::rnorm(2000), 1000, 2),
+    matrix(stats::rnorm(2001), 2001, 1),                       # odd: the middle draw left out
+    matrix(sample(1:5, 3000, TRUE), 1000, 3),                  # ties, three chains
+    matrix(cumsum(stats::rnorm(3000)), 3000, 1),               # a random walk
+    matrix(stats::arima.sim(list(ar = -0.95), 4000), 2000, 2), # antithetic: the ESS cap
+    matrix(c(rep(1, 9), 2), 5, 2),                             # folded draws all one value
+    matrix(c(rep(c(1, -1), 5), 2, -2), 12, 1))                 # Geyer's sum stops at once
+  for (m in cases) {
+    expect_equal(rank_rhat(m), suppressWarnings(posterior::rhat(m)), tolerance = 1e-12)
+    if (nrow(m) >= 6L) {
+      expect_equal(rank_ess_bulk(m), suppressWarnings(posterior::ess_bulk(m)),
+                   tolerance = 1e-12)
+    }
+  }
+  # draws that are not all finite go to posterior itself
+  m <- matrix(c(stats::rnorm(99), Inf), 50, 2)
+  expect_identical(rank_rhat(m), posterior::rhat(m))
+})

@@ -246,3 +246,9 @@ test_that("a peak between two tiles of t is warned: the block checks scan t", {
   expect_lte(flagged$n, 3L)
   expect_true(flagged$from <= 0.5 && flagged$to >= 0.478)
 })
+
+test_that("the screen's discrepancy is built once and is the one it describes", {
+  screen_cache$discrepancy <- NULL
+  expect_identical(screen_discrepancy(), gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
+  expect_identical(screen_discrepancy(), screen_cache$discrepancy)
+})

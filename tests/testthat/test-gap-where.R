@@ -153,3 +153,24 @@ test_that("overlapping flagged windows are one place, the most significant kept"
                                   data.frame(w = 1:3, x = 1L), list(1:2, 3:4, 5:6)),
                    c(TRUE, FALSE, TRUE))
 })
+
+test_that("precision_rows() is apply_precision() of every row, Kronecker and dense", {
+  xt <- toy_xt()
+  miss <- toy_missing()
+  fits <- list(
+    kron = suppressWarnings(calibrate(xt$library, xt$field, rho_x = list(load = c(0, 0.5), speed = 0),
+                                      rho_t = c(0, 0.6), n_iter = 200, burn_in = 50, seed = 1)),
+    dense = suppressWarnings(calibrate(miss$library, miss$field, rho_t = c(0, 0.6), n_iter = 200,
+                                       burn_in = 50, seed = 1)))
+  for (fit in fits) {
+    ctx <- gap_context(fit)
+    Y <- lib_outputs(fit$library, 1:5)
+    E <- rep(ctx$y[ctx$obs], each = 5) - Y[, ctx$obs, drop = FALSE]
+    for (point in ctx$points) {
+      one <- t(vapply(1:5, function(i) apply_precision(ctx, point, E[i, ]), numeric(ncol(E))))
+      expect_equal(precision_rows(ctx, point, E), one, tolerance = 1e-12)
+    }
+  }
+  expect_true(gap_context(fits$dense)$is_dense)
+  expect_false(gap_context(fits$kron)$is_dense)
+})

@@ -54,3 +54,11 @@ test_that("the default leaves out the cores that other work keeps busy", {
   expect_identical(idle(""), 4)
   expect_identical(idle(NA_character_), 4)
 })
+
+test_that("the load average is read at most once a second", {
+  thread_cache$loadavg <- "0.00 0.00 0.00 1/100 1"
+  thread_cache$loadavg_at <- proc.time()[["elapsed"]]
+  expect_identical(read_loadavg(), "0.00 0.00 0.00 1/100 1")
+  skip_if_not(file.exists("/proc/loadavg"))
+  expect_false(identical(read_loadavg(max_age = -1), "0.00 0.00 0.00 1/100 1"))
+})
