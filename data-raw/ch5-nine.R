@@ -151,10 +151,19 @@ scan_step_jump <- scan[, .(largest_step = max(abs(diff(log_lik_drop))),
 print(scan_step_jump)
 results <- lapply(results, function(r) { r$refined_fit <- NULL; r })
 
+# What this script shipped before the contact events were located within the
+# time step (commit 9daa721, same seeds and budget): the scan's largest jumps
+# between neighbouring values, the refined fits' effective runs, and a probe
+# (disc only, 9,000 added runs, not shipped) that still had 13.3.
+before_contact_events <- list(largest_step = c(k = 10.99364, c = 11.49883),
+                              effective_runs = c(patch = 12.845205, disc = 1.023805),
+                              probe_runs_added = 9000, probe_effective_runs = 13.3)
+
 elapsed <- proc.time()[["elapsed"]] - t_script
 saveRDS(list(ranges = ranges, seeds = seeds, n_base = n_base, max_runs = max_runs,
              results = results, log_bf_disc_patch = log_bf_disc_patch,
              scan = scan, scan_step_jump = scan_step_jump,
+             before_contact_events = before_contact_events,
              elapsed = elapsed, date = Sys.time()),
         "inst/extdata/ch5_nine.rds", compress = "xz")
 cat("total", round(elapsed, 1), "s\n")
