@@ -283,8 +283,11 @@ test_that("end to end: a small tyre library calibrates to within one library ste
 # a stage evaluation, so the outputs jumped as k or c moved it across one:
 # the log likelihood of chapter 5's PAC2002-style data jumped by up to 11
 # units between neighbouring values 0.005 N/mm apart.  With the events
-# located within the step it is smooth.  (The fixed-step code gives jumps of
-# 4.7 and 8.6 log units here: bench/tyre-contact.R.)
+# located within the step it is smooth.  Measure: the second differences of
+# the log likelihood along a line (a smooth curve's are small and alike; a
+# jump of J gives two of about J).  Here they are at most 0.01 (k) and 0.05
+# (c); the fixed-step code gave 8.5 and 8.0 (and first differences of 8.8
+# and 9.1 log units).
 test_that("the disc's likelihood is smooth in k and c near chapter 5's nine-parameter fit", {
   obs <- as.vector(tyre_cleat_model(450, 1.5, model = "pac2002", height = 41.2))
   obs <- obs + withr::with_seed(502, stats::rnorm(length(obs), sd = 60))
@@ -295,10 +298,7 @@ test_that("the disc's likelihood is smooth in k and c near chapter 5's nine-para
     ss <- rowSums((tyre_cleat_model(th, height = 41.2, contact = "disc") -
                      rep(obs, each = 21))^2)
     log_lik <- -length(obs) / 2 * log(ss)
-    # neighbours: at most a tenth of a log unit apart, and the curve bends
-    # one way (a smooth peak's second differences are all alike)
-    expect_lt(max(abs(diff(log_lik))), 0.1)
-    expect_lt(max(abs(diff(log_lik, differences = 2))), 0.01)
+    expect_lt(max(abs(diff(log_lik, differences = 2))), 0.5)
   }
 })
 
