@@ -21,16 +21,19 @@
 # Their ranges are ours (typical Fiala .tir values, assumption; the thesis
 # gives none): a 9-dimensional prior box the refinement has to cover.
 #
+# Issue 35, item 4: rerun after the stand-in's contact events (touch-down,
+# lift-off, the disc's contact point jumping onto the cleat) are located
+# within the time step (src/tyre_model.cpp). Before, the fixed step put them
+# at stage evaluations and the likelihood jumped by up to 11 log units
+# between neighbouring runs (the scan below); neither refinement resolved
+# (12.8 and 1.0 effective runs of 180 after 3,000 added runs each).
+#
 # Run from the package root:
 #   Rscript -e 'pkgload::load_all(".", quiet = TRUE); source("data-raw/ch5-nine.R")'
-# Writes inst/extdata/ch5_nine.rds. Took 165 s on a shared 2-core machine
-# at load average about 2 (the disc's roughness scan included). Neither refinement resolves in 3,000 added runs (12.8
-# and 1.0 effective runs); see vignette("chapter5").
-# Not shipped, a probe (same script, disc only, max_runs <- 9000): 9,000
-# added runs in 20 rounds, 288 s in all, still stopped at max_runs with 13.3
-# effective runs; k [489.2, 489.8] N/mm, c [1.503, 1.506] N s/mm, the seven
-# inert parameters now spread over 0.7-0.9 of their ranges, log evidence
-# -8832.5 (-8835.6 after 3,000 runs, -10163.2 on the base library).
+# Writes inst/extdata/ch5_nine.rds. Took 2,193 s on the shared 2-core machine
+# at load average 9-11, with pkgload::load_all()'s unoptimised (-O0) build
+# (the simulator runs dominate). Neither refinement resolves in 3,000 added
+# runs (112 and 2.2 effective runs of 180); see vignette("chapter5").
 
 library(data.table)
 setDTthreads(1)
@@ -115,17 +118,14 @@ results <- lapply(c(patch = "patch", disc = "disc"), one_contact)
 log_bf_disc_patch <- results$disc$refined$log_evidence - results$patch$refined$log_evidence
 cat("log Bayes factor, disc over patch:", log_bf_disc_patch, "\n")
 
-# Why the disc posterior does not resolve: its likelihood is rough at the
-# scale of the posterior. Along k and along c through the disc fit's most
-# probable run, the misfit in log-likelihood units (n/2 log of the sum of
-# squares over its smallest, the likelihood with the noise integrated out
-# under independent errors) at 41 steps each, over +-0.1 N/mm in k and
-# +-0.001 N s/mm in c: a smooth likelihood would trace one parabola; the
-# stand-in's fixed-step integration of the wheel over the cleat (contact
-# switching at time steps) gives jumps of several log units between
-# neighbouring values. field$y is heights x samples, the simulator's row
-# blocks by height: hence t() (an earlier version of this scan compared them
-# interleaved).
+# Is the likelihood smooth at the scale of the posterior? Along k and along
+# c through each fit's most probable run, the misfit in log-likelihood units
+# (n/2 log of the sum of squares over its smallest, the likelihood with the
+# noise integrated out under independent errors) at 41 steps each, over
+# +-0.1 N/mm in k and +-0.001 N s/mm in c: a smooth likelihood traces one
+# parabola. With the fixed-step code (contact switching at time steps) the
+# disc's jumped by up to 11 log units between neighbouring values. field$y is
+# heights x samples, the simulator's row blocks by height: hence t().
 roughness_scan <- function(r, contact, half_width) {
   f <- r$refined_fit
   th <- lib_theta(f$library)
@@ -143,19 +143,30 @@ roughness_scan <- function(r, contact, half_width) {
                log_lik_drop = n / 2 * log(ss / min(ss)))
   }))
 }
-scan <- roughness_scan(results$disc, "disc", c(k = 0.1, c = 0.001))
+scan <- rbindlist(lapply(names(results), function(ct) {
+  cbind(contact = ct, roughness_scan(results[[ct]], ct, c(k = 0.1, c = 0.001)))
+}))
 # per parameter: the largest jump between neighbouring values, and the
 # number of local minima along the line (1 for a smooth peak)
 scan_step_jump <- scan[, .(largest_step = max(abs(diff(log_lik_drop))),
                            local_minima = sum(diff(sign(diff(log_lik_drop))) > 0),
-                           step = diff(offset[1:2])), by = parameter]
+                           step = diff(offset[1:2])), by = .(contact, parameter)]
 print(scan_step_jump)
 results <- lapply(results, function(r) { r$refined_fit <- NULL; r })
+
+# What this script shipped before the contact events were located within the
+# time step (commit 9daa721, same seeds and budget): the scan's largest jumps
+# between neighbouring values, the refined fits' effective runs, and a probe
+# (disc only, 9,000 added runs, not shipped) that still had 13.3.
+before_contact_events <- list(largest_step = c(k = 10.99364, c = 11.49883),
+                              effective_runs = c(patch = 12.845205, disc = 1.023805),
+                              probe_runs_added = 9000, probe_effective_runs = 13.3)
 
 elapsed <- proc.time()[["elapsed"]] - t_script
 saveRDS(list(ranges = ranges, seeds = seeds, n_base = n_base, max_runs = max_runs,
              results = results, log_bf_disc_patch = log_bf_disc_patch,
              scan = scan, scan_step_jump = scan_step_jump,
+             before_contact_events = before_contact_events,
              elapsed = elapsed, date = Sys.time()),
         "inst/extdata/ch5_nine.rds", compress = "xz")
 cat("total", round(elapsed, 1), "s\n")

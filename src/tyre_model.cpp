@@ -1,6 +1,8 @@
 // Vertical dynamics of one wheel on a constant-load tyre rig rolling over a
 // cleat (Stewart 2023, chapter 5 stand-in).  Fixed-step RK4 on the wheel-centre
-// height; Fiala or PAC2002-style vertical force; point-follower, rigid-disc or
+// height with the contact events (touch-down, lift-off, the disc's contact
+// point jumping to the cleat) located within the step; Fiala or
+// PAC2002-style vertical force; point-follower, rigid-disc or
 // rectangular-patch (uniform pressure) contact.
 //
 // All inputs are SI and validated on the R side (R/standin-tyre.R).
@@ -8,6 +10,7 @@
 #include <RcppArmadillo.h>
 #include <cmath>
 #include <algorithm>
+#include <limits>
 
 namespace {
 
@@ -116,45 +119,52 @@ inline double box_dist2(double px, double pz, double x0, double x1, double z0, d
   return dx * dx + dz * dz;
 }
 
-// Rigid disc: closest road point to the wheel centre (px, pz).
-// Returns the distance and the unit normal (road -> centre).
-double disc_contact(const Cleat& c, double px, double pz, double* nx, double* nz) {
-  const double xa = c.xc, xb = c.xc + c.b, xd = c.xc + c.len - c.b, xe = c.xc + c.len;
-  // flat road before and after the cleat
-  double cx = std::min(px, xa), cz = 0.0;
-  double best = (px - cx) * (px - cx) + pz * pz;
-  {
-    const double x = std::max(px, xe);
-    const double d = (px - x) * (px - x) + pz * pz;
-    if (d < best) { best = d; cx = x; cz = 0.0; }
-  }
-  // cleat top
+// Rigid disc, split in two: the nearest point of the flat road (before and
+// after the cleat) and the nearest point of the cleat (ramps and top).  The
+// disc's contact point is the nearer of the two.  Each part's nearest point
+// moves continuously with the wheel centre (the cleat's top corners are
+// convex, the flat road is flat); the contact point jumps from one part to
+// the other where both are equally near, which is a contact event of its own
+// (see simulate()).
+struct Nearest { double d, x, z; };
+
+Nearest flat_nearest(const Cleat& c, double px, double pz) {
+  const double xa = c.xc, xe = c.xc + c.len;
+  double x = std::min(px, xa);
+  double best = (px - x) * (px - x) + pz * pz;
+  const double xr = std::max(px, xe);
+  const double dr = (px - xr) * (px - xr) + pz * pz;
+  if (dr < best) { best = dr; x = xr; }
+  return Nearest{std::sqrt(best), x, 0.0};
+}
+
+// The cleat's nearest point; ramps whose bounding box lies at least `bound`
+// away are skipped (the result is then only known to be >= bound, and d is
+// returned as bound).
+Nearest cleat_nearest(const Cleat& c, double px, double pz, double bound) {
+  const double xb = c.xc + c.b, xd = c.xc + c.len - c.b;
+  double best = bound * bound, cx = px, cz = c.h;
+  bool found = false;
   if (xd > xb) {
     const double x = std::min(std::max(px, xb), xd);
     const double d = (px - x) * (px - x) + (pz - c.h) * (pz - c.h);
-    if (d < best) { best = d; cx = x; cz = c.h; }
+    if (d < best) { best = d; cx = x; found = true; }
   }
-  // ramps (only when they could be closer)
-  const double ramp_x0[2] = {xa, xd};
+  const double ramp_x0[2] = {c.xc, xd};
   for (int r = 0; r < 2; ++r) {
     if (box_dist2(px, pz, ramp_x0[r], ramp_x0[r] + c.b, 0.0, c.h) >= best) continue;
     double x;
     const double d = ramp_closest(c, ramp_x0[r], px, pz, &x);
-    if (d < best) { best = d; cx = x; cz = c.height(x); }
+    if (d < best) { best = d; cx = x; cz = c.height(x); found = true; }
   }
-  const double dist = std::sqrt(best);
-  if (dist > 0.0) {
-    *nx = (px - cx) / dist;
-    *nz = (pz - cz) / dist;
-  } else {
-    *nx = 0.0;
-    *nz = 1.0;
-  }
-  return dist;
+  if (!found) return Nearest{bound, px, 0.0};
+  return Nearest{std::sqrt(best), cx, cz};
 }
 
-// Spring part of the normal force for deflection rho > 0.
-inline double spring_force(const TyreSettings& s, double k, double rho) {
+// Spring part of the normal force for deflection rho (also for rho <= 0,
+// where it is the smooth continuation the event location steps through);
+// `bottomed` adds the rim-bottoming spring.
+inline double spring_force(const TyreSettings& s, double k, double rho, bool bottomed) {
   double f;
   if (s.model == 0) {
     f = k * rho;
@@ -165,37 +175,8 @@ inline double spring_force(const TyreSettings& s, double k, double rho) {
     f = sv * ((qfz1 + s.qfz3 * s.camber * s.camber) * x + s.qfz2 * x * x) *
         (1.0 + s.qpfz1 * s.dpi) * s.fz0;
   }
-  if (s.bottom_stiffness > 0.0 && rho > s.bottom_deflection) {
-    f += s.bottom_stiffness * (rho - s.bottom_deflection);
-  }
+  if (bottomed) f += s.bottom_stiffness * (rho - s.bottom_deflection);
   return f;
-}
-
-// Vertical force on the wheel at time t for centre height z, velocity w;
-// `half_patch` is the half-length of the contact patch (patch contact only).
-inline double vertical_force(const TyreSettings& s, const Cleat& cl, double k, double c,
-                             double half_patch, double t, double z, double w) {
-  const double x = s.speed * t;
-  double rho, rhodot, nz = 1.0;
-  if (s.contact == 0) {
-    rho = s.r0 - (z - cl.height(x));
-    rhodot = -w + s.speed * cl.slope(x);
-  } else if (s.contact == 2) {
-    // uniform pressure over [x - a, x + a]: the road height the tyre feels is
-    // the patch mean, and its rate the difference of the two patch ends
-    const double a = half_patch;
-    const double mean_height = (cl.area(x + a) - cl.area(x - a)) / (2.0 * a);
-    rho = s.r0 - (z - mean_height);
-    rhodot = -w + s.speed * (cl.height(x + a) - cl.height(x - a)) / (2.0 * a);
-  } else {
-    double nx;
-    const double d = disc_contact(cl, x, z, &nx, &nz);
-    rho = s.r0 - d;
-    rhodot = -(nx * s.speed + nz * w);
-  }
-  if (rho <= 0.0) return 0.0;
-  const double fn = spring_force(s, k, rho) + c * rhodot;
-  return fn > 0.0 ? fn * nz : 0.0;
 }
 
 // Static deflection: spring_force(rho0) = load (bisection; monotone law).
@@ -203,7 +184,8 @@ double static_deflection(const TyreSettings& s, double k) {
   double lo = 0.0, hi = s.r0;
   for (int it = 0; it < 200; ++it) {
     const double mid = 0.5 * (lo + hi);
-    if (spring_force(s, k, mid) < s.load) lo = mid; else hi = mid;
+    const bool bottomed = s.bottom_stiffness > 0.0 && mid > s.bottom_deflection;
+    if (spring_force(s, k, mid, bottomed) < s.load) lo = mid; else hi = mid;
     if (hi - lo < 1e-15) break;
   }
   return 0.5 * (lo + hi);
@@ -218,30 +200,173 @@ double patch_half_length(const TyreSettings& s, double k) {
   return std::sqrt(rho0 * (2.0 * s.r0 - rho0));
 }
 
-void simulate(const TyreSettings& s, const Cleat& cl, double k, double c, double* out) {
-  const double dt = s.sample_interval / s.steps_per_sample;
-  const double m = s.mass;
-  const double a = s.contact == 2 ? patch_half_length(s, k) : 0.0;
-  double z = s.r0 - static_deflection(s, k), w = 0.0, t = 0.0;
-  double f_now = vertical_force(s, cl, k, c, a, t, z, w);
-  for (int j = 0; j < s.n_samples; ++j) {
-    double acc = 0.0;
-    for (int i = 0; i < s.steps_per_sample; ++i) {
-      const double k1z = w, k1w = (f_now - s.load) / m;
-      const double z2 = z + 0.5 * dt * k1z, w2 = w + 0.5 * dt * k1w;
-      const double k2z = w2, k2w = (vertical_force(s, cl, k, c, a, t + 0.5 * dt, z2, w2) - s.load) / m;
-      const double z3 = z + 0.5 * dt * k2z, w3 = w + 0.5 * dt * k2w;
-      const double k3z = w3, k3w = (vertical_force(s, cl, k, c, a, t + 0.5 * dt, z3, w3) - s.load) / m;
-      const double z4 = z + dt * k3z, w4 = w + dt * k3w;
-      const double k4z = w4, k4w = (vertical_force(s, cl, k, c, a, t + dt, z4, w4) - s.load) / m;
-      z += dt / 6.0 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z);
-      w += dt / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
-      t = (static_cast<double>(j) * s.steps_per_sample + i + 1) * dt;
-      const double f_next = vertical_force(s, cl, k, c, a, t, z, w);
-      acc += 0.5 * (f_now + f_next);   // trapezoid over the step
-      f_now = f_next;
+// Which branch of the piecewise force law holds.  The force is smooth within
+// a mode and changes its formula where one of these switches: the tyre
+// touches or leaves the road (rho = 0, where the damping term makes the force
+// jump), the normal force would turn into tension (fn = 0), the rim bottoms
+// (rho = bottom deflection), or the disc's contact point jumps between the
+// flat road and the cleat.  A fixed step that ran across such a switch would
+// place it at a stage evaluation, and a tiny change of k or c would move it
+// by a whole stage: the outputs, and the likelihood, would jump between
+// neighbouring parameter values.
+struct Mode { bool contact, pushing, bottomed, on_cleat; };
+
+// Deflection, its rate, the vertical share of the normal, and the switching
+// values, at time t for centre height z and velocity w.
+struct Contact { double rho, rhodot, nz, gap_switch; };
+
+class Wheel {
+ public:
+  Wheel(const TyreSettings& s, const Cleat& cl, double k, double c)
+      : s_(s), cl_(cl), k_(k), c_(c), a_(s.contact == 2 ? patch_half_length(s, k) : 0.0) {}
+
+  // Contact geometry on the mode's branch; with `both`, also the sign of the
+  // disc's switch (flat distance minus cleat distance, > 0: the cleat is nearer).
+  Contact geometry(double t, double z, double w, bool on_cleat, bool both) const {
+    const double x = s_.speed * t;
+    Contact g{0.0, 0.0, 1.0, 0.0};
+    if (s_.contact == 0) {
+      g.rho = s_.r0 - (z - cl_.height(x));
+      g.rhodot = -w + s_.speed * cl_.slope(x);
+    } else if (s_.contact == 2) {
+      // uniform pressure over [x - a, x + a]: the road height the tyre feels is
+      // the patch mean, and its rate the difference of the two patch ends
+      const double a = a_;
+      const double mean_height = (cl_.area(x + a) - cl_.area(x - a)) / (2.0 * a);
+      g.rho = s_.r0 - (z - mean_height);
+      g.rhodot = -w + s_.speed * (cl_.height(x + a) - cl_.height(x - a)) / (2.0 * a);
+    } else {
+      const Nearest f = flat_nearest(cl_, x, z);
+      Nearest n = f;
+      if (on_cleat) {
+        n = cleat_nearest(cl_, x, z, std::numeric_limits<double>::infinity());
+        if (both) g.gap_switch = f.d - n.d;
+      } else if (both) {
+        g.gap_switch = f.d - cleat_nearest(cl_, x, z, f.d).d;   // <= 0 when pruned
+      }
+      double nx = 0.0;
+      if (n.d > 0.0) { nx = (x - n.x) / n.d; g.nz = (z - n.z) / n.d; }
+      g.rho = s_.r0 - n.d;
+      g.rhodot = -(nx * s_.speed + g.nz * w);
     }
-    out[j] = s.sample_mean ? acc / s.steps_per_sample : f_now;
+    return g;
+  }
+
+  double normal_force(const Contact& g, bool bottomed) const {
+    return spring_force(s_, k_, g.rho, bottomed) + c_ * g.rhodot;
+  }
+
+  // Vertical force with the mode frozen (smooth in t, z, w).
+  double force(double t, double z, double w, const Mode& m) const {
+    if (!m.contact || !m.pushing) return 0.0;
+    const Contact g = geometry(t, z, w, m.on_cleat, false);
+    return normal_force(g, m.bottomed) * g.nz;
+  }
+
+  // The mode that holds at (t, z, w).
+  Mode mode_at(double t, double z, double w) const {
+    Mode m{false, false, false, false};
+    if (s_.contact == 1) m.on_cleat = geometry(t, z, w, false, true).gap_switch > 0.0;
+    const Contact g = geometry(t, z, w, m.on_cleat, false);
+    m.contact = g.rho > 0.0;
+    m.bottomed = s_.bottom_stiffness > 0.0 && g.rho > s_.bottom_deflection;
+    m.pushing = normal_force(g, m.bottomed) > 0.0;
+    return m;
+  }
+
+  // Does the mode m still hold at (t, z, w)?  If so, also the force there.
+  bool holds(double t, double z, double w, const Mode& m, double* f) const {
+    const Contact g = geometry(t, z, w, m.on_cleat, true);
+    if (s_.contact == 1 && (g.gap_switch > 0.0) != m.on_cleat) return false;
+    if ((g.rho > 0.0) != m.contact) return false;
+    if (s_.bottom_stiffness > 0.0 && (g.rho > s_.bottom_deflection) != m.bottomed) return false;
+    if (!m.contact) { *f = 0.0; return true; }
+    const double fn = normal_force(g, m.bottomed);
+    if ((fn > 0.0) != m.pushing) return false;
+    *f = m.pushing ? fn * g.nz : 0.0;
+    return true;
+  }
+
+  // One classical RK4 step of size h from (t, z, w) with the mode frozen;
+  // f0 is the force at the start.  *impulse is the step's integral of Fz by
+  // the same quadrature that updates w (so it is >= 0, as Fz is).
+  void rk4(double t, double z, double w, double f0, double h, const Mode& m,
+           double* z1, double* w1, double* impulse) const {
+    const double mass = s_.mass, load = s_.load;
+    const double k1z = w, k1w = (f0 - load) / mass;
+    const double z2 = z + 0.5 * h * k1z, w2 = w + 0.5 * h * k1w;
+    const double f2 = force(t + 0.5 * h, z2, w2, m);
+    const double k2z = w2, k2w = (f2 - load) / mass;
+    const double z3 = z + 0.5 * h * k2z, w3 = w + 0.5 * h * k2w;
+    const double f3 = force(t + 0.5 * h, z3, w3, m);
+    const double k3z = w3, k3w = (f3 - load) / mass;
+    const double z4 = z + h * k3z, w4 = w + h * k3w;
+    const double f4 = force(t + h, z4, w4, m);
+    const double k4z = w4, k4w = (f4 - load) / mass;
+    *z1 = z + h / 6.0 * (k1z + 2.0 * k2z + 2.0 * k3z + k4z);
+    *w1 = w + h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
+    *impulse = h / 6.0 * (f0 + 2.0 * f2 + 2.0 * f3 + f4);
+  }
+
+ private:
+  const TyreSettings& s_;
+  const Cleat& cl_;
+  double k_, c_, a_;
+};
+
+// Fixed-step RK4 with event location.  Each step is tried with the mode
+// frozen; if the mode no longer holds at its end, bisection on the step
+// length finds where it stops holding (to about 1e-12 of a step, i.e. 1e-17 s
+// at the default step), the step is taken to just past that point, the mode
+// switched and the rest of the step integrated in the new mode.  The switch
+// times then move smoothly with k and c, and so do the outputs.
+//
+// Outputs: "mean" is the mean force over the sample interval, the impulse
+// the integrator actually applied (m (w1 - w0) = int (Fz - load) dt) over its
+// length; "instant" is Fz at the sample time.
+void simulate(const TyreSettings& s, const Cleat& cl, double k, double c, double* out) {
+  const Wheel wheel(s, cl, k, c);
+  const double dt = s.sample_interval / s.steps_per_sample;
+  double z = s.r0 - static_deflection(s, k), w = 0.0;
+  Mode mode = wheel.mode_at(0.0, z, w);
+  double f = wheel.force(0.0, z, w, mode);
+  const int max_events = 16;   // per step; beyond that the step is accepted as tried
+  for (int j = 0; j < s.n_samples; ++j) {
+    double impulse = 0.0;
+    for (int i = 0; i < s.steps_per_sample; ++i) {
+      const double t_step = (static_cast<double>(j) * s.steps_per_sample + i) * dt;
+      double done = 0.0;   // time integrated within this step
+      for (int events = 0; ; ++events) {
+        const double t0 = t_step + done, h = dt - done;
+        double z1, w1, f1, p1;
+        wheel.rk4(t0, z, w, f, h, mode, &z1, &w1, &p1);
+        if (events >= max_events || wheel.holds(t_step + dt, z1, w1, mode, &f1)) {
+          if (events >= max_events) {
+            mode = wheel.mode_at(t_step + dt, z1, w1);
+            f1 = wheel.force(t_step + dt, z1, w1, mode);
+          }
+          z = z1; w = w1; f = f1; impulse += p1;
+          break;
+        }
+        // bisection: the mode holds at lo and not at hi
+        double lo = 0.0, hi = h, zh = z1, wh = w1, ph = p1;
+        while (hi - lo > 1e-12 * dt) {
+          const double mid = 0.5 * (lo + hi);
+          double zm, wm, fm, pm;
+          wheel.rk4(t0, z, w, f, mid, mode, &zm, &wm, &pm);
+          if (wheel.holds(t0 + mid, zm, wm, mode, &fm)) {
+            lo = mid;
+          } else {
+            hi = mid; zh = zm; wh = wm; ph = pm;
+          }
+        }
+        z = zh; w = wh; impulse += ph; done += hi;
+        mode = wheel.mode_at(t0 + hi, z, w);
+        f = wheel.force(t0 + hi, z, w, mode);
+        if (dt - done <= 1e-12 * dt) break;
+      }
+    }
+    out[j] = s.sample_mean ? impulse / s.sample_interval : f;
   }
 }
 
