@@ -338,10 +338,14 @@ warn_unresolved <- function(state, rounds) {
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
   runs <- run_resolution_reason(attr(tab, "runs"))
   few_values <- tab$effective_values < resolution_min_values
+  drift <- drifted(tab, drift_reference(rounds$history, state$problem$library))
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
-         ifelse(moved, "its interval still moved in the last round", NA)))
+         ifelse(moved, "its interval still moved in the last round",
+         ifelse(drift, paste0("its interval still moved over the last ", drift_rounds,
+                              " rounds: the runs have not followed the posterior to its end"),
+                NA))))
   bad <- !is.na(why)
   extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
              if (state$far_mass > far_mass_tol) {
@@ -349,7 +353,11 @@ warn_unresolved <- function(state, rounds) {
                       "far from where the last round's runs went: a mode may be lost or ",
                       "unresolved")
              },
-             unresolved_mode_reasons(state))
+             unresolved_mode_reasons(state),
+             if (!explored(state$problem$library)) {
+               paste0("the last rounds have not yet explored the posterior's ends (its ",
+                      "ridges and tails) from where it now lies")
+             })
   if (length(extra) > 0L) {
     why <- c(why[bad], extra)
     tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))
@@ -365,5 +373,6 @@ warn_unresolved <- function(state, rounds) {
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
-              class = "resolution")
+              class = c(if (any(drift) || !explored(state$problem$library)) "reach",
+                        "resolution"))
 }
