@@ -96,7 +96,7 @@ store_round <- function(store, kind, box, proposal = NULL) {
 # components (refine-ridge.R), `local_share` their share. The range is the
 # base library's, which the fit holds.
 write_store_proposal <- function(store, round, proposal) {
-  local <- rep(c(0, 1), c(length(proposal$components), length(proposal$local)))
+  local <- rep(c(0, 1), c(length(proposal$components), length(proposal[["local"]])))
   share <- if (is.null(proposal$local_share)) 0 else proposal$local_share
   rows <- do.call(rbind, Map(function(cmp, is_local) {
     c(round = round, df = proposal$df, defensive = proposal$defensive,
@@ -104,14 +104,14 @@ write_store_proposal <- function(store, round, proposal) {
       local = is_local, weight = cmp$weight,
       stats::setNames(cmp$centre, paste0("centre_", seq_along(cmp$centre))),
       stats::setNames(as.vector(cmp$chol), paste0("chol_", seq_along(cmp$chol))))
-  }, c(proposal$components, proposal$local), local))
+  }, c(proposal$components, proposal[["local"]]), local))
   old <- if (file.exists(store$proposals)) {
     read_checked_csv(store$proposals, store, "table of proposals")
   }
   # rows of this round left by a session killed before its table row was
   # written are replaced
   old <- old[old$round < round, , drop = FALSE]
-  if (!is.null(old) && is.null(old$local)) {
+  if (!is.null(old) && is.null(old[["local"]])) {
     old <- cbind(old[, 1:5], local_share = rep(0, nrow(old)), local = rep(0, nrow(old)),
                  old[, -(1:5)])
   }
@@ -134,7 +134,7 @@ read_store_proposal <- function(store, round, library) {
          chol = matrix(unlist(rows[i, paste0("chol_", seq_len(q * q))]), q, q))
   })
   # the local components of refine-ridge.R (none in a file written before them)
-  local <- if (is.null(rows$local)) rep(FALSE, nrow(rows)) else rows$local == 1
+  local <- if (is.null(rows[["local"]])) rep(FALSE, nrow(rows)) else rows$local == 1
   list(range = range0, varies = varies, components = components[!local], df = rows$df[1],
        defensive = rows$defensive[1], inside = rows$inside[1], beta = rows$beta[1],
        local = components[local],

@@ -76,6 +76,20 @@
 #' needs: a mode's share is estimated from its own runs, and one resting on
 #' a few is often too small (on a folded 4-parameter system, 20% where
 #' symmetry makes it 50%). The warning at `max_runs` names such a mode.
+#' A posterior along a curved or weakly identified band (two parameters
+#' identified only through their product; a banana) reaches past what a few
+#' broad components draw, and its missing ends are invisible to checks
+#' that look at runs. So once a proposal is fitted to the posterior itself
+#' (untempered), half its t mixture is local: components centred on runs
+#' resampled from the posterior and on the runs at both ends of it along
+#' each parameter and principal direction, each with the covariance of its
+#' nearest posterior runs, doubled, so they follow a band's local direction
+#' past its explored end. A library grown by proposals is resolved only
+#' after its last three rounds drew such local components, and while no
+#' interval bound moved by more than a fifth of its width over those three
+#' rounds (the posterior with them dropped); the warning at `max_runs`
+#' then has class `griddy_warning_reach` too and names the parameters whose
+#' intervals still moved.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped. Otherwise the refined fit
