@@ -39,8 +39,9 @@
 #   bound keeps moving the same way, while one round's movement stays below
 #   interval_tol. The posterior is not resolved while any interval bound
 #   moved by more than interval_tol of the width over the last
-#   `drift_rounds` rounds: the table of `drift_rounds` rounds ago is the
-#   posterior with those rounds dropped. When `max_runs` runs out first,
+#   `drift_rounds` rounds, or holds more beyond one of the bounds then than
+#   Monte Carlo error allows (drifted()): the table of `drift_rounds` rounds
+#   ago is the posterior with those rounds dropped. When `max_runs` runs out first,
 #   the warning names the parameters whose intervals still moved (class
 #   griddy_warning_reach as well as griddy_warning_resolution). And it is
 #   not resolved before its last `drift_rounds` rounds all drew local
@@ -105,13 +106,26 @@ all_components <- function(proposal) {
   c(scale(proposal$components, 1 - s), scale(local, s))
 }
 
-# Parameters whose 95% interval bound moved by more than interval_tol of
-# the width since the table `earlier` (NULL: none).
-drifted <- function(table, earlier) {
+# Parameters whose 95% interval moved since the table `earlier` (NULL:
+# none): a bound moved by more than interval_tol of the width, or (with the
+# state's posterior over runs, `p` and `theta`) the posterior now holds more
+# beyond an earlier bound than its 2.5% plus three Monte Carlo sds at the
+# posterior's effective runs. Along a band the marginal is flat, and a bound
+# that moves by a tenth of the width puts several percent beyond the old
+# one; the same tenth of a Gaussian's width puts under 2% more there.
+drifted <- function(table, earlier, p = NULL, theta = NULL) {
   if (is.null(earlier)) return(rep(FALSE, nrow(table)))
   width <- pmax(table$upper - table$lower, earlier$upper - earlier$lower)
   moved <- pmax(abs(table$lower - earlier$lower), abs(table$upper - earlier$upper))
-  !table$constant & moved > interval_tol * width
+  out <- !table$constant & moved > interval_tol * width
+  if (is.null(p)) return(out)
+  tail <- 0.025
+  limit <- tail + 3 * sqrt(tail * (1 - tail) / effective_count(p))
+  beyond <- vapply(seq_len(nrow(table)), function(j) {
+    v <- theta[[j]]
+    max(sum(p[v < earlier$lower[j]]), sum(p[v > earlier$upper[j]]))
+  }, numeric(1))
+  out | (!table$constant & beyond > limit)
 }
 
 # The table `drift_rounds` rounds before the last in a history of tables

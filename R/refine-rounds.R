@@ -81,7 +81,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 # since the table `earlier`, a few rounds back (drifted(), refine-ridge.R).
 needs_round <- function(state, previous, simulating, earlier = NULL) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
-    any(drifted(state$table, earlier)) || !explored(state$problem$library) ||
+    any(drifted(state$table, earlier, state$p, lib_theta(state$problem$library))) || !explored(state$problem$library) ||
     state$far_mass > far_mass_tol || length(unresolved_modes(state)) > 0L ||
     (simulating && predicted_mass(state) > predicted_tol)
 }

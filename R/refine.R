@@ -87,7 +87,8 @@
 #' past its explored end. A library grown by proposals is resolved only
 #' after its last three rounds drew such local components, and while no
 #' interval bound moved by more than a fifth of its width over those three
-#' rounds (the posterior with them dropped); the warning at `max_runs`
+#' rounds (the posterior with them dropped) nor has more of the posterior
+#' beyond it now than its 2.5% and three Monte Carlo sds; the warning at `max_runs`
 #' then has class `griddy_warning_reach` too and names the parameters whose
 #' intervals still moved.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
@@ -352,7 +353,8 @@ warn_unresolved <- function(state, rounds) {
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
   runs <- run_resolution_reason(attr(tab, "runs"))
   few_values <- tab$effective_values < resolution_min_values
-  drift <- drifted(tab, drift_reference(rounds$history, state$problem$library))
+  drift <- drifted(tab, drift_reference(rounds$history, state$problem$library), state$p,
+                   lib_theta(state$problem$library))
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",

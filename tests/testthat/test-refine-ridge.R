@@ -98,3 +98,16 @@ test_that("refine() does not call a library resolved before it explored from the
   expect_s3_class(w, "griddy_warning_reach")
   expect_match(conditionMessage(w), "have not yet explored", fixed = TRUE)
 })
+
+test_that("more posterior beyond an earlier bound than Monte Carlo error allows is drift", {
+  # a flat marginal (along a band) whose upper bound moved by a tenth of the
+  # width: below interval_tol, but 10% of the posterior now lies beyond it
+  theta <- data.frame(a = seq(0, 1, length.out = 2000), b = rep(c(0.4, 0.6), 1000))
+  p <- rep(1 / 2000, 2000)
+  tab <- resolution_table(p, theta)
+  earlier <- tab
+  earlier$upper[1] <- tab$upper[1] - (tab$upper[1] - tab$lower[1]) / 10
+  expect_identical(drifted(tab, earlier), c(FALSE, FALSE))
+  expect_identical(drifted(tab, earlier, p, theta), c(TRUE, FALSE))
+  expect_identical(drifted(tab, tab, p, theta), c(FALSE, FALSE))
+})
