@@ -137,7 +137,7 @@ read_store_proposal <- function(store, round, library) {
   local <- if (is.null(rows[["local"]])) rep(FALSE, nrow(rows)) else rows$local == 1
   list(range = range0, varies = varies, components = components[!local], df = rows$df[1],
        defensive = rows$defensive[1], inside = rows$inside[1], beta = rows$beta[1],
-       local = components[local],
+       local = if (any(local)) components[local],
        local_share = if (is.null(rows$local_share)) 0 else rows$local_share[1])
 }
 
