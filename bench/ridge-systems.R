@@ -22,14 +22,17 @@
 # (max_runs 4000), coverage and width ratio against the reference per
 # parameter, runs added, seconds, and whether refine() warned
 # (griddy_warning_resolution).
-# Run: Rscript bench/ridge-systems.R [system] [trials] [first] [tag]
+# Run: Rscript bench/ridge-systems.R [system] [trials] [first] [tag] [max_runs]
 #   e.g. Rscript bench/ridge-systems.R ridge-6 20 1 after
+#   (max_runs refine()'s default, 4000, unless given)
 # writes bench/results/ridge-systems-<system>-<tag>.csv
 args <- commandArgs(trailingOnly = TRUE)
 system_name <- if (length(args) >= 1) args[1] else "ridge-6"
 n_trials <- if (length(args) >= 2) as.integer(args[2]) else 3L
 first_trial <- if (length(args) >= 3) as.integer(args[3]) else 1L
 tag <- if (length(args) >= 4) args[4] else "run"
+# max_runs: refine()'s default unless given
+max_runs_arg <- if (length(args) >= 5) as.integer(args[5]) else NULL
 pkgload::load_all(".", quiet = TRUE)
 source("bench/many-parameters-systems.R")
 
@@ -140,7 +143,7 @@ ridge_trial <- function(sys, i, lib, system_name) {
              machine = paste("load", paste(round(load_average(), 2), collapse = " ")))
 }
 
-control_max_runs <- function() griddy_control()$max_runs
+control_max_runs <- function() if (is.null(max_runs_arg)) griddy_control()$max_runs else max_runs_arg
 
 ridge_by_name <- function(name) ridge_system(as.integer(sub(".*-", "", name)))
 
