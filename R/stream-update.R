@@ -64,9 +64,25 @@ measurement_cells <- function(library, y, x, t) {
                    if (is.data.frame(x)) paste0(" with ", nrow(x), " rows"), ".",
                    class = "shape")
     }
-    rep_len(match_settings(as_numeric_columns(x, "x"), lib_x(library)), length(y))
+    rep_len(stream_settings(as_numeric_columns(x, "x"), lib_x(library)), length(y))
   }
   list(column = (k - 1L) * lib_n_t(library) + j, y = y)
+}
+
+# The library setting of each row of `x` (match_settings()'s answer), read
+# column by column rather than row by row through `[.data.frame`: a
+# measurement arriving with its setting is matched in microseconds, so that
+# an update costs its pass over the runs, not its lookup. An unknown or
+# misnamed setting goes to match_settings() for its error.
+stream_settings <- function(x, x_lib) {
+  if (is.null(x_lib) || !setequal(names(x), names(x_lib))) return(match_settings(x, x_lib))
+  hit <- vapply(seq_len(nrow(x)), function(k) {
+    same <- TRUE
+    for (nm in names(x_lib)) same <- same & same_values(x_lib[[nm]], x[[nm]][k])
+    which(same)[1]
+  }, integer(1))
+  if (anyNA(hit)) return(match_settings(x, x_lib))
+  hit
 }
 
 # The measurements of a field_data as columns and values, setting by setting

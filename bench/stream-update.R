@@ -134,6 +134,9 @@ writeLines(md)
 }
 
 # ---- the paths a measurement takes in ------------------------------------------
+# this process's CPU time (s): a loaded machine deschedules a process for
+# milliseconds at a time, which a median of elapsed times does not always hide
+cpu_s <- function() sum(proc.time()[c("user.self", "sys.self")])
 path_rows <- list()
 for (N in if (part %in% c("all", "paths")) sizes else numeric()) {
   n_set <- 4
@@ -158,17 +161,23 @@ for (N in if (part %in% c("all", "paths")) sizes else numeric()) {
     batch_field <- field_data(long[keep, ])
     # the user's running sum of squares, one measurement at a time
     ss <- numeric(N)
+    cpu0 <- cpu_s()
     ss_ms <- vapply(keep, function(j) elapsed_ms(ss <<- ss + (y_lib[, j] - long$y[j])^2),
                     numeric(1))
+    ss_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
     for (model in names(rho_models)) {
       rho_t <- rho_models[[model]]
       s_value <- griddy_stream(lib, rho_t = rho_t)
+      cpu0 <- cpu_s()
       value_ms <- vapply(seq_along(keep), function(k) {
         elapsed_ms(update(s_value, y = long$y[keep[k]], x = x_rows[[k]], t = long$t[keep[k]]))
       }, numeric(1))
+      value_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
       s_field <- griddy_stream(lib, rho_t = rho_t)
+      cpu0 <- cpu_s()
       field_ms <- vapply(seq_along(keep), function(k) elapsed_ms(update(s_field, y = one_fields[[k]])),
                          numeric(1))
+      field_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
       s_batch <- griddy_stream(lib, rho_t = rho_t)
       batch_ms <- elapsed_ms(update(s_batch, y = batch_field)) / length(keep)
       batch <- suppressWarnings(posterior_exact(lib, batch_field, rho_t = rho_t, joint = FALSE))
@@ -181,6 +190,8 @@ for (N in if (part %in% c("all", "paths")) sizes else numeric()) {
         value_ms = median(value_ms), field_ms = median(field_ms), batch_ms = batch_ms,
         value_over_ss = median(value_ms) / median(ss_ms),
         field_over_ss = median(field_ms) / median(ss_ms),
+        running_ss_cpu_ms = ss_cpu, value_cpu_ms = value_cpu, field_cpu_ms = field_cpu,
+        value_cpu_over_ss = value_cpu / ss_cpu, field_cpu_over_ss = field_cpu / ss_cpu,
         max_run_prob_diff = diff_prob, machine = machine_note())
       print(path_rows[[length(path_rows)]][, 1:12])
     }
@@ -196,16 +207,20 @@ if (part %in% c("all", "paths")) {
   fmt <- function(v, d = 3) format(signif(v, d), scientific = FALSE, trim = TRUE)
   md <- c(paste0("# A stream update by the path a measurement takes in (issue 36): ", out_name),
           "", paste0("`STREAM_PART=paths Rscript bench/stream-update.R`; ", machine_note(),
-                     " (1-min load before: ", format(load_before), "). Medians per ",
-                     "measurement (ms), one process; `/ ss`: over the running sum of ",
-                     "squares in R."), "",
-          "| runs | model | G | missing | running ss | value + x + t | / ss | one-row field | / ss | batch field (per meas.) | max run prob. diff vs batch |",
-          "|---|---|---|---|---|---|---|---|---|---|---|",
-          sprintf("| %s | %s | %d | %s | %s | %s | %s | %s | %s | %s | %.1e |",
+                     " (1-min load before: ", format(load_before), "). Medians of the ",
+                     "elapsed time per measurement (ms), and the process's CPU time per ",
+                     "measurement (mean, ms), one process; `/ ss`: over the running sum ",
+                     "of squares in R."), "",
+          "| runs | model | G | missing | running ss | value + x + t | / ss | one-row field | / ss | CPU: ss | CPU: value | / ss | CPU: field | / ss | batch field (per meas.) | max run prob. diff vs batch |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+          sprintf("| %s | %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.1e |",
                   format(paths$runs, big.mark = ",", scientific = FALSE), paths$model,
                   paths$grid_points, fmt(paths$missing, 2), fmt(paths$running_ss_ms),
                   fmt(paths$value_ms), fmt(paths$value_over_ss, 2), fmt(paths$field_ms),
-                  fmt(paths$field_over_ss, 2), fmt(paths$batch_ms), paths$max_run_prob_diff))
+                  fmt(paths$field_over_ss, 2), fmt(paths$running_ss_cpu_ms),
+                  fmt(paths$value_cpu_ms), fmt(paths$value_cpu_over_ss, 2),
+                  fmt(paths$field_cpu_ms), fmt(paths$field_cpu_over_ss, 2),
+                  fmt(paths$batch_ms), paths$max_run_prob_diff))
   writeLines(md, file.path("bench/results", paste0(out_name, ".md")))
   writeLines(md)
 }

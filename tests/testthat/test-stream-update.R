@@ -139,3 +139,33 @@ test_that("a measurement that would overflow the forms is refused before it chan
   expect_equal(posterior_exact(s), posterior_exact(ex$library, field, rho_t = c(0, 0.5)),
                tolerance = 1e-10)
 })
+
+test_that("a measurement's setting is matched as match_settings() matches it, column by column", {
+  x_lib <- data.frame(a = c(0, 1, 1), b = c(2, 2, 3))
+  x <- data.frame(b = c(3, 2 + 1e-12, 2), a = c(1, 1, 0))
+  expect_identical(stream_settings(x, x_lib), match_settings(x, x_lib))
+  expect_identical(stream_settings(x, x_lib), c(3L, 2L, 1L))
+  expect_error(stream_settings(data.frame(a = 1, b = 5), x_lib), "does not have")
+  expect_error(stream_settings(data.frame(a = 1, c = 2), x_lib), "column")
+})
+
+test_that("measurements one at a time with their x and t, some cells never measured, give the batch posterior", {
+  ex <- griddy_example()
+  y <- ex$field$y
+  set.seed(11)
+  skip_cells <- sample(length(y), round(0.2 * length(y)))
+  y_missing <- y
+  y_missing[skip_cells] <- NA
+  s <- griddy_stream(ex$library, rho_t = c(0, 0.5, 0.9))
+  for (k in seq_len(nrow(y))) {
+    for (j in seq_len(ncol(y))) {
+      if (is.na(y_missing[k, j])) next
+      update(s, y = y[k, j], x = ex$field$x[k, , drop = FALSE], t = ex$library$t[j])
+    }
+  }
+  batch <- posterior_exact(ex$library, field_data(y_missing, x = ex$field$x, t = ex$library$t),
+                           rho_t = c(0, 0.5, 0.9), joint = FALSE)
+  streamed <- posterior_exact(s, joint = FALSE)
+  expect_lt(max(abs(streamed$run - batch$run)), 1e-10)
+  expect_lt(abs(streamed$log_evidence / batch$log_evidence - 1), 1e-10)
+})
