@@ -278,19 +278,19 @@ BEGIN_RCPP
 END_RCPP
 }
 // stream_add_cpp
-void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, int column, double y, int prev, double y_prev, const Rcpp::NumericVector& phi, const Rcpp::NumericVector& scale, int offset);
+void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, const Rcpp::IntegerVector& column, const Rcpp::NumericVector& y, const Rcpp::IntegerVector& prev, const Rcpp::NumericVector& y_prev, const Rcpp::NumericMatrix& phi, const Rcpp::NumericMatrix& scale, const Rcpp::IntegerVector& offset);
 RcppExport SEXP _griddy_stream_add_cpp(SEXP CSEXP, SEXP outputsSEXP, SEXP columnSEXP, SEXP ySEXP, SEXP prevSEXP, SEXP y_prevSEXP, SEXP phiSEXP, SEXP scaleSEXP, SEXP offsetSEXP) {
 BEGIN_RCPP
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< Rcpp::NumericMatrix >::type C(CSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type outputs(outputsSEXP);
-    Rcpp::traits::input_parameter< int >::type column(columnSEXP);
-    Rcpp::traits::input_parameter< double >::type y(ySEXP);
-    Rcpp::traits::input_parameter< int >::type prev(prevSEXP);
-    Rcpp::traits::input_parameter< double >::type y_prev(y_prevSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type phi(phiSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type scale(scaleSEXP);
-    Rcpp::traits::input_parameter< int >::type offset(offsetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type column(columnSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type y(ySEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type prev(prevSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type y_prev(y_prevSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type scale(scaleSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type offset(offsetSEXP);
     stream_add_cpp(C, outputs, column, y, prev, y_prev, phi, scale, offset);
     return R_NilValue;
 END_RCPP

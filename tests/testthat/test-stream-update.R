@@ -169,3 +169,32 @@ test_that("measurements one at a time with their x and t, some cells never measu
   expect_lt(max(abs(streamed$run - batch$run)), 1e-10)
   expect_lt(abs(streamed$log_evidence / batch$log_evidence - 1), 1e-10)
 })
+
+test_that("a batch goes in in one pass with the forms one measurement at a time gives", {
+  ex <- griddy_example()
+  cells <- stream_cells(ex$library, ex$field)
+  batch <- update(griddy_stream(ex$library, rho_t = c(0, 0.5)), y = ex$field)
+  single <- griddy_stream(ex$library, rho_t = c(0, 0.5))
+  n_t <- length(ex$library$t)
+  for (m in seq_along(cells$column)) {
+    k <- (cells$column[m] - 1L) %/% n_t + 1L
+    update(single, y = cells$y[m], x = ex$field$x[k, , drop = FALSE],
+           t = ex$library$t[(cells$column[m] - 1L) %% n_t + 1L])
+  }
+  expect_identical(batch$state$C, single$state$C)
+  expect_length(batch$state$pending, 0L)
+})
+
+test_that("a measurement refused part-way through a batch leaves the ones before it in the forms", {
+  ex <- griddy_example()
+  n_t <- length(ex$library$t)
+  x1 <- ex$field$x[1, , drop = FALSE]
+  s <- griddy_stream(ex$library, rho_t = c(0, 0.5))
+  # the third value repeats the first (x, t): a replicate under AR(1) is refused
+  expect_error(update(s, y = ex$field$y[1, c(1, 2, 1)], x = x1, t = ex$library$t[c(1, 2, 1)]),
+               class = "griddy_error_unsupported")
+  expect_equal(nobs(s), 2L)
+  ref <- update(griddy_stream(ex$library, rho_t = c(0, 0.5)), y = ex$field$y[1, 1:2], x = x1,
+                t = ex$library$t[1:2])
+  expect_identical(s$state$C, ref$state$C)
+})
