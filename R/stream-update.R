@@ -1,7 +1,7 @@
 #' Add measurements to a streaming calibration
 #'
 #' Adds one measurement, a batch of them, or a [field_data()] to a
-#' [griddy_stream()], each in one pass over the library's runs (see
+#' [griddy_stream()], all of them in one pass over the library's runs (see
 #' [griddy_stream()] for the update and for what is not incremental).
 #'
 #' @param object A [griddy_stream()].
