@@ -131,3 +131,16 @@ test_that("noise groups keep the dense path", {
                              noise_pattern(case$lib, layout, "x", thesis_prior()))
   expect_null(setup$masked)
 })
+
+test_that("one coordinate or one setting observed (a reduced grid of one t or one x) matches", {
+  case <- missing_case(n_x = 3, n_t = 6, seed = 9)
+  one_t <- case$y
+  one_t[, -3] <- NA
+  one_x <- case$y
+  one_x[-2, ] <- NA
+  one_x[2, c(1, 4)] <- NA
+  for (y in list(one_t, one_x)) {
+    field <- field_data(y, x = case$x, t = case$t)
+    for (rho in rho_cases) expect_matches_dense(case, field, rho[[1]], rho[[2]])
+  }
+})
