@@ -57,6 +57,14 @@ quad_forms_cpp <- function(Y, y_field, Rx_inv, phi, threads = 1L, portable = FAL
     .Call(`_griddy_quad_forms_cpp`, Y, y_field, Rx_inv, phi, threads, portable)
 }
 
+masked_quad_forms_cpp <- function(Y, y_cells, column, scale, Rx_inv, phi, fill_before, fill_after, w_before, w_after, offset, threads = 1L, portable = FALSE) {
+    .Call(`_griddy_masked_quad_forms_cpp`, Y, y_cells, column, scale, Rx_inv, phi, fill_before, fill_after, w_before, w_after, offset, threads, portable)
+}
+
+missing_logdet_cpp <- function(column, Rx_inv, phi) {
+    .Call(`_griddy_missing_logdet_cpp`, column, Rx_inv, phi)
+}
+
 quad_forms_avx2_cpp <- function() {
     .Call(`_griddy_quad_forms_avx2_cpp`)
 }

@@ -96,6 +96,9 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
   setup$pure_ss <- pattern$pure_ss
   setup$fold_prior <- pattern$prior
   setup$pattern <- pattern[c("observed", "sd", "group", "labels")]
+  # missing cells and replicates of one noise group: C on the full field's
+  # kernel (engine-missing.R)
+  if (is.null(disc)) setup$masked <- missing_plan(setup, lib_t(library), pattern)
   setup
 }
 
@@ -349,6 +352,7 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
   if (is.null(setup$dense)) {
     return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi, threads))
   }
+  if (!is.null(setup$masked)) return(masked_quad_forms(Y, y_field, setup$masked, threads))
   C <- matrix(0, nrow(Y), n_grid_points(setup))
   dense <- setup$dense
   # the residuals' observed, scaled columns of each group, cut once for all

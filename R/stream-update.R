@@ -1,7 +1,7 @@
 #' Add measurements to a streaming calibration
 #'
 #' Adds one measurement, a batch of them, or a [field_data()] to a
-#' [griddy_stream()], each in one pass over the library's runs (see
+#' [griddy_stream()], all of them in one pass over the library's runs (see
 #' [griddy_stream()] for the update and for what is not incremental).
 #'
 #' @param object A [griddy_stream()].
@@ -28,6 +28,9 @@
 update.griddy_stream <- function(object, y, x = NULL, t = NULL, ...) {
   state <- object$state
   cells <- stream_cells(state$library, y, x, t)
+  # the terms go in in one pass at the end, also when a measurement is
+  # refused part-way (those before it are counted, so their terms must be in)
+  on.exit(stream_flush(state), add = TRUE)
   for (m in seq_along(cells$column)) stream_add(state, cells$column[m], cells$y[m])
   object
 }
@@ -64,9 +67,25 @@ measurement_cells <- function(library, y, x, t) {
                    if (is.data.frame(x)) paste0(" with ", nrow(x), " rows"), ".",
                    class = "shape")
     }
-    rep_len(match_settings(as_numeric_columns(x, "x"), lib_x(library)), length(y))
+    rep_len(stream_settings(as_numeric_columns(x, "x"), lib_x(library)), length(y))
   }
   list(column = (k - 1L) * lib_n_t(library) + j, y = y)
+}
+
+# The library setting of each row of `x` (match_settings()'s answer), read
+# column by column rather than row by row through `[.data.frame`: a
+# measurement arriving with its setting is matched in microseconds, so that
+# an update costs its pass over the runs, not its lookup. An unknown or
+# misnamed setting goes to match_settings() for its error.
+stream_settings <- function(x, x_lib) {
+  if (is.null(x_lib) || !setequal(names(x), names(x_lib))) return(match_settings(x, x_lib))
+  hit <- vapply(seq_len(nrow(x)), function(k) {
+    same <- TRUE
+    for (nm in names(x_lib)) same <- same & same_values(x_lib[[nm]], x[[nm]][k])
+    which(same)[1]
+  }, integer(1))
+  if (anyNA(hit)) return(match_settings(x, x_lib))
+  hit
 }
 
 # The measurements of a field_data as columns and values, setting by setting
@@ -151,13 +170,33 @@ check_term_bound <- function(state, y, column, prev, y_prev, phi, scale) {
   invisible(state)
 }
 
+# A measurement's term, kept until stream_flush() adds the update's terms
+# in one pass over the runs (what the terms need is known without C).
 add_column <- function(state, column, y, prev, y_prev, phi, scale, k, G) {
+  state$pending[[length(state$pending) + 1L]] <-
+    list(column = column - 1L, y = y, prev = prev - 1L, y_prev = y_prev, phi = phi,
+         scale = scale, offset = (k - 1L) * G)
+  invisible(state)
+}
+
+# The pending terms added to the forms, in place, in arrival order (each
+# form gets the sums one measurement at a time would give it).
+stream_flush <- function(state) {
+  terms <- state$pending
+  if (length(terms) == 0L) return(invisible(state))
+  state$pending <- list()
+  field <- function(name) vapply(terms, `[[`, numeric(1), name)
+  y <- field("y")
   withCallingHandlers(
-    stream_add_cpp(state$C, state$outputs, column - 1L, y, prev - 1L, y_prev, phi, scale,
-                   (k - 1L) * G),
+    stream_add_cpp(state$C, state$outputs, as.integer(field("column")), y,
+                   as.integer(field("prev")), field("y_prev"),
+                   matrix(unlist(lapply(terms, `[[`, "phi")), ncol = length(terms)),
+                   matrix(unlist(lapply(terms, `[[`, "scale")), ncol = length(terms)),
+                   as.integer(field("offset"))),
     error = function(e) {
       if (grepl("not finite", conditionMessage(e), fixed = TRUE)) abort_overflow(y)
     })
+  invisible(state)
 }
 
 # The data so far, in arrival order (what stream_data() reports).

@@ -131,6 +131,7 @@ stream_reset <- function(state) {
   N <- nrow(state$outputs)
   inform_memory(state$library, G * K)
   state$C <- matrix(0, N, G * K)
+  state$pending <- list()  # terms not yet in C (stream_flush())
   state$n <- integer(K)
   state$logdet <- numeric(G)
   state$C_bound <- 0  # no form exceeds it: the sum of the terms' bounds

@@ -24,11 +24,26 @@
 # measurement costs at the end of the stream); at 10^6 runs calibrate()
 # takes about 10 s.
 #
+# Paths (issue 36, item 3; STREAM_PART "paths" or "all"): the time per
+# measurement by the path it takes in, on a library of 4 x settings x 30
+# output coordinates, against the user's own running sum of squares over
+# the runs in the same process (`ss <- ss + (y_lib[, j] - y)^2`, what one
+# independent-noise form costs in R):
+# * value: update(s, y = value, x = its setting (a one-row data.frame), t =);
+# * field: update(s, y = field_data(one row: x, t, y));
+# * batch: update(s, y = field_data(all 120)), per measurement;
+# for independent noise (one grid point, the running sum's own model) and
+# the AR(1) grid (three), measurements setting by setting in t order; and
+# the same with 20% of the cells never measured (a stream's missing cells).
+#
 # Usage, from the package root, with griddy installed (R CMD INSTALL .):
 #   Rscript bench/stream-update.R
-# Options (environment): STREAM_RUNS (default "1e4,1e5,1e6"), GRIDDY_NEW_LIB
-# (a library holding the griddy to test). Writes
-# bench/results/stream-update.csv and .md. About 2-3 minutes and 3 GB here.
+# Options (environment): STREAM_RUNS (default "1e4,1e5,1e6"), STREAM_PART
+# ("all", default; "paths": the paths table only, "update": the first table
+# only), STREAM_OUT (default "stream-update-paths": the paths table's file
+# name), GRIDDY_NEW_LIB (a library holding the griddy to test). Writes
+# bench/results/stream-update.csv and .md, and the paths table's .csv and
+# .md. About 2-3 minutes and 3 GB here.
 source("bench/helpers.R")
 if (nzchar(new_griddy_lib())) .libPaths(c(new_griddy_lib(), .libPaths()))
 suppressPackageStartupMessages(library(griddy))
@@ -46,8 +61,9 @@ elapsed_ms <- function(expr) {
   1000 * as.numeric(difftime(Sys.time(), t0, units = "secs"))
 }
 
+part <- Sys.getenv("STREAM_PART", "all")
 rows <- list()
-for (N in sizes) {
+for (N in if (part %in% c("all", "update")) sizes else numeric()) {
   set.seed(1)
   theta <- data.frame(a = runif(N), b = runif(N))
   lib <- sim_library(theta, response(theta$a, theta$b), t = tt)
@@ -96,6 +112,7 @@ for (N in sizes) {
   rm(lib, rival)
   gc()
 }
+if (part %in% c("all", "update")) {
 out <- do.call(rbind, rows)
 dir.create("bench/results", showWarnings = FALSE)
 write.csv(out, "bench/results/stream-update.csv", row.names = FALSE)
@@ -114,3 +131,96 @@ md <- c("# Streaming calibration: time per measurement (issue 25)", "",
                 out$ranking_agrees))
 writeLines(md, "bench/results/stream-update.md")
 writeLines(md)
+}
+
+# ---- the paths a measurement takes in ------------------------------------------
+# this process's CPU time (s): a loaded machine deschedules a process for
+# milliseconds at a time, which a median of elapsed times does not always hide
+cpu_s <- function() sum(proc.time()[c("user.self", "sys.self")])
+path_rows <- list()
+for (N in if (part %in% c("all", "paths")) sizes else numeric()) {
+  n_set <- 4
+  n_tp <- 30
+  tp <- seq(0, 1, length.out = n_tp)
+  xp <- data.frame(x = seq(0, 1, length.out = n_set))
+  resp_p <- function(a, b) {
+    do.call(cbind, lapply(xp$x, function(x) outer(a, 1 + tp + x) + outer(b, sin(6 * tp + 2 * x))))
+  }
+  set.seed(3)
+  theta <- data.frame(a = runif(N), b = runif(N))
+  y_lib <- resp_p(theta$a, theta$b)
+  lib <- sim_library(theta, y_lib, x = xp, t = tp)
+  long <- data.frame(x = rep(xp$x, each = n_tp), t = rep(tp, n_set))
+  long$y <- as.vector(resp_p(0.4, 0.6)) + rnorm(nrow(long), sd = 0.05)
+  cols <- seq_len(nrow(long))
+  for (missing in c(0, 0.2)) {
+    set.seed(4)
+    keep <- if (missing > 0) sort(sample(cols, round((1 - missing) * length(cols)))) else cols
+    x_rows <- lapply(keep, function(m) xp[(m - 1L) %/% n_tp + 1L, , drop = FALSE])
+    one_fields <- lapply(keep, function(m) field_data(long[m, ]))
+    batch_field <- field_data(long[keep, ])
+    # the user's running sum of squares, one measurement at a time
+    ss <- numeric(N)
+    cpu0 <- cpu_s()
+    ss_ms <- vapply(keep, function(j) elapsed_ms(ss <<- ss + (y_lib[, j] - long$y[j])^2),
+                    numeric(1))
+    ss_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
+    for (model in names(rho_models)) {
+      rho_t <- rho_models[[model]]
+      s_value <- griddy_stream(lib, rho_t = rho_t)
+      cpu0 <- cpu_s()
+      value_ms <- vapply(seq_along(keep), function(k) {
+        elapsed_ms(update(s_value, y = long$y[keep[k]], x = x_rows[[k]], t = long$t[keep[k]]))
+      }, numeric(1))
+      value_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
+      s_field <- griddy_stream(lib, rho_t = rho_t)
+      cpu0 <- cpu_s()
+      field_ms <- vapply(seq_along(keep), function(k) elapsed_ms(update(s_field, y = one_fields[[k]])),
+                         numeric(1))
+      field_cpu <- 1000 * (cpu_s() - cpu0) / length(keep)
+      s_batch <- griddy_stream(lib, rho_t = rho_t)
+      batch_ms <- elapsed_ms(update(s_batch, y = batch_field)) / length(keep)
+      batch <- suppressWarnings(posterior_exact(lib, batch_field, rho_t = rho_t, joint = FALSE))
+      diff_prob <- max(vapply(list(s_value, s_field, s_batch), function(s) {
+        max(abs(posterior_exact(s, joint = FALSE)$run - batch$run))
+      }, numeric(1)))
+      path_rows[[length(path_rows) + 1L]] <- data.frame(
+        runs = N, model = model, grid_points = length(rho_t), missing = missing,
+        measurements = length(keep), running_ss_ms = median(ss_ms),
+        value_ms = median(value_ms), field_ms = median(field_ms), batch_ms = batch_ms,
+        value_over_ss = median(value_ms) / median(ss_ms),
+        field_over_ss = median(field_ms) / median(ss_ms),
+        running_ss_cpu_ms = ss_cpu, value_cpu_ms = value_cpu, field_cpu_ms = field_cpu,
+        value_cpu_over_ss = value_cpu / ss_cpu, field_cpu_over_ss = field_cpu / ss_cpu,
+        max_run_prob_diff = diff_prob, machine = machine_note())
+      print(path_rows[[length(path_rows)]][, 1:12])
+    }
+  }
+  rm(lib, y_lib)
+  gc()
+}
+if (part %in% c("all", "paths")) {
+  paths <- do.call(rbind, path_rows)
+  out_name <- Sys.getenv("STREAM_OUT", "stream-update-paths")
+  dir.create("bench/results", showWarnings = FALSE)
+  write.csv(paths, file.path("bench/results", paste0(out_name, ".csv")), row.names = FALSE)
+  fmt <- function(v, d = 3) format(signif(v, d), scientific = FALSE, trim = TRUE)
+  md <- c(paste0("# A stream update by the path a measurement takes in (issue 36): ", out_name),
+          "", paste0("`STREAM_PART=paths Rscript bench/stream-update.R`; ", machine_note(),
+                     " (1-min load before: ", format(load_before), "). Medians of the ",
+                     "elapsed time per measurement (ms), and the process's CPU time per ",
+                     "measurement (mean, ms), one process; `/ ss`: over the running sum ",
+                     "of squares in R."), "",
+          "| runs | model | G | missing | running ss | value + x + t | / ss | one-row field | / ss | CPU: ss | CPU: value | / ss | CPU: field | / ss | batch field (per meas.) | max run prob. diff vs batch |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+          sprintf("| %s | %s | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %.1e |",
+                  format(paths$runs, big.mark = ",", scientific = FALSE), paths$model,
+                  paths$grid_points, fmt(paths$missing, 2), fmt(paths$running_ss_ms),
+                  fmt(paths$value_ms), fmt(paths$value_over_ss, 2), fmt(paths$field_ms),
+                  fmt(paths$field_over_ss, 2), fmt(paths$running_ss_cpu_ms),
+                  fmt(paths$value_cpu_ms), fmt(paths$value_cpu_over_ss, 2),
+                  fmt(paths$field_cpu_ms), fmt(paths$field_cpu_over_ss, 2),
+                  fmt(paths$batch_ms), paths$max_run_prob_diff))
+  writeLines(md, file.path("bench/results", paste0(out_name, ".md")))
+  writeLines(md)
+}

@@ -231,6 +231,42 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// masked_quad_forms_cpp
+Rcpp::NumericMatrix masked_quad_forms_cpp(const arma::mat& Y, const arma::vec& y_cells, const Rcpp::IntegerVector& column, const arma::vec& scale, const arma::cube& Rx_inv, const arma::mat& phi, const Rcpp::IntegerVector& fill_before, const Rcpp::IntegerVector& fill_after, const arma::mat& w_before, const arma::mat& w_after, double offset, int threads, bool portable);
+RcppExport SEXP _griddy_masked_quad_forms_cpp(SEXP YSEXP, SEXP y_cellsSEXP, SEXP columnSEXP, SEXP scaleSEXP, SEXP Rx_invSEXP, SEXP phiSEXP, SEXP fill_beforeSEXP, SEXP fill_afterSEXP, SEXP w_beforeSEXP, SEXP w_afterSEXP, SEXP offsetSEXP, SEXP threadsSEXP, SEXP portableSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const arma::mat& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type y_cells(y_cellsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type column(columnSEXP);
+    Rcpp::traits::input_parameter< const arma::vec& >::type scale(scaleSEXP);
+    Rcpp::traits::input_parameter< const arma::cube& >::type Rx_inv(Rx_invSEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type fill_before(fill_beforeSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type fill_after(fill_afterSEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type w_before(w_beforeSEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type w_after(w_afterSEXP);
+    Rcpp::traits::input_parameter< double >::type offset(offsetSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    Rcpp::traits::input_parameter< bool >::type portable(portableSEXP);
+    rcpp_result_gen = Rcpp::wrap(masked_quad_forms_cpp(Y, y_cells, column, scale, Rx_inv, phi, fill_before, fill_after, w_before, w_after, offset, threads, portable));
+    return rcpp_result_gen;
+END_RCPP
+}
+// missing_logdet_cpp
+Rcpp::NumericVector missing_logdet_cpp(const Rcpp::IntegerVector& column, const arma::cube& Rx_inv, const arma::mat& phi);
+RcppExport SEXP _griddy_missing_logdet_cpp(SEXP columnSEXP, SEXP Rx_invSEXP, SEXP phiSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type column(columnSEXP);
+    Rcpp::traits::input_parameter< const arma::cube& >::type Rx_inv(Rx_invSEXP);
+    Rcpp::traits::input_parameter< const arma::mat& >::type phi(phiSEXP);
+    rcpp_result_gen = Rcpp::wrap(missing_logdet_cpp(column, Rx_inv, phi));
+    return rcpp_result_gen;
+END_RCPP
+}
 // quad_forms_avx2_cpp
 bool quad_forms_avx2_cpp();
 RcppExport SEXP _griddy_quad_forms_avx2_cpp() {
@@ -242,19 +278,19 @@ BEGIN_RCPP
 END_RCPP
 }
 // stream_add_cpp
-void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, int column, double y, int prev, double y_prev, const Rcpp::NumericVector& phi, const Rcpp::NumericVector& scale, int offset);
+void stream_add_cpp(Rcpp::NumericMatrix C, const Rcpp::NumericMatrix& outputs, const Rcpp::IntegerVector& column, const Rcpp::NumericVector& y, const Rcpp::IntegerVector& prev, const Rcpp::NumericVector& y_prev, const Rcpp::NumericMatrix& phi, const Rcpp::NumericMatrix& scale, const Rcpp::IntegerVector& offset);
 RcppExport SEXP _griddy_stream_add_cpp(SEXP CSEXP, SEXP outputsSEXP, SEXP columnSEXP, SEXP ySEXP, SEXP prevSEXP, SEXP y_prevSEXP, SEXP phiSEXP, SEXP scaleSEXP, SEXP offsetSEXP) {
 BEGIN_RCPP
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< Rcpp::NumericMatrix >::type C(CSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type outputs(outputsSEXP);
-    Rcpp::traits::input_parameter< int >::type column(columnSEXP);
-    Rcpp::traits::input_parameter< double >::type y(ySEXP);
-    Rcpp::traits::input_parameter< int >::type prev(prevSEXP);
-    Rcpp::traits::input_parameter< double >::type y_prev(y_prevSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type phi(phiSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type scale(scaleSEXP);
-    Rcpp::traits::input_parameter< int >::type offset(offsetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type column(columnSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type y(ySEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type prev(prevSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type y_prev(y_prevSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type scale(scaleSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type offset(offsetSEXP);
     stream_add_cpp(C, outputs, column, y, prev, y_prev, phi, scale, offset);
     return R_NilValue;
 END_RCPP
@@ -333,6 +369,8 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},
     {"_griddy_piston_eval_cpp", (DL_FUNC) &_griddy_piston_eval_cpp, 9},
     {"_griddy_quad_forms_cpp", (DL_FUNC) &_griddy_quad_forms_cpp, 6},
+    {"_griddy_masked_quad_forms_cpp", (DL_FUNC) &_griddy_masked_quad_forms_cpp, 13},
+    {"_griddy_missing_logdet_cpp", (DL_FUNC) &_griddy_missing_logdet_cpp, 3},
     {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
     {"_griddy_stream_add_cpp", (DL_FUNC) &_griddy_stream_add_cpp, 9},
     {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
