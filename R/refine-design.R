@@ -14,13 +14,18 @@
 round_design <- function(state, n) {
   library <- state$problem$library
   names <- names(lib_theta(library))
-  follows <- uses_proposal(library) || !is.null(last_proposal(library))
+  # a base posterior on few runs first gets a search round (refine-modes.R)
+  search <- mode_search_proposal(state)
+  if (!is.null(search)) {
+    return(list(theta = draw_proposal(n, search, names), round = list(box = NULL, proposal = search)))
+  }
+  follows <- uses_proposal(library) || follows_proposal(library)
   # below four parameters the fit only decides, so it leaves the random
   # stream as it was: a unimodal posterior gets the same boxes as before
   # (only on the base library, spread evenly: once boxes have crowded runs
   # into one region, tempering shows their crowd and the runs outside as
   # two clusters that are not two modes)
-  first <- length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs
+  first <- deciding_round(library)
   proposal <- if (follows) fit_proposal(state) else if (first) {
     withr::with_preserve_seed(fit_proposal(state))
   }

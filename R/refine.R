@@ -259,6 +259,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   resumed <- store_resume(store, fit)
   # runs from the file are a round: judged against the fit they refine
   previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
+  modes <- base_modes(resumed$problem)
   rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
                           previous = previous, store = store)
   rounds$runs_added <- rounds$runs_added + resumed$n
@@ -278,6 +279,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   # resolved refinement has nothing to warn of
   finish_fit(out, resolution = function(fit) {
     if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+    warn_mode_lost(modes, rounds$problem, rounds$source)
   })
 }
 
