@@ -13,11 +13,11 @@
 #   the library's spacing there (a maximum between coarse runs lies within
 #   one step of its best run). The rounds after fit their proposal, or box,
 #   to the library this round has grown.
-# * A warning. When the base library's posterior (tempered as the proposal's
-#   is, so that a coarse library shows its shape) has separated modes each
-#   holding at least `mode_lost_share`, and the refined posterior holds under
-#   mode_min_mass near one of them, refine() says so, naming where the mode
-#   was and its share, with or without a simulator.
+# * A warning. When the base library's posterior has separated modes (local
+#   maxima over the runs' neighbourhood graph) each holding at least
+#   `mode_lost_share`, or a round's proposal had, and the refined posterior
+#   holds under mode_min_mass on one of them, refine() says so, naming where
+#   the mode was and its share, with or without a simulator.
 
 # ---- the search round --------------------------------------------------------
 
@@ -117,63 +117,129 @@ base_problem <- function(problem) {
   problem
 }
 
-# The separated modes of the base posterior: list(proposal, mode = the mode
-# of each component, share, at = each mode's centre as a theta row), or NULL
-# unless two modes hold at least mode_lost_share each. The proposal is fitted
-# as a round's would be (tempered, so a coarse library shows its shape),
-# leaving the random stream as it was.
+# The separated modes of the base posterior, as the library shows them: the
+# local maxima of the posterior over the runs' neighbourhood graph (each run
+# joined to its 2q nearest, in units of the library's range), each with the
+# mass of its basin (the runs whose steepest climb ends there). Only the
+# runs holding all but `mode_basin_tail` of the mass climb (a cap of
+# `mode_basin_runs`); runs outside are lower than every run inside, so no
+# climb leaves them. NULL unless two basins hold at least mode_lost_share
+# each; otherwise list(u = the climbing runs in unit coordinates, basin (a
+# mode per climbing run), share, at = each mode's maximum as a theta row,
+# range, varies).
+mode_basin_tail <- 1e-4
+mode_basin_runs <- 5000L
+
 base_modes <- function(problem) {
   base <- base_problem(problem)
-  range0 <- library_box(base$library)
-  q <- sum(range0[2, ] > range0[1, ])
-  if (q == 0L || lib_n_runs(base$library) < 2L * q + 2L) return(NULL)
-  proposal <- withr::with_preserve_seed(fit_proposal(list(problem = base)))
-  mode <- proposal_modes(proposal)
-  weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
-  share <- as.vector(tapply(weight, mode, sum))
+  library <- base$library
+  range0 <- library_box(library)
+  varies <- range0[2, ] > range0[1, ]
+  q <- sum(varies)
+  if (q == 0L || lib_n_runs(library) < 2L * q + 2L) return(NULL)
+  p <- grid_posterior(base, joint = FALSE)$run
+  theta <- as.matrix(lib_theta(library))
+  u <- unit_coordinates(theta, range0, varies)
+  ord <- order(p, decreasing = TRUE)
+  climbing <- ord[seq_len(min(which(cumsum(p[ord]) >= 1 - mode_basin_tail)[1],
+                              mode_basin_runs))]
+  up <- vapply(climbing, function(i) {
+    d2 <- colSums((t(u) - u[i, ])^2)
+    d2[i] <- Inf
+    near <- order(d2)[seq_len(min(2L * q, nrow(u) - 1L))]
+    best <- near[which.max(p[near])]
+    # neighbours of equal mass are one mode (the lower index climbs)
+    if (p[best] > p[i] || (p[best] == p[i] && best < i)) best else i
+  }, integer(1))
+  top <- climbing
+  repeat {
+    nxt <- up[match(top, climbing)]
+    # a climb leaving the climbing runs stops (a tie at the tail's edge)
+    nxt[is.na(nxt)] <- top[is.na(nxt)]
+    if (all(nxt == top)) break
+    top <- nxt
+  }
+  peaks <- unique(top)
+  share <- vapply(peaks, function(m) sum(p[climbing][top == m]), numeric(1))
   if (sum(share >= mode_lost_share) < 2L) return(NULL)
-  at <- lapply(seq_along(share), function(m) {
-    best <- which(mode == m)[which.max(weight[mode == m])]
-    u <- matrix(proposal$components[[best]]$centre, 1L)
-    stats::setNames(as.data.frame(from_unit(u, proposal$range, proposal$varies)),
-                    names(lib_theta(base$library)))
-  })
-  list(proposal = proposal, mode = mode, share = share, at = at)
+  list(u = u[climbing, , drop = FALSE], basin = match(top, peaks), share = share,
+       at = lapply(peaks, function(m) as.data.frame(theta[m, , drop = FALSE])),
+       range = range0, varies = varies)
 }
 
-# The posterior mass of a refined problem on each base mode: its runs given
-# to the mode of their most responsible component, as mode_resolution()
-# does (a mode's coarse centre may lie a step of the base grid from where
-# its mass settles, so no fixed radius around it would do).
+# The posterior mass of a refined library on each base mode: each run
+# holding mass (all but mode_basin_tail of it) goes to the basin of the
+# climbing base run nearest it.
 mode_masses <- function(modes, p, theta) {
-  held <- which(p > 0)
-  proposal <- modes$proposal
-  u <- unit_coordinates(theta[held, , drop = FALSE], proposal$range, proposal$varies)
-  owner <- max.col(mixture_responsibilities(u, proposal$components), ties.method = "first")
-  vapply(seq_along(modes$share), function(m) sum(p[held][modes$mode[owner] == m]), numeric(1))
+  ord <- order(p, decreasing = TRUE)
+  held <- ord[seq_len(min(which(cumsum(p[ord]) >= 1 - mode_basin_tail)[1],
+                          mode_basin_runs))]
+  u <- unit_coordinates(theta[held, , drop = FALSE], modes$range, modes$varies)
+  nearest <- vapply(seq_len(nrow(u)), function(i) {
+    which.min(colSums((t(modes$u) - u[i, ])^2))
+  }, integer(1))
+  vapply(seq_along(modes$share), function(m) sum(p[held][modes$basin[nearest] == m]),
+         numeric(1))
 }
 
-# Warn (class griddy_warning_mode_lost) of each base mode holding at least
-# mode_lost_share of the base posterior that holds under mode_min_mass of
-# the refined one. `modes` from base_modes(), `problem` the refined problem.
+# The separated modes of the last round's proposal that had two holding at
+# least mode_lost_share of its (tempered) mass, as base_modes() gives them,
+# with the refined posterior's mass on each (runs given to the mode of their
+# most responsible component, as mode_resolution() does). NULL when no
+# round's proposal had.
+round_modes <- function(library, p, theta) {
+  rounds <- rev(lib_rounds(library))
+  for (round in rounds) {
+    proposal <- round$proposal
+    if (is.null(proposal) || is_search_proposal(proposal)) next
+    mode <- proposal_modes(proposal)
+    weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
+    share <- as.vector(tapply(weight, mode, sum))
+    if (sum(share >= mode_lost_share) < 2L) next
+    held <- which(p > 0)
+    u <- unit_coordinates(theta[held, , drop = FALSE], proposal$range, proposal$varies)
+    owner <- mode[max.col(mixture_responsibilities(u, proposal$components),
+                          ties.method = "first")]
+    at <- lapply(seq_along(share), function(m) {
+      best <- which(mode == m)[which.max(weight[mode == m])]
+      centre <- matrix(proposal$components[[best]]$centre, 1L)
+      stats::setNames(as.data.frame(from_unit(centre, proposal$range, proposal$varies)),
+                      colnames(theta))
+    })
+    return(list(share = share, at = at,
+                mass = vapply(seq_along(share), function(m) sum(p[held][owner == m]),
+                              numeric(1))))
+  }
+  NULL
+}
+
+# Warn (class griddy_warning_mode_lost) of each mode that held at least
+# mode_lost_share of the base posterior (`modes`, from base_modes()) or of
+# the last proposal with separated modes (round_modes()) and holds under
+# mode_min_mass of the refined posterior of `problem`.
 warn_mode_lost <- function(modes, problem, source) {
-  if (is.null(modes)) return(invisible(NULL))
   p <- grid_posterior(problem, joint = FALSE)$run
-  mass <- mode_masses(modes, p, as.matrix(lib_theta(problem$library)))
-  lost <- which(modes$share >= mode_lost_share & mass < mode_min_mass)
-  if (length(lost) == 0L) return(invisible(NULL))
-  where <- vapply(lost, function(m) {
+  theta <- as.matrix(lib_theta(problem$library))
+  if (!is.null(modes)) modes$mass <- mode_masses(modes, p, theta)
+  found <- list(modes, round_modes(problem$library, p, theta))
+  what <- c("the base library's posterior", "the last proposal with separated modes")
+  where <- unlist(lapply(1:2, function(k) lost_mode_text(found[[k]], what[k])))
+  if (length(where) == 0L) return(invisible(NULL))
+  griddy_warn("refine() has lost a mode: ", paste(where, collapse = "; "), ". The rounds ",
+              "may have zoomed in on another mode before this one was resolved",
+              if (source == "emulator") ", or the library predicts it poorly",
+              ". If the data allow it, refine again with runs there (a finer base library ",
+              "around it", if (source == "emulator") ", or `simulator =`", ").",
+              class = "mode_lost")
+}
+
+lost_mode_text <- function(modes, what) {
+  if (is.null(modes)) return(character())
+  lost <- which(modes$share >= mode_lost_share & modes$mass < mode_min_mass)
+  vapply(lost, function(m) {
     at <- modes$at[[m]]
     paste0("near ", paste0(names(at), " = ", format(unlist(at), digits = 3), collapse = ", "),
-           " (", format(100 * modes$share[m], digits = 2), "% of the base posterior, ",
-           format(100 * mass[m], digits = 2), "% now)")
+           ", ", what, " held ", format(100 * modes$share[m], digits = 2), "% and the ",
+           "refined one holds ", format(100 * modes$mass[m], digits = 2), "%")
   }, character(1))
-  griddy_warn("The base library's posterior had separated modes, and the refined posterior ",
-              "has lost ", if (length(lost) == 1L) "one" else "some", ": ",
-              paste(where, collapse = "; "), ". The rounds may have zoomed in on another ",
-              "mode before this one was resolved",
-              if (source == "emulator") ", or the library predicts it poorly",
-              ". Refine again with runs there (a finer library around it",
-              if (source == "emulator") ", or `simulator =`", "), or check that the mode ",
-              "is not the data's.", class = "mode_lost")
 }

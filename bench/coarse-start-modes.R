@@ -35,7 +35,7 @@ oscillator_system <- function(n_side) {
   grid <- expand.grid(w = seq(1, 7, length.out = n_side), c = seq(0.5, 2, length.out = n_side))
   list(sim = sim, theta = grid, sd = 0.03, names = c("w", "c"),
        truth = function() c(w = stats::runif(1, 1.5, 2.5), c = stats::runif(1, 0.8, 1.7)),
-       mirror = function(truth) c(truth[["w"]] + 4, truth[["c"]]), folded = 1L)
+       mirror_of = function(truth) c(truth[["w"]] + 4, truth[["c"]]), folded = 1L)
 }
 
 bimodal_grid_system <- function(p, n_side) {
@@ -48,7 +48,7 @@ bimodal_grid_system <- function(p, n_side) {
     truth
   }
   c(sys, list(theta = grid, truth = inner, folded = 1L,
-              mirror = function(truth) replace(truth, 1, 1 - truth[[1]])))
+              mirror_of = function(truth) replace(truth, 1, 1 - truth[[1]])))
 }
 
 sys <- switch(system_name,
@@ -79,7 +79,7 @@ one <- function(i) {
   tab <- resolution_limited(r)
   th <- as.matrix(lib_theta(r$library))[r$draws$run, , drop = FALSE]
   j <- sys$folded
-  mirror <- sys$mirror(truth)
+  mirror <- sys$mirror_of(truth)
   gap <- abs(mirror[[j]] - truth[[j]])
   mass_truth <- mean(abs(th[, j] - truth[[j]]) < gap / 3)
   mass_mirror <- mean(abs(th[, j] - mirror[[j]]) < gap / 3)
