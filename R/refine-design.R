@@ -19,13 +19,13 @@ round_design <- function(state, n) {
   if (!is.null(search)) {
     return(list(theta = draw_proposal(n, search, names), round = list(box = NULL, proposal = search)))
   }
-  follows <- uses_proposal(library) || follows_proposal(library)
+  follows <- uses_proposal(library) || !is.null(last_proposal(library))
   # below four parameters the fit only decides, so it leaves the random
   # stream as it was: a unimodal posterior gets the same boxes as before
   # (only on the base library, spread evenly: once boxes have crowded runs
   # into one region, tempering shows their crowd and the runs outside as
   # two clusters that are not two modes)
-  first <- deciding_round(library)
+  first <- length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs
   proposal <- if (follows) fit_proposal(state) else if (first) {
     withr::with_preserve_seed(fit_proposal(state))
   }

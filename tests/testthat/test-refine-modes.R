@@ -57,6 +57,12 @@ test_that("a refinement that loses a base mode warns, one that keeps both does n
   both <- with_round(with_round(fit, rbind(c(0.6, 0.2), c(0.9, 0.6))),
                      rbind(c(0.1, 0.2), c(0.4, 0.6)))
   expect_no_warning(warn_mode_lost(modes, both, "simulator"))
+  # a base mode the rounds explored (runs within a step of its maximum) is
+  # the data's to drop: only the mode around which no run went is warned of
+  big <- modes$share >= mode_lost_share
+  at <- vapply(modes$at, function(a) a$th1, numeric(1))
+  explored <- mode_explored(modes, as.matrix(lib_theta(one$library)))
+  expect_equal(explored[big][order(at[big])], c(FALSE, TRUE))
   # the emulator route's warning names the simulator
   expect_warning(warn_mode_lost(modes, one, "emulator"), "simulator =")
 })
@@ -72,16 +78,17 @@ test_that("a base posterior on few runs gets a search round seeded at both modes
   # its density is a proposal's, so the prior weights stay uniform
   expect_gt(proposal_density(search, data.frame(th1 = 1 / 3, th2 = 0.5)),
             proposal_density(search, data.frame(th1 = 0.02, th2 = 0.02)))
-  # once the rounds have begun there is none, and the rounds after the search
-  # decide between boxes and a fitted proposal as on a base library
+  # once the rounds have begun there is none
   refined <- with_round(fit, rbind(c(0.6, 0.2), c(0.9, 0.6)))
   expect_null(mode_search_proposal(refine_state(refined)))
-  searched <- add_runs(fit$library, data.frame(th1 = 0.5, th2 = 0.5),
-                       folded_sim(data.frame(th1 = 0.5, th2 = 0.5)),
-                       list(box = NULL, proposal = search, n = 1, source = "simulator",
-                            error = NULL))
-  expect_true(deciding_round(searched))
-  expect_false(follows_proposal(searched))
+})
+
+test_that("a plateau of equal weights is one local maximum", {
+  u <- as.matrix(expand.grid(seq(0, 1, 0.25), seq(0, 1, 0.25)))
+  # flat along the second axis at u1 = 0.5 (a model that ignores it there)
+  lw <- ifelse(u[, 1] == 0.5, 0, -1 - u[, 2])
+  lw[u[, 1] == 0 & u[, 2] == 0] <- -0.5
+  expect_equal(local_maxima(u, lw, 3L, -10, 8L), c(which(lw == 0)[1], which(lw == -0.5)))
 })
 
 test_that("refine() from a 64-run grid keeps both modes of the aliased oscillator", {
