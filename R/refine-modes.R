@@ -67,25 +67,36 @@ mode_search_proposal <- function(state) {
 
 # The runs (rows of u) whose log weight `lw` is at least that of each of
 # their k nearest neighbours and within `window` of the best, the best
-# first, at most `max_seeds`. Only the best runs are candidates, so the
-# distances are max_seeds-sized blocks, not n x n.
+# first, at most `max_seeds`. Only the best runs are candidates (at most
+# graph_rows()), so the distances are not n x n.
 local_maxima <- function(u, lw, k, window, max_seeds) {
   top <- max(lw)
   candidates <- order(lw, decreasing = TRUE)
   candidates <- candidates[lw[candidates] >= top + window]
+  candidates <- candidates[seq_len(min(length(candidates), graph_rows(nrow(u))))]
   found <- integer()
-  for (block in split(candidates, ceiling(seq_along(candidates) / 50L))) {
-    for (i in block) {
-      d2 <- colSums((t(u) - u[i, ])^2)
-      d2[i] <- Inf
-      near <- order(d2)[seq_len(min(k, nrow(u) - 1L))]
-      # a plateau (neighbours of equal weight) is one maximum: its lowest index
-      if (all(lw[i] > lw[near] | (lw[i] == lw[near] & i < near))) found <- c(found, i)
-      if (length(found) >= max_seeds) return(found)
-    }
+  for (i in candidates) {
+    near <- graph_neighbours(u, i, k)
+    # a plateau (neighbours of equal weight) is one maximum: its lowest index
+    if (all(lw[i] > lw[near] | (lw[i] == lw[near] & i < near))) found <- c(found, i)
+    if (length(found) >= max_seeds) return(found)
   }
   if (length(found) == 0L) which.max(lw) else found
 }
+
+# The k runs (rows of u) nearest run i, itself left out.
+graph_neighbours <- function(u, i, k) {
+  d2 <- colSums((t(u) - u[i, ])^2)
+  d2[i] <- Inf
+  order(d2)[seq_len(min(k, nrow(u) - 1L))]
+}
+
+# How many runs of a library of n may look for their neighbours: each look
+# reads all n runs, and a million-run grid must not cost minutes
+# (`mode_graph_budget` distances in all; the best runs look first).
+mode_graph_budget <- 5e7
+
+graph_rows <- function(n) max(10L, floor(mode_graph_budget / n))
 
 is_search_proposal <- function(proposal) isTRUE(proposal$search)
 
@@ -95,25 +106,30 @@ is_search_proposal <- function(proposal) isTRUE(proposal$search)
 # mode_min_mass is lost.
 mode_lost_share <- 0.1
 
-# The base library's problem within a (refined) problem: its runs come
-# first, with the base library's own prior.
+# The problem of the first n runs of a (refined) problem, with prior
+# weights `log_prior` (the base library's own for its runs: they come
+# first).
+leading_problem <- function(problem, n, library = problem$library,
+                            log_prior = problem$log_prior_run[seq_len(n)]) {
+  problem$library <- library
+  problem$C <- if (is.matrix(problem$C)) problem$C[seq_len(n), , drop = FALSE] else
+    problem$C[seq_len(n)]
+  problem$log_prior_run <- log_prior
+  problem
+}
+
 base_problem <- function(problem) {
   base <- lib_base(problem$library)
-  n0 <- lib_n_runs(base)
-  problem$library <- base
-  problem$C <- if (is.matrix(problem$C)) problem$C[seq_len(n0), , drop = FALSE] else
-    problem$C[seq_len(n0)]
-  problem$log_prior_run <- lib_log_prior(base)
-  problem
+  leading_problem(problem, lib_n_runs(base), base, lib_log_prior(base))
 }
 
 # The separated modes of the base posterior, as the library shows them: the
 # local maxima of the posterior over the runs' neighbourhood graph (each run
 # joined to its 2q nearest, in units of the library's range), each with the
 # mass of its basin (the runs whose steepest climb ends there). Only the
-# runs holding all but `mode_basin_tail` of the mass climb (a cap of
-# `mode_basin_runs`); runs outside are lower than every run inside, so no
-# climb leaves them. NULL unless two basins hold at least mode_lost_share
+# runs holding all but `mode_basin_tail` of the mass climb (at most
+# `mode_basin_runs` and graph_rows()); runs outside are lower than every run
+# inside, so no climb leaves them. NULL unless two basins hold at least mode_lost_share
 # each; otherwise list(u = the climbing runs in unit coordinates, basin (a
 # mode per climbing run), share, at = each mode's maximum as a theta row,
 # range, varies).
@@ -132,11 +148,9 @@ base_modes <- function(problem) {
   u <- unit_coordinates(theta, range0, varies)
   ord <- order(p, decreasing = TRUE)
   climbing <- ord[seq_len(min(which(cumsum(p[ord]) >= 1 - mode_basin_tail)[1],
-                              mode_basin_runs))]
+                              mode_basin_runs, graph_rows(nrow(u))))]
   up <- vapply(climbing, function(i) {
-    d2 <- colSums((t(u) - u[i, ])^2)
-    d2[i] <- Inf
-    near <- order(d2)[seq_len(min(2L * q, nrow(u) - 1L))]
+    near <- graph_neighbours(u, i, 2L * q)
     best <- near[which.max(p[near])]
     # neighbours of equal mass are one mode (the lower index climbs)
     if (p[best] > p[i] || (p[best] == p[i] && best < i)) best else i
@@ -193,24 +207,38 @@ mode_masses <- function(modes, p, theta) {
          numeric(1))
 }
 
-# The separated modes of the last round's proposal that had two holding at
-# least mode_lost_share of its (tempered) mass, as base_modes() gives them,
-# with the refined posterior's mass on each (runs given to the mode of their
-# most responsible component, as mode_resolution() does). NULL when no
-# round's proposal had.
-round_modes <- function(library, p, theta) {
-  rounds <- rev(lib_rounds(library))
-  for (round in rounds) {
-    proposal <- round$proposal
+# The separated modes of the last round's proposal under which two held at
+# least mode_lost_share of the posterior over the runs it was fitted to
+# (not its components' weights: those are of the tempered posterior, which
+# on the oscillator's grid gave a flat stretch of likelihood, where the
+# model is zero, 35% while its posterior held next to nothing), as
+# base_modes() gives them, with the refined posterior's mass on each. Runs
+# go to the mode of their most responsible component, as mode_resolution()
+# has them. NULL when no round's proposal had. The posterior then is taken
+# with today's prior weights, which differ from that round's by the rounds
+# since: close enough to tell 10% from 2%.
+round_modes <- function(problem, p, theta) {
+  library <- problem$library
+  rounds <- lib_rounds(library)
+  before <- lib_n_runs(lib_base(library)) +
+    cumsum(c(0, vapply(rounds, `[[`, numeric(1), "n")))[seq_along(rounds)]
+  for (r in rev(seq_along(rounds))) {
+    proposal <- rounds[[r]]$proposal
     if (is.null(proposal) || is_search_proposal(proposal)) next
     mode <- proposal_modes(proposal)
-    weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
-    share <- as.vector(tapply(weight, mode, sum))
+    if (max(mode) < 2L) next
+    owner_of <- function(rows) {
+      u <- unit_coordinates(theta[rows, , drop = FALSE], proposal$range, proposal$varies)
+      mode[max.col(mixture_responsibilities(u, proposal$components), ties.method = "first")]
+    }
+    then <- grid_posterior(leading_problem(problem, before[r]), joint = FALSE)$run
+    share <- vapply(seq_len(max(mode)), function(m) {
+      sum(then[owner_of(seq_len(before[r])) == m])
+    }, numeric(1))
     if (sum(share >= mode_lost_share) < 2L) next
+    weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
     held <- which(p > 0)
-    u <- unit_coordinates(theta[held, , drop = FALSE], proposal$range, proposal$varies)
-    owner <- mode[max.col(mixture_responsibilities(u, proposal$components),
-                          ties.method = "first")]
+    owner <- owner_of(held)
     at <- lapply(seq_along(share), function(m) {
       best <- which(mode == m)[which.max(weight[mode == m])]
       centre <- matrix(proposal$components[[best]]$centre, 1L)
@@ -236,8 +264,8 @@ warn_mode_lost <- function(modes, problem, source) {
     modes$mass <- mode_masses(modes, p, theta)
     modes$explored <- mode_explored(modes, theta)
   }
-  found <- list(modes, round_modes(problem$library, p, theta))
-  what <- c("the base library's posterior", "the last proposal with separated modes")
+  found <- list(modes, round_modes(problem, p, theta))
+  what <- c("the base library's posterior", "the posterior of a round with separated modes")
   where <- unlist(lapply(1:2, function(k) lost_mode_text(found[[k]], what[k])))
   if (length(where) == 0L) return(invisible(NULL))
   griddy_warn("refine() has lost a mode: ", paste(where, collapse = "; "), ". The rounds ",
