@@ -207,16 +207,20 @@ mode_masses <- function(modes, p, theta) {
          numeric(1))
 }
 
-# The separated modes of the last round's proposal under which two held at
-# least mode_lost_share of the posterior over the runs it was fitted to
-# (not its components' weights: those are of the tempered posterior, which
-# on the oscillator's grid gave a flat stretch of likelihood, where the
-# model is zero, 35% while its posterior held next to nothing), as
-# base_modes() gives them, with the refined posterior's mass on each. Runs
-# go to the mode of their most responsible component, as mode_resolution()
-# has them. NULL when no round's proposal had. The posterior then is taken
-# with today's prior weights, which differ from that round's by the rounds
-# since: close enough to tell 10% from 2%.
+# The separated modes of the last round's proposal with two holding at
+# least mode_lost_share of its (tempered) weight, as base_modes() gives
+# them, with the refined posterior's mass on each (runs go to the mode of
+# their most responsible component, as mode_resolution() has them). A mode
+# now under mode_min_mass is lost (`lost`) when it held mode_lost_share of
+# the posterior over the runs the proposal was fitted to, or when its own
+# runs rest on fewer effective runs than the whole posterior needs
+# (effective_runs_needed()): its share then is not known. A tempered weight
+# alone is not a loss: on the oscillator's grid a flat stretch of
+# likelihood, where the model is zero, held 35% of a proposal and next to
+# nothing of the posterior, resolved on many runs. The posterior then is
+# taken with today's prior weights, which differ from that round's by the
+# rounds since: close enough to tell 10% from 2%. NULL when no round's
+# proposal had separated modes.
 round_modes <- function(problem, p, theta) {
   library <- problem$library
   rounds <- lib_rounds(library)
@@ -226,28 +230,33 @@ round_modes <- function(problem, p, theta) {
     proposal <- rounds[[r]]$proposal
     if (is.null(proposal) || is_search_proposal(proposal)) next
     mode <- proposal_modes(proposal)
-    if (max(mode) < 2L) next
+    weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
+    share <- as.vector(tapply(weight, mode, sum))
+    if (sum(share >= mode_lost_share) < 2L) next
     owner_of <- function(rows) {
       u <- unit_coordinates(theta[rows, , drop = FALSE], proposal$range, proposal$varies)
       mode[max.col(mixture_responsibilities(u, proposal$components), ties.method = "first")]
     }
     then <- grid_posterior(leading_problem(problem, before[r]), joint = FALSE)$run
-    share <- vapply(seq_len(max(mode)), function(m) {
-      sum(then[owner_of(seq_len(before[r])) == m])
-    }, numeric(1))
-    if (sum(share >= mode_lost_share) < 2L) next
-    weight <- vapply(proposal$components, `[[`, numeric(1), "weight")
+    owner_then <- owner_of(seq_len(before[r]))
     held <- which(p > 0)
     owner <- owner_of(held)
-    at <- lapply(seq_along(share), function(m) {
+    modes <- seq_along(share)
+    mass <- vapply(modes, function(m) sum(p[held][owner == m]), numeric(1))
+    own_runs <- vapply(modes, function(m) {
+      pm <- p[held][owner == m]
+      if (sum(pm) > 0) effective_count(pm / sum(pm)) else 0
+    }, numeric(1))
+    posterior_then <- vapply(modes, function(m) sum(then[owner_then == m]), numeric(1))
+    at <- lapply(modes, function(m) {
       best <- which(mode == m)[which.max(weight[mode == m])]
       centre <- matrix(proposal$components[[best]]$centre, 1L)
       stats::setNames(as.data.frame(from_unit(centre, proposal$range, proposal$varies)),
                       colnames(theta))
     })
-    return(list(share = share, at = at,
-                mass = vapply(seq_along(share), function(m) sum(p[held][owner == m]),
-                              numeric(1))))
+    unsettled <- posterior_then >= mode_lost_share |
+      own_runs < effective_runs_needed(sum(proposal$varies))
+    return(list(share = share, at = at, mass = mass, explored = !unsettled))
   }
   NULL
 }
@@ -265,7 +274,7 @@ warn_mode_lost <- function(modes, problem, source) {
     modes$explored <- mode_explored(modes, theta)
   }
   found <- list(modes, round_modes(problem, p, theta))
-  what <- c("the base library's posterior", "the posterior of a round with separated modes")
+  what <- c("the base library's posterior", "a round's proposal with separated modes")
   where <- unlist(lapply(1:2, function(k) lost_mode_text(found[[k]], what[k])))
   if (length(where) == 0L) return(invisible(NULL))
   griddy_warn("refine() has lost a mode: ", paste(where, collapse = "; "), ". The rounds ",
