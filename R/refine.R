@@ -58,9 +58,14 @@
 #' keeps drawing runs over the whole range (boxes zoomed in on the first
 #' mode the search found). When the base posterior had
 #' separated modes (the basins of such maxima) each holding at least 10%,
-#' or a round's proposal had, and the refined posterior holds under 2% on
-#' one of them, `refine()` warns (class `griddy_warning_mode_lost`), naming
-#' where the mode was and its shares; with or without a simulator.
+#' and the refined posterior holds under 2% on one around which the rounds
+#' put too few runs to see it (fewer than a quadratic's coefficients within
+#' a step of the base library's spacing), `refine()` warns (class
+#' `griddy_warning_mode_lost`), naming where the mode was and its shares;
+#' so it does when a round's proposal had separated modes each holding 10%
+#' of its weight and one now holds under 2% though it held 10% of the
+#' posterior then, or rests on too few effective runs of its own to tell its
+#' share. With or without a simulator.
 #'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
