@@ -43,8 +43,9 @@
 #' approximation, from coarser components, which loses some of the
 #' information that separates close runs). Against adaptive quadrature the
 #' mixture entropy agrees to about 10^-3 nats for a few components; for a
-#' posterior spread over 10^5 runs after two measurements the gain was about
-#' 0.01 nats above the unmerged mixture's (bench/README.md). Numerical noise
+#' posterior spread over 10^5 runs after two measurements the gain of one
+#' candidate checked was 0.01 nats above the unmerged mixture's
+#' (bench/README.md). Numerical noise
 #' below zero is returned as 0.
 #'
 #' **Scope.** Candidates are cells the library has (its x settings and t);
