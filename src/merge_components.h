@@ -1,8 +1,22 @@
 // The binning of next_measurement()'s mixture components, shared by
 // merge_components_cpp() and next_gains_cpp() (see merge_components.cpp).
-// Occupied bins are counted in a bitmap (1e7 bins: 1.25 MB, in cache),
-// and only the last pass, with few bins, assigns the merged components
-// (in order of first appearance) through a small open-addressing table.
+//
+// Concentrated or not, the first pass merges the components straight into
+// the bins of the first widths through a table of at most
+// 2 x `max_components` entries (in L1), in order of first appearance. Most
+// calls end there: with next_measurement()'s components, a few hundred
+// thousand of them, that one read is the whole cost of the merge (a bitmap
+// count of the occupied bins over 10^7 of them, then this table, cost two
+// reads, the first with a cache miss per component).
+//
+// When more bins are occupied, the pass stops at the first one too many;
+// the widths grow until the grid has at most 2^16 bins, and one pass sums
+// each component into its bin of that grid (a dense table). The widening
+// that follows (the same rule) bins those sums, each at its weighted mean
+// location and log scale, not the components again: a component then
+// lands in the bin of its fine bin's mean, not always its own, which
+// changes which near-boundary components go together but not that a
+// merged component has exactly its members' weight, mean and variance.
 #ifndef GRIDDY_MERGE_COMPONENTS_H
 #define GRIDDY_MERGE_COMPONENTS_H
 #include <algorithm>
@@ -17,86 +31,234 @@ struct Merged {
   std::vector<int> nu_class;
 };
 
-inline void merge_components(const double* w, const double* m, const double* s,
-                             const double* ls, const int* nu_class, long n, int n_classes,
-                             double width_location, double width_scale,
-                             int max_components, Merged& out) {
-  double ls_min = INFINITY, ls_max = -INFINITY, m_min = INFINITY, m_max = -INFINITY;
-  for (long i = 0; i < n; ++i) {
-    ls_min = std::min(ls_min, ls[i]);
-    ls_max = std::max(ls_max, ls[i]);
-    m_min = std::min(m_min, m[i]);
-    m_max = std::max(m_max, m[i]);
+namespace merge_detail {
+
+const double kMaxBins = 1e7;      // the first pass's grid at most
+const double kDenseBins = 65536;  // the dense table's bins
+
+// A grid of bins: (class, log-scale bin sb, location bin of width h[sb]).
+struct Grid {
+  double ls_min, m_min, ls_max, m_max, wl, ws, inv_ws = 1;
+  int n_classes, span_sb = 1, span_mb = 1;
+  std::vector<double> inv_h;
+  double bins() const {
+    const double n_sb = std::floor((ls_max - ls_min) / ws) + 1.0;
+    const double n_mb = std::floor((m_max - m_min) / (wl * std::exp(ls_min))) + 1.0;
+    return n_classes * n_sb * n_mb;
   }
+  void widen(double f) {
+    wl *= f;
+    ws *= f;
+  }
+  // widths grown (by the widening rule) until the grid has at most `cap` bins
+  void cap_bins(double cap) {
+    for (int iter = 0; iter < 200 && bins() > cap; ++iter) widen(std::sqrt(bins() / cap) * 1.1);
+  }
+  void fix() {
+    span_sb = static_cast<int>(std::floor((ls_max - ls_min) / ws) + 1.0);
+    span_mb = static_cast<int>(std::floor((m_max - m_min) / (wl * std::exp(ls_min))) + 1.0);
+    inv_ws = 1 / ws;
+    inv_h.resize(span_sb);
+    for (int b = 0; b < span_sb; ++b) inv_h[b] = 1 / (wl * std::exp(ls_min + b * ws));
+  }
+  int key(double ls, double m, int cls) const {
+    const int sb = std::min(static_cast<int>((ls - ls_min) * inv_ws), span_sb - 1);
+    const int mb = std::min(static_cast<int>((m - m_min) * inv_h[sb]), span_mb - 1);
+    return ((cls - 1) * span_sb + sb) * span_mb + mb;
+  }
+  int class_of(int key) const { return key / (span_sb * span_mb) + 1; }
+};
+
+// Occupied bins of keys key(i), i < n, counted up to `stop` (then stop + 1).
+template <class Key>
+long count_bins(const Grid& grid, long n, Key key, long stop) {
   static thread_local std::vector<uint64_t> bits;
-  std::vector<double> h;
-  int span_mb = 1, span_sb = 1;
-  auto bin = [&](long i) {
-    const int sb = std::min(static_cast<int>((ls[i] - ls_min) / width_scale), span_sb - 1);
-    const int mb = std::min(static_cast<int>((m[i] - m_min) / h[sb]), span_mb - 1);
-    return ((nu_class[i] - 1) * span_sb + sb) * span_mb + mb;
-  };
+  const size_t n_words = static_cast<size_t>(grid.n_classes) * grid.span_sb * grid.span_mb / 64 + 1;
+  if (bits.size() < n_words) bits.resize(n_words);
+  std::fill(bits.begin(), bits.begin() + n_words, 0);
   long n_key = 0;
-  for (int iter = 0; iter < 200; ++iter) {
-    const double n_sb = std::floor((ls_max - ls_min) / width_scale) + 1.0;
-    const double n_mb = std::floor((m_max - m_min) / (width_location * std::exp(ls_min))) + 1.0;
-    const double n_bins = n_classes * n_sb * n_mb;
-    if (n_bins > 1e7) {
-      const double f = std::sqrt(n_bins / 1e7) * 1.1;
-      width_location *= f;
-      width_scale *= f;
-      continue;
+  for (long i = 0; i < n; ++i) {
+    const int k = key(i);
+    const uint64_t bit = uint64_t(1) << (k & 63);
+    if (!(bits[k >> 6] & bit)) {
+      bits[k >> 6] |= bit;
+      if (++n_key > stop) break;
     }
-    span_mb = static_cast<int>(n_mb);
-    span_sb = static_cast<int>(n_sb);
-    h.resize(span_sb);
-    for (int b = 0; b < span_sb; ++b) h[b] = width_location * std::exp(ls_min + b * width_scale);
-    const size_t n_words = static_cast<size_t>(n_bins) / 64 + 1;
-    if (bits.size() < n_words) bits.resize(n_words);
-    std::fill(bits.begin(), bits.begin() + n_words, 0);
-    n_key = 0;
-    for (long i = 0; i < n; ++i) {
-      const int k = bin(i);
-      const uint64_t bit = uint64_t(1) << (k & 63);
-      if (!(bits[k >> 6] & bit)) {
-        bits[k >> 6] |= bit;
-        ++n_key;
-      }
-    }
-    if (n_key <= max_components) break;
-    const double f = std::sqrt(static_cast<double>(n_key) / max_components) * 1.1;
-    width_location *= f;
-    width_scale *= f;
   }
-  // the last pass: bin -> merged component, in order of first appearance
+  return n_key;
+}
+
+// Bins in order of first appearance through an open-addressing table:
+// slot[i] for each i < n; returns the number of bins.
+template <class Key>
+int assign_bins(long n, Key key, long n_key, std::vector<int>& slot) {
   size_t size = 16;
   while (size < 2 * static_cast<size_t>(n_key)) size *= 2;
   std::vector<int> table_key(size, -1), table_slot(size);
-  out.w.assign(n_key, 0.0);
-  out.m.assign(n_key, 0.0);
-  out.s2.assign(n_key, 0.0);
-  out.nu_class.assign(n_key, 0);
-  std::vector<double> m2(n_key, 0.0);
+  slot.resize(n);
   int used = 0;
   for (long i = 0; i < n; ++i) {
-    const int k = bin(i);
+    const int k = key(i);
     size_t p = (static_cast<uint32_t>(k) * 2654435761u) & (size - 1);
     while (table_key[p] >= 0 && table_key[p] != k) p = (p + 1) & (size - 1);
     if (table_key[p] < 0) {
       table_key[p] = k;
       table_slot[p] = used++;
     }
+    slot[i] = table_slot[p];
+  }
+  return used;
+}
+
+// The merged component's mean and squared scale from its sums of w, w m,
+// w m^2 and w s^2.
+inline void finish(std::vector<double>& m2, Merged& out) {
+  for (size_t j = 0; j < out.w.size(); ++j) {
+    out.m[j] /= out.w[j];
+    out.s2[j] = out.s2[j] / out.w[j] + std::max(m2[j] / out.w[j] - out.m[j] * out.m[j], 0.0);
+  }
+}
+
+// One pass that merges straight into at most `max_components` bins
+// through an open-addressing table small enough for L1 (in order of first
+// appearance); false, with `out` unfinished, as soon as one more is needed.
+template <class Key>
+bool merge_small(const Grid& grid, const double* w, const double* m, const double* s,
+                 Key key, long n, int max_components, std::vector<double>& m2, Merged& out) {
+  size_t size = 16;
+  while (size < 2 * static_cast<size_t>(max_components)) size *= 2;
+  std::vector<int> table_key(size, -1), table_slot(size);
+  out.w.assign(max_components, 0.0);
+  out.m.assign(max_components, 0.0);
+  out.s2.assign(max_components, 0.0);
+  out.nu_class.assign(max_components, 0);
+  m2.assign(max_components, 0.0);
+  int used = 0;
+  for (long i = 0; i < n; ++i) {
+    const int k = key(i);
+    size_t p = (static_cast<uint32_t>(k) * 2654435761u) & (size - 1);
+    while (table_key[p] >= 0 && table_key[p] != k) p = (p + 1) & (size - 1);
+    if (table_key[p] < 0) {
+      if (used == max_components) return false;
+      table_key[p] = k;
+      table_slot[p] = used++;
+      out.nu_class[table_slot[p]] = grid.class_of(k);
+    }
     const int j = table_slot[p];
     out.w[j] += w[i];
     out.m[j] += w[i] * m[i];
     m2[j] += w[i] * m[i] * m[i];
     out.s2[j] += w[i] * s[i] * s[i];
-    out.nu_class[j] = nu_class[i];
   }
-  for (long j = 0; j < n_key; ++j) {
-    out.m[j] /= out.w[j];
-    out.s2[j] = out.s2[j] / out.w[j] + std::max(m2[j] / out.w[j] - out.m[j] * out.m[j], 0.0);
+  out.w.resize(used);
+  out.m.resize(used);
+  out.s2.resize(used);
+  out.nu_class.resize(used);
+  m2.resize(used);
+  finish(m2, out);
+  return true;
+}
+
+}  // namespace merge_detail
+
+inline void merge_components(const double* w, const double* m, const double* s,
+                             const double* ls, const int* nu_class, long n, int n_classes,
+                             double width_location, double width_scale,
+                             int max_components, Merged& out) {
+  using namespace merge_detail;
+  Grid grid;
+  grid.ls_min = INFINITY;
+  grid.ls_max = -INFINITY;
+  grid.m_min = INFINITY;
+  grid.m_max = -INFINITY;
+  for (long i = 0; i < n; ++i) {
+    grid.ls_min = std::min(grid.ls_min, ls[i]);
+    grid.ls_max = std::max(grid.ls_max, ls[i]);
+    grid.m_min = std::min(grid.m_min, m[i]);
+    grid.m_max = std::max(grid.m_max, m[i]);
   }
+  grid.n_classes = n_classes;
+  grid.wl = width_location;
+  grid.ws = width_scale;
+  grid.cap_bins(kMaxBins);
+  auto raw_key = [&](long i) { return grid.key(ls[i], m[i], nu_class[i]); };
+  std::vector<double> m2;
+  grid.fix();
+  if (merge_small(grid, w, m, s, raw_key, n, max_components, m2, out)) return;
+  grid.cap_bins(kDenseBins);
+  // the dense table: each component's sums into its bin of a grid of at
+  // most 2^16 bins, one cache line a bin (bins in order of first appearance)
+  grid.fix();
+  struct Sums {
+    double w, wm, wm2, ws2, wls;
+    long count;
+  };
+  static thread_local std::vector<Sums> dense;
+  const size_t n_bins = static_cast<size_t>(n_classes) * grid.span_sb * grid.span_mb;
+  if (dense.size() < n_bins) dense.resize(n_bins, Sums{0, 0, 0, 0, 0, 0});
+  std::vector<int> touched;
+  for (long i = 0; i < n; ++i) {
+    const int k = raw_key(i);
+    Sums& b = dense[k];
+    if (b.count++ == 0) touched.push_back(k);
+    b.w += w[i];
+    b.wm += w[i] * m[i];
+    b.wm2 += w[i] * m[i] * m[i];
+    b.ws2 += w[i] * s[i] * s[i];
+    b.wls += w[i] * ls[i];
+  }
+  const size_t n_touched = touched.size();
+  std::vector<double> fw(n_touched), fm(n_touched), fm2(n_touched), fs2(n_touched),
+      fls(n_touched);
+  std::vector<int> fcls(n_touched);
+  for (size_t j = 0; j < n_touched; ++j) {
+    Sums& b = dense[touched[j]];
+    fw[j] = b.w;
+    fm[j] = b.wm;
+    fm2[j] = b.wm2;
+    fs2[j] = b.ws2;
+    fls[j] = b.wls;
+    fcls[j] = grid.class_of(touched[j]);
+    b = Sums{0, 0, 0, 0, 0, 0};
+  }
+  const long n_fine = touched.size();
+  if (n_fine <= max_components) {
+    out.w = fw;
+    out.m = fm;
+    out.s2 = fs2;
+    out.nu_class = fcls;
+    finish(fm2, out);
+    return;
+  }
+  // widen over the fine bins, each at its weighted mean location and log scale
+  std::vector<double> mean_m(n_fine), mean_ls(n_fine);
+  for (long j = 0; j < n_fine; ++j) {
+    mean_m[j] = fm[j] / fw[j];
+    mean_ls[j] = fls[j] / fw[j];
+  }
+  auto fine_key = [&](long j) { return grid.key(mean_ls[j], mean_m[j], fcls[j]); };
+  long n_key = n_fine;
+  for (int iter = 0; iter < 200 && n_key > max_components; ++iter) {
+    grid.widen(std::sqrt(static_cast<double>(n_key) / max_components) * 1.1);
+    grid.fix();
+    n_key = count_bins(grid, n_fine, fine_key, n_fine);
+  }
+  std::vector<int> slot;
+  const int used = assign_bins(n_fine, fine_key, n_key, slot);
+  out.w.assign(used, 0.0);
+  out.m.assign(used, 0.0);
+  out.s2.assign(used, 0.0);
+  out.nu_class.assign(used, 0);
+  m2.assign(used, 0.0);
+  for (long j = 0; j < n_fine; ++j) {
+    const int c = slot[j];
+    out.w[c] += fw[j];
+    out.m[c] += fm[j];
+    m2[c] += fm2[j];
+    out.s2[c] += fs2[j];
+    out.nu_class[c] = fcls[j];
+  }
+  finish(m2, out);
 }
 
 }  // namespace griddy

@@ -38,35 +38,39 @@ struct Quantiles {
   }
 };
 
-// The entropy of sum w t_nu(m, s) (w sums to 1): merged, then
+// The entropy of sum w t_nu(m, s) / total: merged, then
 // sum_j w_j [H(p_j) + KL(p_j || p)] by quadrature over p_j's quantiles.
-double mixture_entropy(const std::vector<double>& w, const std::vector<double>& m,
-                       const std::vector<double>& s, const std::vector<double>& ls,
-                       const std::vector<int>& cls, const std::vector<double>& class_nu,
-                       const std::vector<double>& weight, Quantiles& quant,
-                       int max_components) {
-  const long n = w.size();
+double mixture_entropy(const double* w, const double* m, const double* s, const double* ls,
+                       const int* cls, long n, double total,
+                       const std::vector<double>& class_nu, const std::vector<double>& weight,
+                       Quantiles& quant, int max_components) {
   if (n == 0) return 0;
   griddy::Merged mc;
   if (n == 1) {
-    mc.w = w;
-    mc.m = m;
+    mc.w = {w[0]};
+    mc.m = {m[0]};
     mc.s2 = {s[0] * s[0]};
-    mc.nu_class = cls;
+    mc.nu_class = {cls[0]};
   } else {
-    griddy::merge_components(w.data(), m.data(), s.data(), ls.data(), cls.data(), n,
-                             class_nu.size(), 0.25, 0.05, max_components, mc);
+    griddy::merge_components(w, m, s, ls, cls, n, class_nu.size(), 0.25, 0.05,
+                             max_components, mc);
   }
   const size_t J = mc.w.size();
-  std::vector<double> sj(J), nu(J), c_log(J), c_ent(J), amp(J);
+  std::vector<double> wj(J), sj(J), lsj(J), inv_s(J), nu(J), inv_nu(J), expo(J), c_log(J),
+      c_ent(J), amp(J);
   for (size_t j = 0; j < J; ++j) {
+    wj[j] = mc.w[j] / total;
     sj[j] = std::sqrt(mc.s2[j]);
+    lsj[j] = std::log(sj[j]);
+    inv_s[j] = 1 / sj[j];
     nu[j] = class_nu[mc.nu_class[j] - 1];
+    inv_nu[j] = 1 / nu[j];
+    expo[j] = -(nu[j] + 1) / 2;
     c_log[j] = t_log_const(nu[j]);
     c_ent[j] = t_entropy_const(nu[j]);
-    amp[j] = std::exp(c_log[j]) * mc.w[j] / sj[j];
+    amp[j] = std::exp(c_log[j]) * wj[j] * inv_s[j];
   }
-  if (J == 1) return std::log(sj[0]) + c_ent[0];
+  if (J == 1) return lsj[0] + c_ent[0];
   const size_t Q = weight.size();
   double h = 0;
   for (size_t j = 0; j < J; ++j) {
@@ -76,14 +80,14 @@ double mixture_entropy(const std::vector<double>& w, const std::vector<double>& 
       const double y = z[q] * sj[j] + mc.m[j];
       double p = 0;
       for (size_t k = 0; k < J; ++k) {
-        const double d = (y - mc.m[k]) / sj[k];
-        p += amp[k] * std::exp(-(nu[k] + 1) / 2 * std::log(1 + d * d / nu[k]));
+        const double d = (y - mc.m[k]) * inv_s[k];
+        p += amp[k] * std::exp(expo[k] * std::log(1 + d * d * inv_nu[k]));
       }
       const double log_pj = c_log[j] - (nu[j] + 1) / 2 * std::log1p(z[q] * z[q] / nu[j]) -
-                            std::log(sj[j]);
+                            lsj[j];
       kl += weight[q] * (log_pj - std::log(p));
     }
-    h += mc.w[j] * (std::log(sj[j]) + c_ent[j] + kl);
+    h += wj[j] * (lsj[j] + c_ent[j] + kl);
   }
   return h;
 }
@@ -103,24 +107,42 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
   const int M = models.size();
   Quantiles quant(u);
   Rcpp::NumericMatrix out(2, n_candidates);
-  std::vector<double> w, m, s, ls, mw, mm, ms, mls;
-  std::vector<int> cls, mcls;
-  std::vector<double> class_nu;
+  std::vector<long> start(M + 1, 0);
   int n_groups_max = 1;
   for (int mod = 0; mod < M; ++mod) {
     const Rcpp::List part = models[mod];
     const Rcpp::NumericMatrix scale2 = part["scale2"];
+    const Rcpp::NumericVector pw = part["w"];
     n_groups_max = std::max(n_groups_max, static_cast<int>(scale2.ncol()));
+    start[mod + 1] = start[mod] + pw.size();
   }
+  const long n = start[M];
+  std::vector<double> m(n), s(n), ls(n);
+  std::vector<int> cls(n), ones(n, 1);
+  // the weights, the same at every candidate
+  std::vector<double> w(n);
+  for (int mod = 0; mod < M; ++mod) {
+    const Rcpp::List part = models[mod];
+    const Rcpp::NumericVector pw = part["w"];
+    std::copy(pw.begin(), pw.end(), w.begin() + start[mod]);
+  }
+  double total = 0;
+  for (double v : w) total += v;
+  std::vector<double> mass(M, 0.0);
+  for (int mod = 0; mod < M; ++mod) {
+    for (long i = start[mod]; i < start[mod + 1]; ++i) mass[mod] += w[i];
+  }
+  // each (model, noise group)'s scales without a neighbour, and their logs,
+  // computed once; a neighbour multiplies a scale by sqrt(var) per grid point
   std::vector<std::vector<double>> cache_s(M * n_groups_max), cache_ls(M * n_groups_max);
+  std::vector<double> class_nu;
   for (int j = 0; j < n_candidates; ++j) {
-    w.clear(); m.clear(); s.clear(); ls.clear(); cls.clear();
     class_nu.clear();
-    std::vector<long> start(M + 1, 0);
     std::vector<int> model_class(M);
+    double h_comp = 0;
     for (int mod = 0; mod < M; ++mod) {
       const Rcpp::List part = models[mod];
-      const Rcpp::NumericVector pw = part["w"], rho = part["rho"], nu = part["nu"];
+      const Rcpp::NumericVector rho = part["rho"], nu = part["nu"];
       const Rcpp::IntegerVector run = part["run"], g = part["g"], column = part["column"],
                                 group = part["group"], before = part["before"],
                                 after = part["after"];
@@ -129,67 +151,66 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
       const Rcpp::NumericMatrix outputs = part["outputs"], scale2 = part["scale2"];
       const int N = outputs.nrow();
       const double* col = &outputs[static_cast<R_xlen_t>(column[j]) * N];
-      const double* sc = &scale2[static_cast<R_xlen_t>(group[j]) * scale2.nrow()];
       const bool has_b = before[j] >= 0, has_a = after[j] >= 0;
       const double* col_b = has_b ? &outputs[static_cast<R_xlen_t>(before[j]) * N] : nullptr;
       const double* col_a = has_a ? &outputs[static_cast<R_xlen_t>(after[j]) * N] : nullptr;
       const int G = rho.size();
-      std::vector<double> p1(G, 0.0), p2(G, 0.0), d(G, 1.0), var(G, 1.0);
+      std::vector<double> p1(G, 0.0), p2(G, 0.0), d(G, 1.0), var(G, 1.0), sd(G, 1.0),
+          log_sd(G, 0.0);
       for (int k = 0; k < G; ++k) {
         if (has_b) p1[k] = std::pow(rho[k], lag_before[j]);
         if (has_a) p2[k] = std::pow(rho[k], lag_after[j]);
         d[k] = 1 - p1[k] * p1[k] * p2[k] * p2[k];
         var[k] = (1 - p1[k] * p1[k]) * (1 - p2[k] * p2[k]) / d[k];
+        sd[k] = std::sqrt(var[k]);
+        log_sd[k] = std::log(sd[k]);
       }
       size_t c = 0;
       while (c < class_nu.size() && class_nu[c] != nu[j]) ++c;
       if (c == class_nu.size()) class_nu.push_back(nu[j]);
       model_class[mod] = c + 1;
-      const long K = pw.size();
-      for (long i = 0; i < K; ++i) {
-        const int r = run[i], gi = g[i];
-        double mean = col[r];
-        if (has_b || has_a) {
+      std::vector<double>& cs = cache_s[mod * n_groups_max + group[j]];
+      std::vector<double>& cl = cache_ls[mod * n_groups_max + group[j]];
+      const long K = start[mod + 1] - start[mod];
+      if (cs.empty()) {
+        const double* sc = &scale2[static_cast<R_xlen_t>(group[j]) * scale2.nrow()];
+        cs.resize(K);
+        cl.resize(K);
+        for (long i = 0; i < K; ++i) {
+          cs[i] = std::sqrt(sc[i]);
+          cl[i] = std::log(cs[i]);
+        }
+      }
+      const double ent = t_entropy_const(nu[j]);
+      double* mi = &m[start[mod]];
+      double* si = &s[start[mod]];
+      double* lsi = &ls[start[mod]];
+      const double* wi = &w[start[mod]];
+      std::fill(cls.begin() + start[mod], cls.begin() + start[mod + 1], c + 1);
+      double sum_wls = 0;
+      if (has_b || has_a) {
+        for (long i = 0; i < K; ++i) {
+          const int r = run[i], gi = g[i];
           const double e1 = has_b ? y_before[j] - col_b[r] : 0.0;
           const double e2 = has_a ? y_after[j] - col_a[r] : 0.0;
-          mean += (p1[gi] * (1 - p2[gi] * p2[gi]) * e1 + p2[gi] * (1 - p1[gi] * p1[gi]) * e2) /
-                  d[gi];
+          mi[i] = col[r] + (p1[gi] * (1 - p2[gi] * p2[gi]) * e1 +
+                            p2[gi] * (1 - p1[gi] * p1[gi]) * e2) / d[gi];
+          si[i] = cs[i] * sd[gi];
+          lsi[i] = cl[i] + log_sd[gi];
+          sum_wls += wi[i] * lsi[i];
         }
-        w.push_back(pw[i]);
-        m.push_back(mean);
-        cls.push_back(c + 1);
-      }
-      // without neighbours the scales are the group's at every candidate:
-      // their logs are computed once per (model, group)
-      std::vector<double>& cs = cache_s[mod * n_groups_max + group[j]];
-      std::vector<double>& cls_ = cache_ls[mod * n_groups_max + group[j]];
-      if (!(has_b || has_a) && !cs.empty()) {
-        s.insert(s.end(), cs.begin(), cs.end());
-        ls.insert(ls.end(), cls_.begin(), cls_.end());
       } else {
-        const size_t first = s.size();
         for (long i = 0; i < K; ++i) {
-          const double si = std::sqrt(sc[i] * var[g[i]]);
-          s.push_back(si);
-          ls.push_back(std::log(si));
+          mi[i] = col[run[i]];
+          sum_wls += wi[i] * cl[i];
         }
-        if (!(has_b || has_a)) {
-          cs.assign(s.begin() + first, s.end());
-          cls_.assign(ls.begin() + first, ls.end());
-        }
+        std::copy(cs.begin(), cs.end(), si);
+        std::copy(cl.begin(), cl.end(), lsi);
       }
-      start[mod + 1] = w.size();
+      h_comp += (sum_wls + mass[mod] * ent) / total;
     }
-    double total = 0;
-    for (double v : w) total += v;
-    std::vector<double> wn(w.size());
-    for (size_t i = 0; i < w.size(); ++i) wn[i] = w[i] / total;
-    const double h_mix = mixture_entropy(wn, m, s, ls, cls, class_nu, weight, quant,
-                                         max_components);
-    std::vector<double> class_ent(class_nu.size());
-    for (size_t c = 0; c < class_nu.size(); ++c) class_ent[c] = t_entropy_const(class_nu[c]);
-    double h_comp = 0;
-    for (size_t i = 0; i < w.size(); ++i) h_comp += wn[i] * (ls[i] + class_ent[cls[i] - 1]);
+    const double h_mix = mixture_entropy(w.data(), m.data(), s.data(), ls.data(), cls.data(), n,
+                                         total, class_nu, weight, quant, max_components);
     out(0, j) = std::max(h_mix - h_comp, 0.0);
     out(1, j) = NA_REAL;
     if (M > 1) {
@@ -197,17 +218,10 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
       for (int mod = 0; mod < M; ++mod) {
         const long a = start[mod], b = start[mod + 1];
         if (b == a) continue;
-        double mass = 0;
-        for (long i = a; i < b; ++i) mass += w[i];
-        mw.assign(b - a, 0.0);
-        for (long i = a; i < b; ++i) mw[i - a] = w[i] / mass;
-        mm.assign(m.begin() + a, m.begin() + b);
-        ms.assign(s.begin() + a, s.begin() + b);
-        mls.assign(ls.begin() + a, ls.begin() + b);
-        mcls.assign(b - a, 1);
-        std::vector<double> one_nu = {class_nu[model_class[mod] - 1]};
-        h_models += mass / total * mixture_entropy(mw, mm, ms, mls, mcls, one_nu, weight,
-                                                   quant, max_components);
+        const std::vector<double> one_nu = {class_nu[model_class[mod] - 1]};
+        h_models += mass[mod] / total *
+                    mixture_entropy(&w[a], &m[a], &s[a], &ls[a], ones.data(), b - a, mass[mod],
+                                    one_nu, weight, quant, max_components);
       }
       out(1, j) = std::max(h_mix - h_models, 0.0);
     }
