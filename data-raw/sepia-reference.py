@@ -10,7 +10,8 @@
 # with numpy, scipy and matplotlib (Debian: python3-numpy python3-scipy
 # python3-matplotlib). Run from the package root:
 #   SEPIA_SRC=/tmp/sepia /usr/bin/python3 data-raw/sepia-reference.py CASE [CASE...]
-# CASE: ball_drop_1, ball_drop_1_noD, ball_drop_2, al5083. Each writes
+# CASE: ball_drop_1, ball_drop_1_noD, ball_drop_2, ball_drop_2_noD, al5083,
+# al5083_cost (the cost of SEPIA's log likelihood, see al5083_cost()). Each writes
 # inst/extdata/sepia_<CASE>.csv.gz (the kept draws: theta_native columns and
 # the chain's log posterior) and appends a line to inst/extdata/sepia_runs.csv
 # (the settings, the seconds the run took, the machine's load; times are on
@@ -29,6 +30,7 @@
 # * ball_drop_2: ball_drop_2.ipynb: x = (R, rho_ball), theta = (C, g), 80
 #   runs at 101 heights, 4 balls at 3 heights, 3 principal components, 20
 #   kernels of discrepancy; 6,000 samples, the first 1,000 dropped.
+# * ball_drop_2_noD: the same without the discrepancy basis.
 # * al5083: examples/Al_5083/Al_5083_calibration.py: 1,000 runs of 11
 #   parameters, 12 features, Sigy = diag(0.01 y_obs), 11 principal
 #   components, lamWs's prior as in the script; step sizes tuned (100, 25)
@@ -80,7 +82,7 @@ def ball_drop_1(discrepancy=True):
     return data, ["C"], dict(tune=(50, 20), samples=6000, burn=1000)
 
 
-def ball_drop_2():
+def ball_drop_2(discrepancy=True):
     d = os.path.join(BALL, "data_ball_drop_2")
     field = load(os.path.join(d, "fieldDat12x6gparam.txt"))
     x = load(os.path.join(d, "desNative4x2Rrho.txt"))
@@ -94,6 +96,8 @@ def ball_drop_2():
     data.transform_xt()
     data.standardize_y()
     data.create_K_basis(3)
+    if not discrepancy:
+        return data, ["C", "g"], dict(tune=(50, 20), samples=6000, burn=1000)
     grid = np.linspace(min(h_sim), max(h_sim), 20, dtype=int)
     width = max(grid) / 20
     d_obs = np.column_stack([norm.pdf(h_obs, c, width) for c in grid])
@@ -130,13 +134,41 @@ def al5083():
                              runs=n_runs, prior="lamWs as Al_5083_calibration.py")
 
 
+def al5083_cost():
+    # SEPIA's full Al-5083 run did not fit this machine's time: what one
+    # log-likelihood costs (its calibration model's joint covariance over the
+    # runs' and the data's principal-component weights) on the first n runs,
+    # and how many parameters one MCMC step updates (each needs one).
+    path = os.path.join(OUT, "sepia_al5083_cost.csv")
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["runs", "loglik_seconds", "mcmc_parameters", "load"])
+        for n in [int(v) for v in os.environ.get("AL5083_COST_RUNS", "100,200").split(",")]:
+            os.environ["AL5083_RUNS"] = str(n)
+            data, names, s = al5083()
+            model = SepiaModel(data)
+            model.logLik()
+            start = time.time()
+            for i in range(3):
+                model.logLik()
+            each = (time.time() - start) / 3
+            params = sum(int(np.sum(~np.asarray(p.fixed))) for p in model.params.mcmcList)
+            w.writerow([n, round(each, 4), params, round(os.getloadavg()[0], 2)])
+            f.flush()
+    print("al5083_cost done;", path)
+
+
 def run(case):
+    if case == "al5083_cost":
+        return al5083_cost()
     if case == "ball_drop_1":
         data, names, s = ball_drop_1(True)
     elif case == "ball_drop_1_noD":
         data, names, s = ball_drop_1(False)
     elif case == "ball_drop_2":
-        data, names, s = ball_drop_2()
+        data, names, s = ball_drop_2(True)
+    elif case == "ball_drop_2_noD":
+        data, names, s = ball_drop_2(False)
     elif case == "al5083":
         data, names, s = al5083()
     else:
