@@ -16,10 +16,11 @@
 # error is scaled to its leave-one-out variance (proposal_round_emulator()).
 
 # One round of n predicted runs: list(state, emulator), the emulator kept for
-# the next round while it still covers the round's runs.
-predicted_round <- function(state, emulator, n) {
+# the next round while it still covers the round's runs. `proposals` FALSE
+# keeps the boxes in any dimension (diagnose_gap()'s matched resolution).
+predicted_round <- function(state, emulator, n, proposals = TRUE) {
   library <- state$problem$library
-  if (uses_proposal(library)) {
+  if (proposals && uses_proposal(library)) {
     design <- round_design(state, n)
     theta_new <- design$theta
     round <- list(box = NULL, proposal = design$round$proposal)

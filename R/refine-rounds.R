@@ -24,8 +24,11 @@ unfinished_round <- function(fit) {
 # previous table) that ends the rounds after a round where it is TRUE
 # (reason "settled"): diagnose_gap()'s matched resolution stops where more
 # runs cannot resolve a model (settled_in_range()); refine() passes none.
+# `proposals`: predicted runs follow the proposal from four parameters, as
+# simulated ones do (predicted_round()); refine() asks for it,
+# diagnose_gap()'s matched resolution keeps its boxes.
 refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
-                          previous = NULL, store = NULL, settled = NULL) {
+                          previous = NULL, store = NULL, settled = NULL, proposals = FALSE) {
   state <- refine_state(problem)
   history <- list(state$table)
   source <- if (is.null(simulator)) "emulator" else "simulator"
@@ -45,7 +48,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     }
     n_new <- min(runs_per_round, max_runs - added)
     if (is.null(simulator)) {
-      step <- predicted_round(state, emulator, n_new)
+      step <- predicted_round(state, emulator, n_new, proposals)
       state <- step$state
       emulator <- step$emulator
       n_done <- n_new

@@ -263,7 +263,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   # runs from the file are a round: judged against the fit they refine
   previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
   rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
-                          previous = previous, store = store)
+                          previous = previous, store = store, proposals = TRUE)
   rounds$runs_added <- rounds$runs_added + resumed$n
   if (rounds$runs_added == 0L) {
     if (!is.null(rounds$failure)) stop_refinement(rounds$failure, fit, store)
