@@ -168,7 +168,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
     logdet[j] <- logdet[j] + sum(log1p(grid$ratio[j] * d))
   }
   list(obs = obs, scale = scale, groups = groups, kron = kron, A = A, H = H, rot = rot,
-       grid = grid, logdet = logdet, lowrank = TRUE)
+       grid = grid, logdet = logdet, lowrank = TRUE, basis_all = factors$basis)
 }
 
 # What whiten_rows() needs of base grid point g of a Kronecker setup.
@@ -224,12 +224,14 @@ discrepancy_point_factors <- function(dense, j) {
 
 # plain_quad_forms() for a setup with a discrepancy (see the top of this
 # file): per base grid point, the whitened residuals' |z|^2 and their
-# coordinates U = Z H in the basis; per kernel the rotation U T and every
-# ratio's weights.
-discrepancy_quad_forms <- function(Y, y_field, setup) {
+# coordinates U = Z H in the basis; then the rotations U T of all kernels in
+# one product, and every ratio's weights. The products run on the tiled
+# kernels (tiled_matmul_cpp()).
+discrepancy_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
   dense <- setup$dense
   grid <- dense$grid
   n_x <- dim(setup$Rx_chol)[1]
+  product <- function(X, B) tiled_matmul_cpp(X, B, threads)
   C <- matrix(0, nrow(Y), nrow(grid))
   resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
   blocks <- if (!dense$kron) group_columns(resid, dense)
@@ -237,24 +239,28 @@ discrepancy_quad_forms <- function(Y, y_field, setup) {
     Z <- if (dense$kron) {
       list(whiten_rows(resid, dense$A[[g]], n_x, ncol(resid) %/% n_x))
     } else {
-      Map(`%*%`, blocks, dense$A[[g]])
+      Map(product, blocks, dense$A[[g]])
     }
-    C0 <- vapply(seq_along(Z), function(k) rowSums(Z[[k]]^2) + setup$pure_ss[k],
-                 numeric(nrow(Y)))
-    C0 <- matrix(C0, nrow(Y))
-    U <- Map(`%*%`, Z, dense$H[[g]])
     here <- which(grid$base == g)
-    Ck <- lapply(seq_len(ncol(C0)), function(k) matrix(C0[, k], nrow(Y), length(here)))
-    for (l in unique(grid$kernel[here][grid$ratio[here] > 0])) {
-      at <- which(grid$kernel[here] == l & grid$ratio[here] > 0)
-      lambda <- grid$ratio[here][at]
-      for (k in seq_along(Z)) {
-        r <- dense$rot[[g]][[l]][[k]]
-        weights <- outer(r$d, lambda, function(d, lam) lam / (1 + lam * d))
+    used <- unique(grid$kernel[here][grid$ratio[here] > 0])
+    Ck <- lapply(seq_along(Z), function(k) {
+      C0 <- rowSums(Z[[k]]^2) + setup$pure_ss[k]
+      out <- matrix(C0, nrow(Y), length(here))
+      if (length(used) == 0L) return(out)
+      rots <- lapply(dense$rot[[g]][used], `[[`, k)
+      Z2 <- product(product(Z[[k]], dense$H[[g]][[k]]), do.call(cbind, lapply(rots, `[[`, "T")))^2
+      ends <- cumsum(vapply(rots, function(r) length(r$d), 1L))
+      for (i in seq_along(used)) {
+        at <- which(grid$kernel[here] == used[i] & grid$ratio[here] > 0)
+        lambda <- grid$ratio[here][at]
+        d <- rots[[i]]$d
+        weights <- outer(d, lambda, function(d, lam) lam / (1 + lam * d))
+        cols <- seq_len(length(d)) + ends[i] - length(d)
         # a quadratic form is >= 0; the difference can round below
-        Ck[[k]][, at] <- pmax(Ck[[k]][, at, drop = FALSE] - (U[[k]] %*% r$T)^2 %*% weights, 0)
+        out[, at] <- pmax(out[, at, drop = FALSE] - Z2[, cols, drop = FALSE] %*% weights, 0)
       }
-    }
+      out
+    })
     C[, here] <- if (length(Ck) == 1L) Ck[[1]] else {
       vapply(seq_along(here), function(j) {
         fold_groups(vapply(Ck, function(M) M[, j], numeric(nrow(Y))), setup)
