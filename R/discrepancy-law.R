@@ -50,10 +50,14 @@ delta_law <- function(setup, g, kernels, observed_only = FALSE) {
 # output): one row per run, one column per library output (0 at outputs the
 # law leaves out).
 delta_means <- function(law, resid) {
-  z <- whiten_groups(resid, law$point)
+  z <- if (is.null(law$whiten)) whiten_groups(resid, law$point) else law$whiten(resid)
   m <- matrix(0, nrow(resid), ncol(resid))
   for (k in seq_along(law$groups)) {
-    m[, law$groups[[k]]$cells] <- z[[k]] %*% t(law$groups[[k]]$B)
+    grp <- law$groups[[k]]
+    m[, grp$cells] <- if (is.null(grp$L)) z[[k]] %*% t(grp$B) else {
+      # B = L diag(p) (H T)' (lowrank_delta_law()), applied in that order
+      sweep(z[[k]] %*% grp$HT, 2, grp$p, "*") %*% t(grp$L)
+    }
   }
   m
 }
@@ -86,19 +90,25 @@ lowrank_delta_law <- function(setup, g, observed_only) {
   d <- setup$discrepancy[setup$gd[g], ]
   layout <- setup$dense
   at <- layout$grid[g, ]
-  # B acts on residuals whitened by the base point (the noise alone)
-  point <- list(dense = c(layout[c("obs", "scale", "groups")],
-                          list(A = base_factors(layout, at$base))))
+  # B acts on residuals whitened by the base point (the noise alone): by
+  # the AR(1) and Kronecker shortcuts for complete data
+  whiten <- if (layout$kron) {
+    w <- layout$A[[at$base]]
+    function(M) list(whiten_rows(M, w, w$n_x, w$n_t))
+  } else {
+    point <- list(dense = c(layout[c("obs", "scale", "groups")],
+                            list(A = layout$A[[at$base]])))
+    function(M) whiten_groups(M, point)
+  }
   basis <- layout$basis_all
   groups <- lapply(seq_along(layout$groups), function(k) {
     idx <- layout$groups[[k]]
     obs <- layout$obs[idx]
     cells <- if (observed_only) obs else which(setup$pattern$group == k)
     r <- layout$rot[[at$base]][[at$kernel]][[k]]
-    L <- basis[cells, , drop = FALSE] %*% r$T
-    HT <- layout$H[[at$base]][[k]] %*% r$T
-    list(cells = cells, B = d$ratio * L %*% (t(HT) / (1 + d$ratio * r$d)),
-         L = L, p = d$ratio / (1 + d$ratio * r$d))
+    list(cells = cells, L = basis[cells, , drop = FALSE] %*% r$T,
+         HT = layout$H[[at$base]][[k]] %*% r$T,
+         p = d$ratio / (1 + d$ratio * r$d))
   })
-  list(point = point, groups = groups)
+  list(whiten = whiten, groups = groups)
 }
