@@ -182,7 +182,8 @@ kron_whitening <- function(setup, g) {
 base_factors <- function(dense, g) {
   if (!dense$kron) return(dense$A[[g]])
   point <- dense$A[[g]]
-  list(whiten_rows(diag(point$n_x * point$n_t), point, point$n_x, point$n_t))
+  stats::setNames(list(whiten_rows(diag(point$n_x * point$n_t), point, point$n_x, point$n_t)),
+                  names(dense$groups))
 }
 
 # The whitening A_k = U_k^-1 of each noise group's observed block of R_g at
@@ -213,13 +214,14 @@ discrepancy_point_factors <- function(dense, j) {
   at <- dense$grid[j, ]
   A <- base_factors(dense, at$base)
   if (at$ratio == 0) return(A)
-  lapply(seq_along(A), function(k) {
+  out <- lapply(seq_along(A), function(k) {
     r <- dense$rot[[at$base]][[at$kernel]][[k]]
     Gk <- dense$H[[at$base]][[k]] %*% r$T
     s <- sqrt(1 + at$ratio * r$d)
     cc <- at$ratio / (s * (s + 1))
     A[[k]] - (A[[k]] %*% Gk) %*% (cc * t(Gk))
   })
+  stats::setNames(out, names(A))
 }
 
 # plain_quad_forms() for a setup with a discrepancy (see the top of this
