@@ -275,3 +275,26 @@ discrepancy_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()
   }
   C
 }
+
+# group_quad_forms() at grid point g of a setup with a discrepancy: each
+# group's |z|^2 less the ratio's weighted squares of the rotated
+# coordinates (as discrepancy_quad_forms(), for one grid point), with the
+# group's pure error.
+discrepancy_group_forms <- function(resid, setup, g) {
+  dense <- setup$dense
+  at <- dense$grid[g, ]
+  Z <- if (dense$kron) {
+    w <- dense$A[[at$base]]
+    list(whiten_rows(resid, w, w$n_x, w$n_t))
+  } else {
+    Map(`%*%`, group_columns(resid, dense), dense$A[[at$base]])
+  }
+  Ck <- vapply(seq_along(Z), function(k) {
+    C0 <- rowSums(Z[[k]]^2) + setup$pure_ss[k]
+    if (at$ratio == 0) return(C0)
+    r <- dense$rot[[at$base]][[at$kernel]][[k]]
+    u <- Z[[k]] %*% (dense$H[[at$base]][[k]] %*% r$T)
+    pmax(C0 - drop(u^2 %*% (at$ratio / (1 + at$ratio * r$d))), 0)
+  }, numeric(nrow(resid)))
+  matrix(Ck, nrow(resid))
+}

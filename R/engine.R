@@ -389,6 +389,7 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
 # new and emulated runs) is formed here.
 group_quad_forms <- function(Y, y_field, setup, g) {
   resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
+  if (isTRUE(setup$dense$lowrank)) return(discrepancy_group_forms(resid, setup, g))
   point <- grid_point(setup, g)
   if (is.null(point$dense)) {
     n_x <- dim(setup$Rx_chol)[1]

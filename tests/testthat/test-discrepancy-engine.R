@@ -53,6 +53,10 @@ expect_forms_exact <- function(case, discrepancy) {
   for (j in c(1L, 5L, length(setup$gd))) {
     A <- grid_point(setup, j)$dense$A[[1]]
     expect_equal(sum((r %*% A)^2), ref$C[7, j], tolerance = 1e-8)
+    # one grid point's forms (group_quad_forms()) are the table's
+    Y <- lib_outputs(case$lib, 1:4)
+    expect_equal(drop(group_quad_forms(Y, problem$y_field, setup, j)), C[1:4, j],
+                 tolerance = 1e-10)
   }
   problem
 }
