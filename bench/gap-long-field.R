@@ -47,9 +47,12 @@ long_field_system <- function(n_t = 160, seed = 1) {
 sys <- long_field_system()
 rho_t <- seq(0, 0.9, by = 0.1)
 timed <- function(expr) {
-  t0 <- proc.time()[["elapsed"]]
+  t0 <- proc.time()
   value <- force(expr)
-  list(value = value, s = proc.time()[["elapsed"]] - t0)
+  used <- proc.time() - t0
+  cat(deparse(substitute(expr))[1], ": ", format(used[["elapsed"]]), " s elapsed, ",
+      format(used[["user.self"]] + used[["sys.self"]]), " s CPU\n", sep = "")
+  list(value = value, s = used[["elapsed"]], cpu = used[["user.self"]] + used[["sys.self"]])
 }
 res <- list()
 fit_args <- list(sys$lib, sys$field, rho_t = rho_t, seed = 1, progress = FALSE)
@@ -66,8 +69,12 @@ if ("gap" %in% parts) {
   res$gap <- timed(diagnose_gap(fit, progress = FALSE))
 }
 secs <- vapply(res, `[[`, 0, "s")
-tab <- data.frame(call = names(secs), seconds = round(secs, 2))
-if (!is.null(res$plain)) tab$over_plain <- round(secs / secs[["plain"]], 2)
+cpu <- vapply(res, `[[`, 0, "cpu")
+tab <- data.frame(call = names(secs), seconds = round(secs, 2), cpu_seconds = round(cpu, 2))
+if (!is.null(res$plain)) {
+  tab$over_plain <- round(secs / secs[["plain"]], 2)
+  tab$cpu_over_plain <- round(cpu / cpu[["plain"]], 2)
+}
 print(tab)
 if (!is.null(res$discrepancy)) {
   cat("log Bayes factor (discrepancy fit):",
