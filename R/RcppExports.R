@@ -77,6 +77,10 @@ omp_limits_cpp <- function() {
     .Call(`_griddy_omp_limits_cpp`)
 }
 
+tiled_matmul_cpp <- function(X, B, threads) {
+    .Call(`_griddy_tiled_matmul_cpp`, X, B, threads)
+}
+
 tyre_sim_cpp <- function(par, heights, settings) {
     .Call(`_griddy_tyre_sim_cpp`, par, heights, settings)
 }

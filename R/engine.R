@@ -77,7 +77,7 @@ correlation_setup <- function(library, rho_x, rho_t, x_power = 2, pattern = NULL
                 x_class = same_matrix_class(Rx_chol), group_sizes = n_x * n_t)
   if (is.null(pattern)) return(setup)
   disc <- if (!is.null(discrepancy)) discrepancy_points(discrepancy, library)
-  kernels <- if (!is.null(disc)) discrepancy_kernels(library, attr(disc, "kernels"))
+  kernels <- if (!is.null(disc)) discrepancy_kernel_factors(library, attr(disc, "kernels"))
   setup$dense <- dense_factors(setup, lib_t(library), pattern, disc, kernels)
   setup$logdet <- setup$dense$logdet
   setup$dense$logdet <- NULL
@@ -148,6 +148,8 @@ same_matrix_class <- function(stack) {
 # covariance S R S (+ lambda K) restricted to the observed points and
 # grouped.
 dense_factors <- function(setup, t, pattern, disc = NULL, kernels = NULL) {
+  # a discrepancy: low-rank factors of its kernels (discrepancy-engine.R)
+  if (!is.null(disc)) return(discrepancy_dense_factors(setup, t, pattern, disc, kernels))
   obs <- which(pattern$observed)
   groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
   names(groups) <- pattern$labels
@@ -252,6 +254,7 @@ grid_point <- function(setup, g) {
 
 # The factors A_k of dense grid point g (see dense_factors()).
 dense_point_factors <- function(dense, g) {
+  if (isTRUE(dense$lowrank)) return(discrepancy_point_factors(dense, g))
   W <- dense$W[[dense$rot[g]]]
   w <- dense$w[[g]]
   if (is.null(w)) return(W)
@@ -353,6 +356,7 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
     return(quad_forms_cpp(Y, y_field, setup$Rx_inv, setup$phi, threads))
   }
   if (!is.null(setup$masked)) return(masked_quad_forms(Y, y_field, setup$masked, threads))
+  if (isTRUE(setup$dense$lowrank)) return(discrepancy_quad_forms(Y, y_field, setup))
   C <- matrix(0, nrow(Y), n_grid_points(setup))
   dense <- setup$dense
   # the residuals' observed, scaled columns of each group, cut once for all
@@ -389,6 +393,7 @@ plain_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
 # new and emulated runs) is formed here.
 group_quad_forms <- function(Y, y_field, setup, g) {
   resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
+  if (isTRUE(setup$dense$lowrank)) return(discrepancy_group_forms(resid, setup, g))
   point <- grid_point(setup, g)
   if (is.null(point$dense)) {
     n_x <- dim(setup$Rx_chol)[1]

@@ -250,7 +250,13 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
 # S^-1), where the blocks' numerical ranks are judged.
 scaled_delta_covs <- function(law, layout) {
   lapply(seq_along(law$groups), function(k) {
-    P <- delta_cov(law$groups[[k]])
+    grp <- law$groups[[k]]
+    if (!is.null(grp$L)) {
+      # low-rank factors: P = L diag(p) L', its blocks formed where needed
+      s <- if (is.null(layout$scale)) 1 else layout$scale[layout$groups[[k]]]
+      return(list(L = sweep(grp$L * s, 2, sqrt(grp$p), "*")))
+    }
+    P <- delta_cov(grp)
     if (is.null(layout$scale)) return(P)
     s <- layout$scale[layout$groups[[k]]]
     P * outer(s, s)
@@ -267,7 +273,12 @@ block_group_parts <- function(pos, groups, P) {
     here <- pos[pos %in% groups[[k]]]
     if (length(here) == 0L) next
     j <- match(here, groups[[k]])
-    e <- eigen(P[[k]][j, j, drop = FALSE], symmetric = TRUE)
+    block <- if (is.list(P[[k]])) {
+      tcrossprod(P[[k]]$L[j, , drop = FALSE])
+    } else {
+      P[[k]][j, j, drop = FALSE]
+    }
+    e <- eigen(block, symmetric = TRUE)
     keep <- e$values > max(e$values, 0) * 1e-8 & e$values > 0
     parts[[length(parts) + 1L]] <- list(group = k, pos = here, values = e$values[keep],
                                         vectors = e$vectors[, keep, drop = FALSE])

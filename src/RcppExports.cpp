@@ -305,6 +305,19 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// tiled_matmul_cpp
+Rcpp::NumericMatrix tiled_matmul_cpp(const Rcpp::NumericMatrix& X, const Rcpp::NumericMatrix& B, int threads);
+RcppExport SEXP _griddy_tiled_matmul_cpp(SEXP XSEXP, SEXP BSEXP, SEXP threadsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type B(BSEXP);
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(tiled_matmul_cpp(X, B, threads));
+    return rcpp_result_gen;
+END_RCPP
+}
 // tyre_sim_cpp
 arma::mat tyre_sim_cpp(const arma::mat& par, const arma::vec& heights, const Rcpp::List& settings);
 RcppExport SEXP _griddy_tyre_sim_cpp(SEXP parSEXP, SEXP heightsSEXP, SEXP settingsSEXP) {
@@ -374,6 +387,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_quad_forms_avx2_cpp", (DL_FUNC) &_griddy_quad_forms_avx2_cpp, 0},
     {"_griddy_stream_add_cpp", (DL_FUNC) &_griddy_stream_add_cpp, 9},
     {"_griddy_omp_limits_cpp", (DL_FUNC) &_griddy_omp_limits_cpp, 0},
+    {"_griddy_tiled_matmul_cpp", (DL_FUNC) &_griddy_tiled_matmul_cpp, 3},
     {"_griddy_tyre_sim_cpp", (DL_FUNC) &_griddy_tyre_sim_cpp, 3},
     {"_griddy_tyre_static_deflection_cpp", (DL_FUNC) &_griddy_tyre_static_deflection_cpp, 2},
     {"_griddy_tyre_patch_length_cpp", (DL_FUNC) &_griddy_tyre_patch_length_cpp, 2},

@@ -1,0 +1,114 @@
+# The discrepancy through low-rank kernel factors (discrepancy-engine.R)
+# against the definition: C = r' (S R S + lambda K)^-1 r and its
+# log-determinant by dense solves over the observed points.
+
+engine_case <- function(missing = FALSE, sd = NULL) {
+  set.seed(3)
+  n_t <- 12
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = n_t)
+  theta <- expand.grid(a = seq(0.5, 1.5, length.out = 6), b = seq(0, 1, length.out = 5))
+  sim <- function(a, b) {
+    do.call(cbind, lapply(x$load, function(l) outer(a * l, sin(3 * t)) + outer(b, cos(2 * t) * l)))
+  }
+  lib <- sim_library(theta, sim(theta$a, theta$b), x = x, t = t)
+  y <- matrix(drop(sim(1, 0.4)) + 0.1 * rep(t^2, 3) + rnorm(3 * n_t, sd = 0.05), 3, byrow = TRUE)
+  if (missing) y[2, 5] <- NA
+  list(lib = lib, field = field_data(y, x = x, t = t, sd = sd), t = t)
+}
+
+# C (runs x grid points) and log-determinants by dense solves.
+brute_forms <- function(lib, y, setup) {
+  disc <- setup$discrepancy
+  K <- discrepancy_kernels(lib, attr(disc, "kernels"))
+  obs <- setup$dense$obs
+  s <- if (is.null(setup$dense$scale)) rep(1, length(obs)) else 1 / setup$dense$scale
+  Y <- lib_outputs(lib, seq_len(lib_n_runs(lib)))
+  r <- t(matrix(y[obs], nrow(Y), length(obs), byrow = TRUE) - Y[, obs])
+  out <- lapply(seq_along(setup$gd), function(j) {
+    R_x <- crossprod(setup$Rx_chol[, , setup$gx[j]])
+    S <- kronecker(R_x, corr_t(lib_t(lib), setup$rho_t[setup$gt[j]]))[obs, obs] * outer(s, s)
+    d <- disc[setup$gd[j], ]
+    if (d$ratio > 0) S <- S + d$ratio * K[[d$kernel]][obs, obs]
+    list(C = colSums(r * solve(S, r)), logdet = as.numeric(determinant(S)$modulus))
+  })
+  list(C = sapply(out, `[[`, "C"), logdet = sapply(out, `[[`, "logdet"))
+}
+
+expect_forms_exact <- function(case, discrepancy) {
+  problem <- calibration_problem(case$lib, case$field, 0, c(0, 0.5, 0.9), NULL, 2, NULL,
+                                 discrepancy = discrepancy)
+  setup <- problem$setup
+  expect_true(setup$dense$lowrank)
+  ref <- brute_forms(case$lib, problem$y_field, setup)
+  C <- plain_quad_forms(lib_outputs(case$lib, seq_len(lib_n_runs(case$lib))), problem$y_field,
+                        setup)
+  expect_lt(max(abs(C - ref$C) / ref$C), 1e-8)
+  # the replicates' constant aside, log-determinants differ by one constant
+  dl <- setup$logdet - ref$logdet
+  expect_lt(max(abs(dl - dl[1])), 1e-7)
+  # grid_point()'s factor A: A A' is the inverse covariance
+  r <- (problem$y_field - lib_outputs(case$lib, 7)[1, ])[setup$dense$obs]
+  if (!is.null(setup$dense$scale)) r <- r * setup$dense$scale
+  for (j in c(1L, 5L, length(setup$gd))) {
+    A <- grid_point(setup, j)$dense$A[[1]]
+    expect_equal(sum((r %*% A)^2), ref$C[7, j], tolerance = 1e-8)
+    # one grid point's forms (group_quad_forms()) are the table's
+    Y <- lib_outputs(case$lib, 1:4)
+    expect_equal(drop(group_quad_forms(Y, problem$y_field, setup, j)), C[1:4, j],
+                 tolerance = 1e-10)
+  }
+  problem
+}
+
+test_that("the low-rank quadratic forms match dense solves for every kind of discrepancy", {
+  case <- engine_case()
+  expect_forms_exact(case, gp_discrepancy())
+  expect_forms_exact(case, gp_discrepancy(orthogonal = FALSE))
+  expect_forms_exact(case, gp_discrepancy(scaled = TRUE))
+  expect_forms_exact(case, gp_discrepancy(zero_at = data.frame(load = 0, t = case$t)))
+})
+
+test_that("the low-rank quadratic forms match dense solves with a missing cell and sd", {
+  expect_forms_exact(engine_case(missing = TRUE), gp_discrepancy())
+  sd <- matrix(seq(0.5, 2, length.out = 36), 3)
+  expect_forms_exact(engine_case(sd = sd), gp_discrepancy(orthogonal = FALSE))
+})
+
+test_that("delta's law from the factors matches the full law", {
+  case <- engine_case()
+  problem <- calibration_problem(case$lib, case$field, 0, c(0, 0.5, 0.9), NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy())
+  setup <- problem$setup
+  K <- discrepancy_kernels(case$lib, attr(setup$discrepancy, "kernels"))
+  # kernels one output longer than the library's take the full law
+  # (predict() at new settings), with grid_point()'s factor A
+  K_long <- lapply(K, function(M) {
+    out <- matrix(0, nrow(M) + 1, nrow(M) + 1)
+    out[seq_len(nrow(M)), seq_len(nrow(M))] <- M
+    out
+  })
+  resid <- run_residuals(list(y_field = problem$y_field, library = case$lib), 1:5)
+  n <- ncol(resid)
+  for (j in c(15L, 40L, length(setup$gd))) {
+    low <- delta_law(setup, j, K)
+    full <- delta_law(setup, j, K_long)
+    expect_false(is.null(low$groups[[1]]$L))
+    expect_true(is.null(full$groups[[1]]$L))
+    m_full <- delta_means(full, cbind(resid, 0))[, seq_len(n)]
+    expect_lt(max(abs(delta_means(low, resid) - m_full)), 1e-8 * max(abs(m_full)))
+    P_full <- delta_cov(full$groups[[1]])
+    expect_lt(max(abs(delta_cov(low$groups[[1]]) - P_full[seq_len(n), seq_len(n)])),
+              1e-7 * max(abs(P_full)))
+  }
+})
+
+test_that("tiled_matmul_cpp() is the matrix product, on any shape and thread count", {
+  set.seed(1)
+  for (dims in list(c(1, 1, 1), c(7, 5, 3), c(130, 300, 13), c(257, 17, 61))) {
+    X <- matrix(rnorm(dims[1] * dims[2]), dims[1])
+    B <- matrix(rnorm(dims[2] * dims[3]), dims[2])
+    expect_equal(tiled_matmul_cpp(X, B, 1L), X %*% B, tolerance = 1e-12)
+    expect_identical(tiled_matmul_cpp(X, B, 2L), tiled_matmul_cpp(X, B, 1L))
+  }
+})
