@@ -40,14 +40,9 @@ psd_factor <- function(K) {
 # library output: list(basis = B (outputs x m_B), coef = one C_l (m_B x m_l)
 # per row of `kernels`), so that K_l = (B C_l)(B C_l)'.
 discrepancy_kernel_factors <- function(library, kernels) {
-  x <- lib_x(library)
-  d2_x <- if (lib_n_x(library) > 1L) {
-    Reduce(`+`, lapply(x, function(v) outer(scale_unit(v), scale_unit(v), "-")^2))
-  } else {
-    matrix(0, 1, 1)
-  }
-  s <- scale_unit(lib_t(library))
-  d2_t <- outer(s, s, "-")^2
+  d2 <- scaled_sq_distances(library)
+  d2_x <- d2$x
+  d2_t <- d2$t
   knowledge <- knowledge_observations(library, attr(kernels, "zero_at"),
                                       attr(kernels, "flat_at"))
   if (!is.null(knowledge)) return(whole_kernel_factors(library, kernels))
@@ -190,18 +185,7 @@ base_factors <- function(dense, g) {
 # base grid point g (U_k its upper Cholesky factor), and log|R| over the
 # groups; a block numerically singular is an error (as in dense_factors()).
 noise_group_factors <- function(setup, g, t, obs, groups) {
-  R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
-  R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs, drop = FALSE]
-  U <- lapply(groups, function(idx) {
-    U <- tryCatch(chol(R[idx, idx, drop = FALSE]), error = function(e) NULL)
-    if (is.null(U) || any(diag(U) < 1e-7)) {
-      griddy_abort("The correlation of the observed points is numerically singular at ",
-                   "correlation grid point ", g, ": the observed x settings or output ",
-                   "coordinates are too close for this correlation. Use smaller values ",
-                   "in `rho_x` or `rho_t`.", class = "numeric")
-    }
-    U
-  })
+  U <- observed_noise_cholesky(setup, g, t, obs, groups)
   list(A = lapply(U, function(u) backsolve(u, diag(nrow(u)))),
        logdet = sum(vapply(U, function(u) 2 * sum(log(diag(u))), 0)))
 }

@@ -441,14 +441,9 @@ discrepancy_points <- function(discrepancy, library) {
 # before the projection: an orthogonal discrepancy is then P delta with
 # delta conditioned.
 discrepancy_kernels <- function(library, kernels) {
-  x <- lib_x(library)
-  d2_x <- if (lib_n_x(library) > 1L) {
-    Reduce(`+`, lapply(x, function(v) outer(scale_unit(v), scale_unit(v), "-")^2))
-  } else {
-    matrix(0, 1, 1)
-  }
-  s <- scale_unit(lib_t(library))
-  d2_t <- outer(s, s, "-")^2
+  d2 <- scaled_sq_distances(library)
+  d2_x <- d2$x
+  d2_t <- d2$t
   project <- sensitivity_projector(attr(kernels, "sensitivity"))
   knowledge <- knowledge_observations(library, attr(kernels, "zero_at"),
                                       attr(kernels, "flat_at"))
@@ -562,4 +557,18 @@ discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
 best_fitting_run <- function(library, y, pattern) {
   setup <- correlation_setup(library, 0, 0, 2, pattern)
   which.min(misfit_parts(lib_quad_forms(library, y, setup))$C)
+}
+
+# The squared distances between the library's x settings (summed over the x
+# columns, each scaled to [0, 1]) and between its t values (scaled so), on
+# which the discrepancy's kernels are built.
+scaled_sq_distances <- function(library) {
+  x <- lib_x(library)
+  d2_x <- if (lib_n_x(library) > 1L) {
+    Reduce(`+`, lapply(x, function(v) outer(scale_unit(v), scale_unit(v), "-")^2))
+  } else {
+    matrix(0, 1, 1)
+  }
+  s <- scale_unit(lib_t(library))
+  list(x = d2_x, t = outer(s, s, "-")^2)
 }

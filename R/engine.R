@@ -173,18 +173,7 @@ dense_factors <- function(setup, t, pattern, disc = NULL, kernels = NULL) {
   s <- W
   base_logdet <- numeric(G)
   for (g in seq_len(G)) {
-    R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
-    R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs, drop = FALSE]
-    U <- lapply(groups, function(idx) {
-      U <- tryCatch(chol(R[idx, idx, drop = FALSE]), error = function(e) NULL)
-      if (is.null(U) || any(diag(U) < 1e-7)) {
-        griddy_abort("The correlation of the observed points is numerically singular at ",
-                     "correlation grid point ", g, ": the observed x settings or output ",
-                     "coordinates are too close for this correlation. Use smaller values ",
-                     "in `rho_x` or `rho_t`.", class = "numeric")
-      }
-      U
-    })
+    U <- observed_noise_cholesky(setup, g, t, obs, groups)
     base_logdet[g] <- sum(vapply(U, function(u) 2 * sum(log(diag(u))), 0)) + log_sd
     A <- lapply(U, function(u) backsolve(u, diag(nrow(u))))
     W[[rotation_index(g, 0L, G)]] <- A
@@ -516,4 +505,22 @@ grid_posterior <- function(problem, joint = TRUE) {
   log_norm <- post$log_norm + log_evidence_constant(problem$prior, sizes)
   list(joint = post$joint, run = post$run, grid = post$grid, log_mass = log_norm,
        log_evidence = if (problem$prior$rate > 0) log_norm else NA_real_)
+}
+
+# The upper Cholesky factor of each noise group's block of the observed
+# points' correlation R_g at grid point g; a block numerically singular is
+# an error.
+observed_noise_cholesky <- function(setup, g, t, obs, groups) {
+  R_x <- crossprod(setup$Rx_chol[, , setup$gx[g]])
+  R <- kronecker(R_x, corr_t(t, setup$rho_t[setup$gt[g]]))[obs, obs, drop = FALSE]
+  lapply(groups, function(idx) {
+    U <- tryCatch(chol(R[idx, idx, drop = FALSE]), error = function(e) NULL)
+    if (is.null(U) || any(diag(U) < 1e-7)) {
+      griddy_abort("The correlation of the observed points is numerically singular at ",
+                   "correlation grid point ", g, ": the observed x settings or output ",
+                   "coordinates are too close for this correlation. Use smaller values ",
+                   "in `rho_x` or `rho_t`.", class = "numeric")
+    }
+    U
+  })
 }
