@@ -24,21 +24,16 @@ test_that("refine() of a resolved fit returns it unchanged", {
   expect_identical(again, refined)
 })
 
-# refine() at a max_runs that may stop it short (since the mode search from
-# coarse starts, the one-parameter toy needs more than 300-400 runs: a
-# known cost, issue 35), its resolution warning aside
-refine_short <- function(...) suppressWarnings(refine(...), classes = "griddy_warning_resolution")
-
 test_that("refine() is reproducible with a seed and with set.seed()", {
   toy <- refine_toy()
-  a <- refine_short(toy$fit, refine_sim, max_runs = 300, seed = 5)
-  b <- refine_short(toy$fit, refine_sim, max_runs = 300, seed = 5)
+  a <- refine(toy$fit, refine_sim, max_runs = 300, seed = 5)
+  b <- refine(toy$fit, refine_sim, max_runs = 300, seed = 5)
   expect_identical(lib_theta(a$library), lib_theta(b$library))
   expect_identical(a$draws, b$draws)
   set.seed(9)
-  c1 <- refine_short(toy$fit, refine_sim, max_runs = 300)
+  c1 <- refine(toy$fit, refine_sim, max_runs = 300)
   set.seed(9)
-  c2 <- refine_short(toy$fit, refine_sim, max_runs = 300)
+  c2 <- refine(toy$fit, refine_sim, max_runs = 300)
   expect_identical(c1$draws, c2$draws)
 })
 
@@ -84,7 +79,7 @@ test_that("refine() works on fits with missing field data, with and without a si
   y[sample(40, 10)] <- NA
   field <- field_data(y, t = toy$lib$t)
   fit <- suppressWarnings(calibrate(toy$lib, field, n_iter = 1500, burn_in = 500, seed = 1))
-  sim <- refine_short(fit, simulator = refine_sim, max_runs = 400, seed = 1)
+  sim <- refine(fit, simulator = refine_sim, max_runs = 400, seed = 1)
   expect_identical(sim$n_obs, 30L)
   tab <- resolution_limited(sim)
   expect_true(tab$lower <= toy$k && toy$k <= tab$upper)
