@@ -92,9 +92,16 @@ fit_proposal <- function(state) {
   ord <- order(w, decreasing = TRUE)
   keep <- ord[seq_len(min(which(cumsum(w[ord]) >= 0.999)[1], 5000L))]
   components <- weighted_components(u[keep, , drop = FALSE], w[keep] / sum(w[keep]))
+  # half the mixture local, to follow a curved or weakly identified band,
+  # once the proposal is fitted to the posterior itself (refine-ridge.R)
+  local <- if (tempered$beta == 1) {
+    core <- ord[seq_len(which(cumsum(w[ord]) >= local_core_mass)[1])]
+    local_components(u[core, , drop = FALSE], w[core] / sum(w[core]))
+  }
   proposal <- list(range = range0, varies = varies, components = components,
                    df = proposal_df, defensive = proposal_defensive, inside = 1,
-                   beta = tempered$beta)
+                   beta = tempered$beta, local = local,
+                   local_share = if (length(local) > 0L) proposal_local_share else 0)
   proposal$inside <- mixture_mass_inside(proposal)
   proposal
 }
@@ -245,7 +252,7 @@ latin_hypercube_unit <- function(n, q) {
 }
 
 draw_mixture <- function(n, proposal) {
-  comps <- proposal$components
+  comps <- all_components(proposal)
   q <- length(comps[[1]]$centre)
   which_comp <- sample.int(length(comps), n, replace = TRUE,
                            prob = vapply(comps, `[[`, numeric(1), "weight"))
@@ -298,7 +305,7 @@ proposal_density <- function(proposal, theta) {
 }
 
 log_mixture_density <- function(u, proposal) {
-  comps <- proposal$components
+  comps <- all_components(proposal)
   q <- ncol(u)
   nu <- proposal$df
   const <- lgamma((nu + q) / 2) - lgamma(nu / 2) - q / 2 * log(nu * pi)

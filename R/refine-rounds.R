@@ -34,7 +34,8 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
   reason <- "resolved"
   failure <- NULL
   while (needs_round(state, if (added > 0L) history[[length(history) - 1L]] else previous,
-                     !is.null(simulator))) {
+                     !is.null(simulator),
+                     earlier = drift_reference(history, state$problem$library))) {
     if (added >= max_runs) {
       reason <- "max_runs"
       break
@@ -76,9 +77,11 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 
 # Another round is needed while the posterior is not resolved (against the
 # table of the round before, `previous`), is cut off by the last round's box,
-# or, with a simulator, rests on predicted runs.
-needs_round <- function(state, previous, simulating) {
+# or, with a simulator, rests on predicted runs; or an interval still moved
+# since the table `earlier`, a few rounds back (drifted(), refine-ridge.R).
+needs_round <- function(state, previous, simulating, earlier = NULL) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
+    any(drifted(state$table, earlier, state$p, lib_theta(state$problem$library))) || !explored(state$problem$library) ||
     state$far_mass > far_mass_tol || length(unresolved_modes(state)) > 0L ||
     (simulating && predicted_mass(state) > predicted_tol)
 }

@@ -76,6 +76,21 @@
 #' needs: a mode's share is estimated from its own runs, and one resting on
 #' a few is often too small (on a folded 4-parameter system, 20% where
 #' symmetry makes it 50%). The warning at `max_runs` names such a mode.
+#' A posterior along a curved or weakly identified band (two parameters
+#' identified only through their product; a banana) reaches past what a few
+#' broad components draw, and its missing ends are invisible to checks
+#' that look at runs. So once a proposal is fitted to the posterior itself
+#' (untempered), half its t mixture is local: components centred on runs
+#' resampled from the posterior and on the runs at both ends of it along
+#' each parameter and principal direction, each with the covariance of its
+#' nearest posterior runs, doubled, so they follow a band's local direction
+#' past its explored end. A library grown by proposals is resolved only
+#' after its last three rounds drew such local components, and while no
+#' interval bound moved by more than a fifth of its width over those three
+#' rounds (the posterior with them dropped) nor has more of the posterior
+#' beyond it now than its 2.5% and three Monte Carlo sds; the warning at `max_runs`
+#' then has class `griddy_warning_reach` too and names the parameters whose
+#' intervals still moved.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped. Otherwise the refined fit
@@ -338,10 +353,15 @@ warn_unresolved <- function(state, rounds) {
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
   runs <- run_resolution_reason(attr(tab, "runs"))
   few_values <- tab$effective_values < resolution_min_values
+  drift <- drifted(tab, drift_reference(rounds$history, state$problem$library), state$p,
+                   lib_theta(state$problem$library))
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
-         ifelse(moved, "its interval still moved in the last round", NA)))
+         ifelse(moved, "its interval still moved in the last round",
+         ifelse(drift, paste0("its interval still moved over the last ", drift_rounds,
+                              " rounds: the runs have not followed the posterior to its end"),
+                NA))))
   bad <- !is.na(why)
   extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
              if (state$far_mass > far_mass_tol) {
@@ -349,7 +369,11 @@ warn_unresolved <- function(state, rounds) {
                       "far from where the last round's runs went: a mode may be lost or ",
                       "unresolved")
              },
-             unresolved_mode_reasons(state))
+             unresolved_mode_reasons(state),
+             if (!explored(state$problem$library)) {
+               paste0("the last rounds have not yet explored the posterior's ends (its ",
+                      "ridges and tails) from where it now lies")
+             })
   if (length(extra) > 0L) {
     why <- c(why[bad], extra)
     tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))
@@ -365,5 +389,6 @@ warn_unresolved <- function(state, rounds) {
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
-              class = "resolution")
+              class = c(if (any(drift) || !explored(state$problem$library)) "reach",
+                        "resolution"))
 }
