@@ -14,6 +14,11 @@
 round_design <- function(state, n) {
   library <- state$problem$library
   names <- names(lib_theta(library))
+  # a base posterior on few runs first gets a search round (refine-modes.R)
+  search <- mode_search_proposal(state)
+  if (!is.null(search)) {
+    return(list(theta = draw_proposal(n, search, names), round = list(box = NULL, proposal = search)))
+  }
   follows <- uses_proposal(library) || !is.null(last_proposal(library))
   # below four parameters the fit only decides, so it leaves the random
   # stream as it was: a unimodal posterior gets the same boxes as before

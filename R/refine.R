@@ -44,6 +44,29 @@
 #' modes spreads its runs over the empty space between them, and the rounds
 #' after zoom in on one); otherwise they are the boxes above.
 #'
+#' **A coarse start.** A base posterior resting on fewer effective runs than
+#' a proposal is fitted to shows the posterior only at the library's
+#' resolution: the runs nearest two modes may lie hundreds of log units
+#' apart, and rounds that zoom in on the better lose the other. The first
+#' round is then a search: half its runs a Latin hypercube over the
+#' library's range, half drawn around each local maximum of the base
+#' posterior over the runs' neighbourhood graph (a run more probable than
+#' its \eqn{2p} nearest; up to 8, within a factor 100 of the best at the
+#' proposal's tempering), from a t component as wide as the library's
+#' spacing there. The rounds after follow a proposal fitted to the library
+#' the search has grown, in any number of parameters, whose defensive share
+#' keeps drawing runs over the whole range (boxes zoomed in on the first
+#' mode the search found). When the base posterior had
+#' separated modes (the basins of such maxima) each holding at least 10%,
+#' and the refined posterior holds under 2% on one around which the rounds
+#' put too few runs to see it (fewer than a quadratic's coefficients within
+#' a step of the base library's spacing), `refine()` warns (class
+#' `griddy_warning_mode_lost`), naming where the mode was and its shares;
+#' so it does when a round's proposal had separated modes each holding 10%
+#' of its weight and one now holds under 2% though it held 10% of the
+#' posterior then, or rests on too few effective runs of its own to tell its
+#' share. With or without a simulator.
+#'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
 #' evenly. Each run of the refined library is therefore weighed by the prior
@@ -274,6 +297,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   resumed <- store_resume(store, fit)
   # runs from the file are a round: judged against the fit they refine
   previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
+  modes <- base_modes(resumed$problem)
   rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
                           previous = previous, store = store)
   rounds$runs_added <- rounds$runs_added + resumed$n
@@ -293,6 +317,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   # resolved refinement has nothing to warn of
   finish_fit(out, resolution = function(fit) {
     if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+    warn_mode_lost(modes, rounds$problem, rounds$source)
   })
 }
 
