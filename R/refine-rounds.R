@@ -24,8 +24,11 @@ unfinished_round <- function(fit) {
 # previous table) that ends the rounds after a round where it is TRUE
 # (reason "settled"): diagnose_gap()'s matched resolution stops where more
 # runs cannot resolve a model (settled_in_range()); refine() passes none.
+# `proposals`: predicted runs follow the proposal from four parameters, as
+# simulated ones do (predicted_round()); refine() asks for it,
+# diagnose_gap()'s matched resolution keeps its boxes.
 refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
-                          previous = NULL, store = NULL, settled = NULL) {
+                          previous = NULL, store = NULL, settled = NULL, proposals = FALSE) {
   state <- refine_state(problem)
   history <- list(state$table)
   source <- if (is.null(simulator)) "emulator" else "simulator"
@@ -46,16 +49,9 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     }
     n_new <- min(runs_per_round, max_runs - added)
     if (is.null(simulator)) {
-      box <- refine_box(state)
-      theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
-      if (is.null(emulator) || !box_inside(box, emulator$refine_region)) {
-        emulator <- round_emulator(state, box)
-      }
-      batch <- emulated_batch(emulator, theta_new, state)
-      round <- list(box = box, n = n_new, source = source, error = batch$error)
-      state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
-                                           batch$rel_var))
-      state <- restate_noise_var(state)
+      step <- predicted_round(state, emulator, n_new, proposals)
+      state <- step$state
+      emulator <- step$emulator
       n_done <- n_new
     } else {
       step <- simulated_round(state, simulator, n_new, progress, store)

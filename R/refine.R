@@ -246,7 +246,8 @@ refine <- function(fit, simulator = NULL, max_runs = control$max_runs, ...,
   }
   max_runs <- assert_count(max_runs, "max_runs")
   runs_per_round <- if (is.null(runs_per_round)) {
-    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator)), max_runs)
+    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator),
+                               predicted = is.null(simulator)), max_runs)
   } else {
     assert_count(runs_per_round, "runs_per_round")
   }
@@ -276,18 +277,20 @@ check_refinable <- function(fit) {
   }
 }
 
-default_runs_per_round <- function(theta, proposals = FALSE) {
+default_runs_per_round <- function(theta, proposals = FALSE, predicted = FALSE) {
   p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
-  # a proposal that follows the posterior (four or more parameters, with a
-  # simulator) needs no box's doubling per parameter, and more rounds adapt
-  # it better; predicted runs keep the boxes and their sizes
-  if (proposals && p >= proposal_min_parameters) {
-    return(as.integer(proposal_round_per_parameter * p))
+  # a proposal that follows the posterior (four or more parameters) needs no
+  # box's doubling per parameter, and more rounds adapt it better; predicted
+  # runs cost little beside a round's refitting, so their rounds are larger
+  if (p >= proposal_min_parameters && (proposals || predicted)) {
+    per <- if (predicted) predicted_round_per_parameter else proposal_round_per_parameter
+    return(as.integer(per * p))
   }
   100L * 2L^(max(p, 1L) - 1L)
 }
 
 proposal_round_per_parameter <- 50
+predicted_round_per_parameter <- 200
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or
@@ -299,7 +302,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
   modes <- base_modes(resumed$problem)
   rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
-                          previous = previous, store = store)
+                          previous = previous, store = store, proposals = TRUE)
   rounds$runs_added <- rounds$runs_added + resumed$n
   if (rounds$runs_added == 0L) {
     if (!is.null(rounds$failure)) stop_refinement(rounds$failure, fit, store)
