@@ -58,11 +58,46 @@ mode_search_proposal <- function(state) {
     spacing <- local_spacing(theta, i, range0)[varies] / (range0[2, varies] - range0[1, varies])
     list(weight = 1 / length(seeds), centre = u[i, ], chol = diag(spacing / 2, q))
   })
-  proposal <- list(range = range0, varies = varies, components = components,
-                   df = proposal_df, defensive = mode_search_uniform, inside = 1,
-                   beta = tempered$beta, search = TRUE)
-  proposal$inside <- withr::with_preserve_seed(mixture_mass_inside(proposal))
-  proposal
+  # the seeds' boxes lie inside the range: all their mass is there
+  list(range = range0, varies = varies, components = components,
+       df = proposal_df, defensive = mode_search_uniform, inside = 1,
+       beta = tempered$beta, search = TRUE)
+}
+
+# A seed of the search round draws uniformly from a box of one step of the
+# library's spacing either side of its maximum (twice the component's
+# scale, the chol above), cut to the range: the maximum between coarse runs
+# lies within that step. A box, not a t component: its density is flat, so
+# the rounds of boxes that follow a search below four parameters weigh
+# their runs equally where their boxes overlap, as boxes alone do (with a
+# t component there, the prior weights inside the last box spread by a
+# factor of 100 on the one-parameter toy), and no draw falls outside.
+search_box <- function(cmp) {
+  half <- 2 * diag(cmp$chol)
+  rbind(pmax(cmp$centre - half, 0), pmin(cmp$centre + half, 1))
+}
+
+draw_search_boxes <- function(n, proposal) {
+  comps <- proposal$components
+  q <- length(comps[[1]]$centre)
+  which_comp <- sample.int(length(comps), n, replace = TRUE,
+                           prob = vapply(comps, `[[`, numeric(1), "weight"))
+  u <- matrix(stats::runif(n * q), n, q)
+  for (j in unique(which_comp)) {
+    at <- which_comp == j
+    box <- search_box(comps[[j]])
+    u[at, ] <- sweep(sweep(u[at, , drop = FALSE], 2, box[2, ] - box[1, ], "*"), 2, box[1, ],
+                     "+")
+  }
+  u
+}
+
+# The density of the seeds' boxes at rows of u (unit coordinates).
+search_box_density <- function(u, proposal) {
+  Reduce(`+`, lapply(proposal$components, function(cmp) {
+    box <- search_box(cmp)
+    cmp$weight * in_box(u, box) / prod(box[2, ] - box[1, ])
+  }))
 }
 
 # The runs (rows of u) whose log weight `lw` is at least that of each of
