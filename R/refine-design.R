@@ -20,15 +20,16 @@ round_design <- function(state, n) {
     return(list(theta = draw_proposal(n, search, names), round = list(box = NULL, proposal = search)))
   }
   last <- last_proposal(library)
-  follows <- uses_proposal(library) || (!is.null(last) && !is_search_proposal(last))
+  follows <- uses_proposal(library) || (!is.null(last) && proposals_follow(last))
   # below four parameters the fit only decides, so it leaves the random
   # stream as it was: a unimodal posterior gets the same boxes as before
   # (only on the base library, spread evenly, or on the library a search
   # round has just grown, half of it spread evenly: once boxes have crowded
   # runs into one region, tempering shows their crowd and the runs outside
-  # as two clusters that are not two modes). After a search that found one
-  # mode, boxes: proposals there cost the one-parameter toy of
-  # test-refine.R more than 600 runs where boxes resolve it in 300
+  # as two clusters that are not two modes). After a search that seeded
+  # one maximum, boxes unless the runs it drew show separated modes:
+  # proposals there cost the one-parameter toy of test-refine.R more than
+  # 600 runs where boxes resolve it in 200
   first <- (length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs) ||
     after_search(library)
   proposal <- if (follows) fit_proposal(state) else if (first) {

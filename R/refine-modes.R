@@ -135,6 +135,17 @@ graph_rows <- function(n) max(10L, floor(mode_graph_budget / n))
 
 is_search_proposal <- function(proposal) isTRUE(proposal$search)
 
+# Rounds after this round's proposal follow proposals (a library grown by
+# proposals): after any but a search round's, and after a search that seeded
+# several maxima (the base posterior showed more than one hill: boxes
+# after it zoom in on one, and on the aliased oscillator's 64-run grid lost
+# the other, unwarned). After a search that seeded one maximum, below four
+# parameters, boxes follow unless the library it grew shows separated modes
+# (round_design()).
+proposals_follow <- function(proposal) {
+  !is_search_proposal(proposal) || length(proposal$components) > 1L
+}
+
 # ---- a mode lost -------------------------------------------------------------
 
 # A base mode whose share was at least this and whose refined share is under
