@@ -274,7 +274,7 @@ draw_mixture <- function(n, proposal) {
 in_unit_cube <- function(u) rowSums(u >= 0 & u <= 1) == ncol(u)
 
 draw_mixture_inside <- function(n, proposal) {
-  if (is_search_proposal(proposal)) return(draw_search_boxes(n, proposal))
+  if (search_boxes(proposal)) return(draw_search_boxes(n, proposal))
   q <- sum(proposal$varies)
   out <- matrix(0, 0, q)
   tries <- 0L
@@ -304,7 +304,7 @@ proposal_density <- function(proposal, theta) {
   u <- unit_coordinates(theta, proposal$range, proposal$varies)
   width <- proposal$range[2, proposal$varies] - proposal$range[1, proposal$varies]
   inside <- in_unit_cube(u)
-  mix <- if (is_search_proposal(proposal)) search_box_density(u, proposal) else
+  mix <- if (search_boxes(proposal)) search_box_density(u, proposal) else
     exp(log_mixture_density(u, proposal))
   ((proposal$defensive + (1 - proposal$defensive) * mix / proposal$inside) * inside) /
     prod(width)
