@@ -139,11 +139,13 @@ read_store_proposal <- function(store, round, library) {
   })
   # the local components of refine-ridge.R (none in a file written before them)
   local <- if (is.null(rows[["local"]])) rep(FALSE, nrow(rows)) else rows$local == 1
-  list(range = range0, varies = varies, components = components[!local], df = rows$df[1],
-       defensive = rows$defensive[1], inside = rows$inside[1], beta = rows$beta[1],
-       local = if (any(local)) components[local],
-       local_share = if (is.null(rows$local_share)) 0 else rows$local_share[1],
-       search = !is.null(rows[["search"]]) && rows$search[1] == 1)
+  proposal <- list(range = range0, varies = varies, components = components[!local],
+                   df = rows$df[1], defensive = rows$defensive[1], inside = rows$inside[1],
+                   beta = rows$beta[1], local = if (any(local)) components[local],
+                   local_share = if (is.null(rows$local_share)) 0 else rows$local_share[1])
+  # a search round's (none in a file written before them)
+  if (!is.null(rows[["search"]]) && rows$search[1] == 1) proposal$search <- TRUE
+  proposal
 }
 
 # A function(theta, y) appending finished runs to the file and counting

@@ -83,6 +83,43 @@ test_that("a base posterior on few runs gets a search round seeded at both modes
   expect_null(mode_search_proposal(refine_state(refined)))
 })
 
+test_that("a search that seeds one maximum draws around it from a flat box, and boxes follow", {
+  # the one-parameter toy: its 7-run base posterior has one maximum. With a
+  # t component there and proposals after the search, the prior weights
+  # inside the last box spread by a factor of 100 (test-library-refined.R)
+  # and the toy took more than 600 runs where boxes resolve it
+  toy <- refine_toy()
+  search <- mode_search_proposal(refine_state(toy$fit))
+  expect_length(search$components, 1L)
+  expect_true(search_boxes(search))
+  expect_false(proposals_follow(search))
+  box <- from_unit(search_box(search$components[[1]]), search$range, search$varies)[, 1]
+  inner <- data.frame(k = box[1] + c(0.1, 0.5, 0.9) * (box[2] - box[1]))
+  outer <- data.frame(k = c(box[1] - 0.01, box[2] + 0.01))
+  dens <- proposal_density(search, inner)
+  expect_equal(dens, rep(dens[1], 3))
+  expect_equal(proposal_density(search, outer), rep(mode_search_uniform / 3, 2))
+  # the density integrates to 1 over the range [1, 4]
+  grid <- data.frame(k = seq(1, 4, length.out = 30001))
+  expect_equal(mean(proposal_density(search, grid)) * 3, 1, tolerance = 1e-3)
+  set.seed(1)
+  draws <- draw_proposal(2000, search, "k")$k
+  expect_equal(mean(draws >= box[1] & draws <= box[2]),
+               mode_search_uniform * (box[2] - box[1]) / 3 + 1 - mode_search_uniform,
+               tolerance = 0.05)
+  refined <- refine(toy$fit, refine_sim, max_runs = 400, seed = 1)
+  rounds <- lib_rounds(refined$library)
+  expect_true(is_search_proposal(rounds[[1]]$proposal))
+  expect_true(all(vapply(rounds[-1], function(r) is.null(r$proposal), logical(1))))
+  expect_false(has_proposal_rounds(refined$library))
+  expect_identical(refined$refinement$reason, "resolved")
+  # a search seeding both modes of the folded system keeps t components,
+  # and proposals follow it
+  both <- mode_search_proposal(refine_state(folded_fit()))
+  expect_false(search_boxes(both))
+  expect_true(proposals_follow(both))
+})
+
 test_that("a plateau of equal weights is one local maximum", {
   u <- as.matrix(expand.grid(seq(0, 1, 0.25), seq(0, 1, 0.25)))
   # flat along the second axis at u1 = 0.5 (a model that ignores it there)
