@@ -53,10 +53,14 @@
 #' posterior over the runs' neighbourhood graph (a run more probable than
 #' its \eqn{2p} nearest; up to 8, within a factor 100 of the best at the
 #' proposal's tempering), from a t component as wide as the library's
-#' spacing there. The rounds after follow a proposal fitted to the library
-#' the search has grown, in any number of parameters, whose defensive share
-#' keeps drawing runs over the whole range (boxes zoomed in on the first
-#' mode the search found). When the base posterior had
+#' spacing there. When it seeded several maxima, the rounds after follow a
+#' proposal fitted to the library the search has grown, in any number of
+#' parameters, whose defensive share keeps drawing runs over the whole range
+#' (boxes zoomed in on the first mode the search found). When it seeded one,
+#' below four parameters, it draws around it uniformly from a box one step
+#' of the spacing wide on each side, and the rounds after are the boxes
+#' above unless the library it grew shows separated modes. When the base
+#' posterior had
 #' separated modes (the basins of such maxima) each holding at least 10%,
 #' and the refined posterior holds under 2% on one around which the rounds
 #' put too few runs to see it (fewer than a quadratic's coefficients within
