@@ -29,7 +29,7 @@ round_design <- function(state, n) {
   # as two clusters that are not two modes). After a search that seeded
   # one maximum, boxes unless the runs it drew show separated modes:
   # proposals there cost the one-parameter toy of test-refine.R more than
-  # 600 runs where boxes resolve it in 200
+  # 600 runs where boxes resolve it in 200-400
   first <- (length(lib_rounds(library)) == 0L && lib_n_runs(library) >= proposal_min_runs) ||
     after_search(library)
   proposal <- if (follows) fit_proposal(state) else if (first) {
