@@ -200,9 +200,9 @@ lib_simulated.refined_library <- function(library) {
 # An emulated base library predicts with its own emulator of its design
 # runs; otherwise the emulator learns from the simulated runs.
 #' @exportS3Method
-lib_emulator.refined_library <- function(library, region) {
-  if (all(lib_predicted(library$base))) return(lib_emulator(library$base, region))
-  lib_emulator(lib_simulated(library), region)
+lib_emulator.refined_library <- function(library, region, ...) {
+  if (all(lib_predicted(library$base))) return(lib_emulator(library$base, region, ...))
+  lib_emulator(lib_simulated(library), region, ...)
 }
 
 #' @exportS3Method

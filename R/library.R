@@ -263,11 +263,13 @@ runs_piece <- function(theta, y, x, t) {
 #   kappa of each, the prediction's relative variance (0 at a simulated run),
 #   error = the error model at plug-in noise variance `noise_var` (NULL for
 #   none), which lib_run_quad_forms() of a refined library applies).
-lib_emulator <- function(library, region) UseMethod("lib_emulator")
+lib_emulator <- function(library, region, ...) UseMethod("lib_emulator")
 
+# `max_runs`: the most runs a Gaussian process is fitted on (see
+# library_emulator()).
 #' @exportS3Method
-lib_emulator.default <- function(library, region) {
-  emulator <- library_emulator(library, region = region)
+lib_emulator.default <- function(library, region, max_runs = 400, ...) {
+  emulator <- library_emulator(library, region = region, max_runs = max_runs)
   loo <- emulator_loo(emulator)
   if (!all(is.finite(loo$residuals))) {
     # a Gaussian process too near singular to predict its own runs: the
@@ -285,7 +287,9 @@ lib_emulator.default <- function(library, region) {
 }
 
 #' @exportS3Method
-lib_emulator.emulated_library <- function(library, region) emulated_round_emulator(library)
+lib_emulator.emulated_library <- function(library, region, ...) {
+  emulated_round_emulator(library)
+}
 
 lib_predict <- function(emulator, theta_new, noise_var) {
   if (identical(emulator$method, "emulated_library")) {

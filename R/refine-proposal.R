@@ -55,11 +55,15 @@ proposal_min_runs <- 200L
 # lie a few units apart).
 mode_separation <- 6
 
+# Components are grouped as proposal_modes() groups them (transitively): a
+# wide unimodal posterior split by EM into a chain of narrow components has
+# ends far apart that are still one mode (on the one-parameter toy of
+# test-refine.R, after a search round, every such fit called its chain two
+# modes, and the rounds followed proposals where boxes resolve it).
 separated_modes <- function(proposal) {
   comps <- Filter(function(cmp) cmp$weight >= 0.05, proposal$components)
   if (length(comps) < 2L) return(FALSE)
-  pairs <- utils::combn(length(comps), 2L)
-  any(apply(pairs, 2, function(ij) components_apart(comps[[ij[1]]], comps[[ij[2]]])))
+  max(proposal_modes(list(components = comps))) >= 2L
 }
 
 # Two components whose centres lie more than mode_separation apart in the
@@ -92,9 +96,16 @@ fit_proposal <- function(state) {
   ord <- order(w, decreasing = TRUE)
   keep <- ord[seq_len(min(which(cumsum(w[ord]) >= 0.999)[1], 5000L))]
   components <- weighted_components(u[keep, , drop = FALSE], w[keep] / sum(w[keep]))
+  # half the mixture local, to follow a curved or weakly identified band,
+  # once the proposal is fitted to the posterior itself (refine-ridge.R)
+  local <- if (tempered$beta == 1) {
+    core <- ord[seq_len(which(cumsum(w[ord]) >= local_core_mass)[1])]
+    local_components(u[core, , drop = FALSE], w[core] / sum(w[core]))
+  }
   proposal <- list(range = range0, varies = varies, components = components,
                    df = proposal_df, defensive = proposal_defensive, inside = 1,
-                   beta = tempered$beta)
+                   beta = tempered$beta, local = local,
+                   local_share = if (length(local) > 0L) proposal_local_share else 0)
   proposal$inside <- mixture_mass_inside(proposal)
   proposal
 }
@@ -245,7 +256,7 @@ latin_hypercube_unit <- function(n, q) {
 }
 
 draw_mixture <- function(n, proposal) {
-  comps <- proposal$components
+  comps <- all_components(proposal)
   q <- length(comps[[1]]$centre)
   which_comp <- sample.int(length(comps), n, replace = TRUE,
                            prob = vapply(comps, `[[`, numeric(1), "weight"))
@@ -263,6 +274,7 @@ draw_mixture <- function(n, proposal) {
 in_unit_cube <- function(u) rowSums(u >= 0 & u <= 1) == ncol(u)
 
 draw_mixture_inside <- function(n, proposal) {
+  if (search_boxes(proposal)) return(draw_search_boxes(n, proposal))
   q <- sum(proposal$varies)
   out <- matrix(0, 0, q)
   tries <- 0L
@@ -292,13 +304,14 @@ proposal_density <- function(proposal, theta) {
   u <- unit_coordinates(theta, proposal$range, proposal$varies)
   width <- proposal$range[2, proposal$varies] - proposal$range[1, proposal$varies]
   inside <- in_unit_cube(u)
-  mix <- exp(log_mixture_density(u, proposal))
+  mix <- if (search_boxes(proposal)) search_box_density(u, proposal) else
+    exp(log_mixture_density(u, proposal))
   ((proposal$defensive + (1 - proposal$defensive) * mix / proposal$inside) * inside) /
     prod(width)
 }
 
 log_mixture_density <- function(u, proposal) {
-  comps <- proposal$components
+  comps <- all_components(proposal)
   q <- ncol(u)
   nu <- proposal$df
   const <- lgamma((nu + q) / 2) - lgamma(nu / 2) - q / 2 * log(nu * pi)

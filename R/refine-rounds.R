@@ -24,8 +24,11 @@ unfinished_round <- function(fit) {
 # previous table) that ends the rounds after a round where it is TRUE
 # (reason "settled"): diagnose_gap()'s matched resolution stops where more
 # runs cannot resolve a model (settled_in_range()); refine() passes none.
+# `proposals`: predicted runs follow the proposal from four parameters, as
+# simulated ones do (predicted_round()); refine() asks for it,
+# diagnose_gap()'s matched resolution keeps its boxes.
 refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress = FALSE,
-                          previous = NULL, store = NULL, settled = NULL) {
+                          previous = NULL, store = NULL, settled = NULL, proposals = FALSE) {
   state <- refine_state(problem)
   history <- list(state$table)
   source <- if (is.null(simulator)) "emulator" else "simulator"
@@ -34,7 +37,8 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
   reason <- "resolved"
   failure <- NULL
   while (needs_round(state, if (added > 0L) history[[length(history) - 1L]] else previous,
-                     !is.null(simulator))) {
+                     !is.null(simulator),
+                     earlier = drift_reference(history, state$problem$library))) {
     if (added >= max_runs) {
       reason <- "max_runs"
       break
@@ -45,16 +49,9 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
     }
     n_new <- min(runs_per_round, max_runs - added)
     if (is.null(simulator)) {
-      box <- refine_box(state)
-      theta_new <- latin_hypercube(n_new, box, names(lib_theta(state$problem$library)))
-      if (is.null(emulator) || !box_inside(box, emulator$refine_region)) {
-        emulator <- round_emulator(state, box)
-      }
-      batch <- emulated_batch(emulator, theta_new, state)
-      round <- list(box = box, n = n_new, source = source, error = batch$error)
-      state <- refine_state(extend_problem(state$problem, theta_new, batch$y, round,
-                                           batch$rel_var))
-      state <- restate_noise_var(state)
+      step <- predicted_round(state, emulator, n_new, proposals)
+      state <- step$state
+      emulator <- step$emulator
       n_done <- n_new
     } else {
       step <- simulated_round(state, simulator, n_new, progress, store)
@@ -76,9 +73,11 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 
 # Another round is needed while the posterior is not resolved (against the
 # table of the round before, `previous`), is cut off by the last round's box,
-# or, with a simulator, rests on predicted runs.
-needs_round <- function(state, previous, simulating) {
+# or, with a simulator, rests on predicted runs; or an interval still moved
+# since the table `earlier`, a few rounds back (drifted(), refine-ridge.R).
+needs_round <- function(state, previous, simulating, earlier = NULL) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
+    any(drifted(state$table, earlier, state$p, lib_theta(state$problem$library))) || !explored(state$problem$library) ||
     state$far_mass > far_mass_tol || length(unresolved_modes(state)) > 0L ||
     (simulating && predicted_mass(state) > predicted_tol)
 }

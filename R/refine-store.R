@@ -92,21 +92,33 @@ store_round <- function(store, kind, box, proposal = NULL) {
 
 # A round's proposal as plain rows, one per component: its weight, centre
 # and Cholesky factor (by column) in unit coordinates, with the proposal's
-# df, defensive share and mass inside the range. The range is the base
-# library's, which the fit holds.
+# df, defensive share and mass inside the range; `local` flags the local
+# components (refine-ridge.R), `local_share` their share, `search` a search
+# round's (refine-modes.R: its seeds draw from boxes, so its density is
+# not a t mixture's). The range is the base library's, which the fit holds.
 write_store_proposal <- function(store, round, proposal) {
-  rows <- do.call(rbind, lapply(proposal$components, function(cmp) {
+  local <- rep(c(0, 1), c(length(proposal$components), length(proposal[["local"]])))
+  share <- if (is.null(proposal$local_share)) 0 else proposal$local_share
+  rows <- do.call(rbind, Map(function(cmp, is_local) {
     c(round = round, df = proposal$df, defensive = proposal$defensive,
-      inside = proposal$inside, beta = proposal$beta, weight = cmp$weight,
+      inside = proposal$inside, beta = proposal$beta, local_share = share,
+      search = as.numeric(is_search_proposal(proposal)), local = is_local, weight = cmp$weight,
       stats::setNames(cmp$centre, paste0("centre_", seq_along(cmp$centre))),
       stats::setNames(as.vector(cmp$chol), paste0("chol_", seq_along(cmp$chol))))
-  }))
+  }, c(proposal$components, proposal[["local"]]), local))
   old <- if (file.exists(store$proposals)) {
     read_checked_csv(store$proposals, store, "table of proposals")
   }
   # rows of this round left by a session killed before its table row was
   # written are replaced
   old <- old[old$round < round, , drop = FALSE]
+  if (!is.null(old) && is.null(old[["local"]])) {
+    old <- cbind(old[, 1:5], local_share = rep(0, nrow(old)), local = rep(0, nrow(old)),
+                 old[, -(1:5)])
+  }
+  if (!is.null(old) && is.null(old[["search"]])) {
+    old <- cbind(old[, 1:6], search = rep(0, nrow(old)), old[, -(1:6)])
+  }
   write_checked_csv(rbind(old, rows), store$proposals)
 }
 
@@ -125,8 +137,15 @@ read_store_proposal <- function(store, round, library) {
     list(weight = rows$weight[i], centre = unlist(rows[i, paste0("centre_", seq_len(q))]),
          chol = matrix(unlist(rows[i, paste0("chol_", seq_len(q * q))]), q, q))
   })
-  list(range = range0, varies = varies, components = components, df = rows$df[1],
-       defensive = rows$defensive[1], inside = rows$inside[1], beta = rows$beta[1])
+  # the local components of refine-ridge.R (none in a file written before them)
+  local <- if (is.null(rows[["local"]])) rep(FALSE, nrow(rows)) else rows$local == 1
+  proposal <- list(range = range0, varies = varies, components = components[!local],
+                   df = rows$df[1], defensive = rows$defensive[1], inside = rows$inside[1],
+                   beta = rows$beta[1], local = if (any(local)) components[local],
+                   local_share = if (is.null(rows$local_share)) 0 else rows$local_share[1])
+  # a search round's (none in a file written before them)
+  if (!is.null(rows[["search"]]) && rows$search[1] == 1) proposal$search <- TRUE
+  proposal
 }
 
 # A function(theta, y) appending finished runs to the file and counting

@@ -44,6 +44,33 @@
 #' modes spreads its runs over the empty space between them, and the rounds
 #' after zoom in on one); otherwise they are the boxes above.
 #'
+#' **A coarse start.** A base posterior resting on fewer effective runs than
+#' a proposal is fitted to shows the posterior only at the library's
+#' resolution: the runs nearest two modes may lie hundreds of log units
+#' apart, and rounds that zoom in on the better lose the other. The first
+#' round is then a search: half its runs a Latin hypercube over the
+#' library's range, half drawn around each local maximum of the base
+#' posterior over the runs' neighbourhood graph (a run more probable than
+#' its \eqn{2p} nearest; up to 8, within a factor 100 of the best at the
+#' proposal's tempering), from a t component as wide as the library's
+#' spacing there. When it seeded several maxima, the rounds after follow a
+#' proposal fitted to the library the search has grown, in any number of
+#' parameters, whose defensive share keeps drawing runs over the whole range
+#' (boxes zoomed in on the first mode the search found). When it seeded one,
+#' below four parameters, it draws around it uniformly from a box one step
+#' of the spacing wide on each side, and the rounds after are the boxes
+#' above unless the library it grew shows separated modes. When the base
+#' posterior had
+#' separated modes (the basins of such maxima) each holding at least 10%,
+#' and the refined posterior holds under 2% on one around which the rounds
+#' put too few runs to see it (fewer than a quadratic's coefficients within
+#' a step of the base library's spacing), `refine()` warns (class
+#' `griddy_warning_mode_lost`), naming where the mode was and its shares;
+#' so it does when a round's proposal had separated modes each holding 10%
+#' of its weight and one now holds under 2% though it held 10% of the
+#' posterior then, or rests on too few effective runs of its own to tell its
+#' share. With or without a simulator.
+#'
 #' **The prior stays the library's.** A library's equal weights over runs
 #' are a uniform prior over \eqn{\theta} only while runs fill the range
 #' evenly. Each run of the refined library is therefore weighed by the prior
@@ -76,6 +103,21 @@
 #' needs: a mode's share is estimated from its own runs, and one resting on
 #' a few is often too small (on a folded 4-parameter system, 20% where
 #' symmetry makes it 50%). The warning at `max_runs` names such a mode.
+#' A posterior along a curved or weakly identified band (two parameters
+#' identified only through their product; a banana) reaches past what a few
+#' broad components draw, and its missing ends are invisible to checks
+#' that look at runs. So once a proposal is fitted to the posterior itself
+#' (untempered), half its t mixture is local: components centred on runs
+#' resampled from the posterior and on the runs at both ends of it along
+#' each parameter and principal direction, each with the covariance of its
+#' nearest posterior runs, doubled, so they follow a band's local direction
+#' past its explored end. A library grown by proposals is resolved only
+#' after its last three rounds drew such local components, and while no
+#' interval bound moved by more than a fifth of its width over those three
+#' rounds (the posterior with them dropped) nor has more of the posterior
+#' beyond it now than its 2.5% and three Monte Carlo sds; the warning at `max_runs`
+#' then has class `griddy_warning_reach` too and names the parameters whose
+#' intervals still moved.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped. Otherwise the refined fit
@@ -208,7 +250,8 @@ refine <- function(fit, simulator = NULL, max_runs = control$max_runs, ...,
   }
   max_runs <- assert_count(max_runs, "max_runs")
   runs_per_round <- if (is.null(runs_per_round)) {
-    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator)), max_runs)
+    min(default_runs_per_round(lib_theta(fit$library), proposals = !is.null(simulator),
+                               predicted = is.null(simulator)), max_runs)
   } else {
     assert_count(runs_per_round, "runs_per_round")
   }
@@ -238,18 +281,20 @@ check_refinable <- function(fit) {
   }
 }
 
-default_runs_per_round <- function(theta, proposals = FALSE) {
+default_runs_per_round <- function(theta, proposals = FALSE, predicted = FALSE) {
   p <- sum(vapply(theta, function(v) max(v) > min(v), logical(1)))
-  # a proposal that follows the posterior (four or more parameters, with a
-  # simulator) needs no box's doubling per parameter, and more rounds adapt
-  # it better; predicted runs keep the boxes and their sizes
-  if (proposals && p >= proposal_min_parameters) {
-    return(as.integer(proposal_round_per_parameter * p))
+  # a proposal that follows the posterior (four or more parameters) needs no
+  # box's doubling per parameter, and more rounds adapt it better; predicted
+  # runs cost little beside a round's refitting, so their rounds are larger
+  if (p >= proposal_min_parameters && (proposals || predicted)) {
+    per <- if (predicted) predicted_round_per_parameter else proposal_round_per_parameter
+    return(as.integer(per * p))
   }
   100L * 2L^(max(p, 1L) - 1L)
 }
 
 proposal_round_per_parameter <- 50
+predicted_round_per_parameter <- 200
 
 # The runs in `store` that the fit lacks, the rounds, then one calibration of
 # the refined library with the fit's settings. A simulator that failed or
@@ -259,8 +304,9 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   resumed <- store_resume(store, fit)
   # runs from the file are a round: judged against the fit they refine
   previous <- if (resumed$n > 0L) refine_state(fit)$table else unfinished_round(fit)
+  modes <- base_modes(resumed$problem)
   rounds <- refine_rounds(resumed$problem, simulator, max_runs, runs_per_round, progress,
-                          previous = previous, store = store)
+                          previous = previous, store = store, proposals = TRUE)
   rounds$runs_added <- rounds$runs_added + resumed$n
   if (rounds$runs_added == 0L) {
     if (!is.null(rounds$failure)) stop_refinement(rounds$failure, fit, store)
@@ -278,6 +324,7 @@ refine_fit <- function(fit, simulator, max_runs, runs_per_round, progress, call,
   # resolved refinement has nothing to warn of
   finish_fit(out, resolution = function(fit) {
     if (rounds$reason != "resolved") warn_unresolved(refine_state(rounds$problem), rounds)
+    warn_mode_lost(modes, rounds$problem, rounds$source)
   })
 }
 
@@ -338,10 +385,15 @@ warn_unresolved <- function(state, rounds) {
     interval_tol * pmax(tab$upper - tab$lower, previous$upper - previous$lower)
   runs <- run_resolution_reason(attr(tab, "runs"))
   few_values <- tab$effective_values < resolution_min_values
+  drift <- drifted(tab, drift_reference(rounds$history, state$problem$library), state$p,
+                   lib_theta(state$problem$library))
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
-         ifelse(moved, "its interval still moved in the last round", NA)))
+         ifelse(moved, "its interval still moved in the last round",
+         ifelse(drift, paste0("its interval still moved over the last ", drift_rounds,
+                              " rounds: the runs have not followed the posterior to its end"),
+                NA))))
   bad <- !is.na(why)
   extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
              if (state$far_mass > far_mass_tol) {
@@ -349,7 +401,11 @@ warn_unresolved <- function(state, rounds) {
                       "far from where the last round's runs went: a mode may be lost or ",
                       "unresolved")
              },
-             unresolved_mode_reasons(state))
+             unresolved_mode_reasons(state),
+             if (!explored(state$problem$library)) {
+               paste0("the last rounds have not yet explored the posterior's ends (its ",
+                      "ridges and tails) from where it now lies")
+             })
   if (length(extra) > 0L) {
     why <- c(why[bad], extra)
     tab <- data.frame(parameter = c(tab$parameter[bad], rep("all", length(extra))))
@@ -365,5 +421,6 @@ warn_unresolved <- function(state, rounds) {
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
-              class = "resolution")
+              class = c(if (any(drift) || !explored(state$problem$library)) "reach",
+                        "resolution"))
 }

@@ -38,8 +38,17 @@ runs_test_applies <- function(n_varying, scattered = FALSE) {
   scattered || n_varying >= proposal_min_parameters
 }
 
+# A search round (refine-modes.R) that seeded one maximum is a Latin
+# hypercube over the range plus a box around it: below four parameters,
+# with boxes after it, the library is judged as boxes' (from four, every
+# round is a proposal's).
 has_proposal_rounds <- function(library) {
-  any(vapply(lib_rounds(library), function(r) !is.null(r$proposal), logical(1)))
+  rounds <- lib_rounds(library)
+  if (length(rounds) == 0L) return(FALSE)
+  many <- uses_proposal(library)
+  any(vapply(rounds, function(r) {
+    !is.null(r$proposal) && (many || proposals_follow(r$proposal))
+  }, logical(1)))
 }
 
 # Pareto k-hat of the posterior weights over runs (the log weights are

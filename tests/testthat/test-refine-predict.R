@@ -95,3 +95,64 @@ test_that("an emulator that cannot be built is said in terms of the refine() cal
   expect_no_match(conditionMessage(e), "region")
   expect_match(conditionMessage(e), "refine() without a simulator", fixed = TRUE)
 })
+
+# A smooth p-parameter system on [0, 1]^p (bench/many-parameters-systems.R's
+# smooth-p, 30 outputs): its Latin hypercube library of n runs and field
+# data at an inner truth.
+nosim_system <- function(p, n, sd = 0.05, seed = 1) {
+  set.seed(240 + p)
+  G <- matrix(stats::rnorm(30 * p), 30, p)
+  H <- matrix(stats::rnorm(30 * p), 30, p)
+  sim <- function(theta) {
+    th <- as.matrix(theta)
+    sin(pi * th %*% t(G)) + 0.5 * exp(th %*% t(H) / 2)
+  }
+  set.seed(seed)
+  theta <- latin_hypercube(n, rbind(rep(0, p), rep(1, p)), paste0("th", seq_len(p)))
+  lib <- sim_library(theta, sim(theta))
+  truth <- stats::runif(p, 0.3, 0.7)
+  field <- field_data(sim(matrix(truth, 1)) + stats::rnorm(30, sd = sd), t = lib$t)
+  fit <- suppressWarnings(calibrate(lib, field, n_iter = 1000, burn_in = 200, seed = 1))
+  list(fit = fit, truth = truth, p = p)
+}
+
+test_that("refine() without a simulator resolves four parameters by the proposal's rounds", {
+  skip_if_not_installed("RobustGaSP")
+  sys <- nosim_system(4, 300, sd = 0.15)
+  refined <- refine(sys$fit, max_runs = 8000, seed = 1)
+  expect_identical(refined$refinement$reason, "resolved")
+  rounds <- refined$library$rounds
+  # the rounds follow the posterior (a box's hypercube held 4 parameters
+  # on too few effective runs: issue 35)
+  expect_true(all(vapply(rounds, function(r) !is.null(r$proposal) && is.null(r$box),
+                         logical(1))))
+  expect_true(all(vapply(rounds, function(r) !is.null(r$error), logical(1))))
+  expect_equal(rounds[[1]]$n, predicted_round_per_parameter * 4)
+  tab <- resolution_limited(refined)
+  expect_true(attr(tab, "runs")$resolved)
+  expect_gte(sum(tab$lower <= sys$truth & sys$truth <= tab$upper), 3)
+})
+
+test_that("refine() without a simulator says an under-resourced 8-parameter fit is not resolved", {
+  skip_if_not_installed("RobustGaSP")
+  sys <- nosim_system(8, 150)
+  expect_warning(refined <- suppressWarnings(refine(sys$fit, max_runs = 1600, seed = 1),
+                                             classes = c("griddy_warning_emulation",
+                                                         "griddy_warning_gap",
+                                                         "griddy_warning_convergence")),
+                 "before the posterior was resolved", class = "griddy_warning_resolution")
+  expect_identical(refined$refinement$reason, "max_runs")
+  expect_false(attr(resolution_limited(refined), "runs")$resolved)
+})
+
+test_that("the proposal rounds' emulator scales its error to its leave-one-out variance", {
+  skip_if_not_installed("RobustGaSP")
+  sys <- nosim_system(4, 120)
+  state <- refine_state(sys$fit)
+  em <- proposal_round_emulator(state)
+  expect_identical(em$method, "gp")
+  expect_equal(em$var_max, mean(ppgasp_loo(em$fit, em$vary, length(em$rows))$var))
+  # over the whole range, on every run
+  expect_equal(unname(em$refine_region), unname(library_box(lib_base(sys$fit$library))))
+  expect_length(em$rows, 120L)
+})

@@ -148,6 +148,16 @@ test_that("separated modes are told from one mode split in two", {
   expect_false(separated_modes(split))
   apart$components[[2]]$weight <- 0.01
   expect_false(separated_modes(apart))
+  # one wide mode split by EM into a chain of narrow components: neighbours
+  # are close, the chain's ends far apart; still one mode (every pair was
+  # asked once, and the chain's ends called it two)
+  chain <- list(components = lapply(seq(0.2, 0.8, by = 0.1), function(x) {
+    cmp <- comp(c(x, 0.5), 0.03)
+    cmp$weight <- 1 / 7
+    cmp
+  }))
+  expect_true(components_apart(chain$components[[1]], chain$components[[7]]))
+  expect_false(separated_modes(chain))
 })
 
 # An aliased oscillator: sampled at t = k pi / 2, frequencies w and w + 4

@@ -120,4 +120,7 @@ test_that("rounds of a proposal are 50 runs per parameter; boxes keep their doub
   expect_equal(default_runs_per_round(theta), 800)
   expect_identical(default_runs_per_round(theta, proposals = TRUE), 200L)
   expect_equal(default_runs_per_round(theta[1:2], proposals = TRUE), 200)
+  # predicted runs (no simulator) follow the proposal too, 200 a parameter
+  expect_identical(default_runs_per_round(theta, predicted = TRUE), 800L)
+  expect_equal(default_runs_per_round(theta[1:2], predicted = TRUE), 200)
 })

@@ -1,0 +1,113 @@
+# A weighted sample along a quarter circle of radius 0.6 about the origin in
+# the unit square (a curved band, thin across), its mass spread along the arc.
+arc_sample <- function(n = 600, width = 0.005) {
+  set.seed(35)
+  angle <- stats::runif(n, 0.1, pi / 2 - 0.1)
+  radius <- 0.6 + stats::rnorm(n, sd = width)
+  u <- cbind(radius * cos(angle), radius * sin(angle))
+  list(u = u, w = rep(1 / n, n), angle = angle)
+}
+
+test_that("local components at the ends of a curved band point along it", {
+  s <- arc_sample()
+  ends <- frontier_runs(s$u, s$w)
+  # the runs at both ends of the arc are among the frontier
+  expect_true(which.min(s$angle) %in% ends)
+  expect_true(which.max(s$angle) %in% ends)
+  set.seed(1)
+  comps <- local_components(s$u, s$w, m = 10L)
+  expect_length(comps, 10L + length(ends))
+  expect_equal(sum(vapply(comps, `[[`, numeric(1), "weight")), 1)
+  # each component's long axis follows the arc's tangent at its centre, and
+  # it is far thinner across the arc than the whole sample is
+  whole <- stats::cov(s$u)
+  for (cmp in comps) {
+    cov <- crossprod(cmp$chol)
+    axis <- eigen(cov, symmetric = TRUE)$vectors[, 1]
+    tangent <- c(-cmp$centre[2], cmp$centre[1]) / sqrt(sum(cmp$centre^2))
+    expect_gt(abs(sum(axis * tangent)), 0.95)
+    normal <- cmp$centre / sqrt(sum(cmp$centre^2))
+    expect_lt(sum(normal * cov %*% normal), 0.05 * sum(normal * whole %*% normal))
+  }
+})
+
+test_that("a proposal with local components draws from the density it states", {
+  s <- arc_sample()
+  set.seed(2)
+  proposal <- list(range = rbind(c(0, 0), c(1, 1)), varies = c(TRUE, TRUE),
+                   components = weighted_components(s$u, s$w), df = proposal_df,
+                   defensive = proposal_defensive, inside = 1,
+                   local = local_components(s$u, s$w), local_share = proposal_local_share)
+  proposal$inside <- mixture_mass_inside(proposal)
+  draws <- draw_proposal(20000, proposal, c("a", "b"))
+  dens <- proposal_density(proposal, draws)
+  # E_q[1 / q] is the volume of the range (1) when q is the density drawn from
+  expect_equal(mean(1 / dens), 1, tolerance = 0.05)
+})
+
+test_that("a proposal's local components survive the file of a resumable refine()", {
+  skip_if_not_installed("hdf5r")
+  s <- arc_sample()
+  set.seed(3)
+  lib <- sim_library(data.frame(a = c(0, 1, 0.5), b = c(0, 1, 0.5)), matrix(0, 3, 2))
+  proposal <- list(range = rbind(c(0, 0), c(1, 1)), varies = c(TRUE, TRUE),
+                   components = weighted_components(s$u, s$w), df = proposal_df,
+                   defensive = proposal_defensive, inside = 0.9, beta = 1,
+                   local = local_components(s$u, s$w), local_share = proposal_local_share)
+  file <- withr::local_tempfile(fileext = ".h5")
+  store <- refine_store(file, lib)
+  write_store_proposal(store, 1L, proposal)
+  back <- read_store_proposal(store, 1L, lib)
+  expect_length(back$local, length(proposal$local))
+  expect_identical(back$local_share, proposal_local_share)
+  theta <- data.frame(a = stats::runif(50), b = stats::runif(50))
+  expect_equal(proposal_density(back, theta), proposal_density(proposal, theta))
+})
+
+test_that("an interval that creeps over several rounds is not resolved", {
+  # each round moves the upper bound by an eighth of the width (below
+  # interval_tol), so round-to-round stability holds, but over drift_rounds
+  # rounds it moved by a quarter: a band explored step by step
+  toy <- linear4_toy()
+  state <- refine_state(toy$fit)
+  state$table$limited[] <- FALSE
+  state$far_mass <- 0
+  step <- function(tab, k) {
+    tab$upper <- tab$upper - k * (tab$upper - tab$lower) / 8
+    tab
+  }
+  previous <- step(state$table, 1)
+  expect_false(needs_round(state, previous, FALSE))
+  expect_true(needs_round(state, previous, FALSE, earlier = step(state$table, 2)))
+  expect_identical(drifted(state$table, step(state$table, 2)), !state$table$constant)
+  expect_false(any(drifted(state$table, step(state$table, 1))))
+})
+
+test_that("refine() does not call a library resolved before it explored from the posterior", {
+  toy <- linear4_toy()
+  # a few rounds: the proposals are still tempered (no local components)
+  w <- NULL
+  r <- withCallingHandlers(
+    suppressMessages(refine(toy$fit, linear4_sim, max_runs = 600, seed = 1)),
+    griddy_warning_resolution = function(cnd) {
+      w <<- cnd
+      invokeRestart("muffleWarning")
+    })
+  expect_identical(r$refinement$reason, "max_runs")
+  expect_false(explored(r$library))
+  expect_s3_class(w, "griddy_warning_reach")
+  expect_match(conditionMessage(w), "have not yet explored", fixed = TRUE)
+})
+
+test_that("more posterior beyond an earlier bound than Monte Carlo error allows is drift", {
+  # a flat marginal (along a band) whose upper bound moved by a tenth of the
+  # width: below interval_tol, but 10% of the posterior now lies beyond it
+  theta <- data.frame(a = seq(0, 1, length.out = 2000), b = rep(c(0.4, 0.6), 1000))
+  p <- rep(1 / 2000, 2000)
+  tab <- resolution_table(p, theta)
+  earlier <- tab
+  earlier$upper[1] <- tab$upper[1] - (tab$upper[1] - tab$lower[1]) / 10
+  expect_identical(drifted(tab, earlier), c(FALSE, FALSE))
+  expect_identical(drifted(tab, earlier, p, theta), c(TRUE, FALSE))
+  expect_identical(drifted(tab, tab, p, theta), c(FALSE, FALSE))
+})
