@@ -136,7 +136,7 @@
 #' (lengths over the existing axes), so that the discrepancy's mean square
 #' grows like \eqn{\lambda^{1/2}}, not \eqn{\lambda}. It combines with
 #' `orthogonal` (the projection first). Its kernel depends on the ratio, so
-#' every ratio needs its own eigen-decomposition (see Cost). On our
+#' every ratio needs its own rotation (see Cost). On our
 #' oscillator study it changed little (see `vignette("discrepancy")`), so it
 #' is not the default.
 #'
