@@ -119,12 +119,11 @@ scaled_coefs <- function(basis, coef, kernels) {
 # log-determinant. `kron`: complete data in one group without sd, whose
 # residuals whiten by the AR(1) and Kronecker shortcuts (whiten_rows()).
 discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
-  obs <- which(pattern$observed)
-  groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
-  names(groups) <- pattern$labels
-  scale <- if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs]
-  log_sd <- if (is.null(pattern$sd_mean)) 0 else
-    2 * sum(log(pattern$sd_mean[obs])) + pattern$log_sd_excess
+  layout <- observed_layout(pattern)
+  obs <- layout$obs
+  groups <- layout$groups
+  scale <- layout$scale
+  log_sd <- layout$log_sd
   n_t <- length(t)
   n_x <- dim(setup$Rx_chol)[1]
   kron <- length(obs) == n_x * n_t && is.null(scale) && length(groups) == 1L
@@ -209,50 +208,10 @@ discrepancy_point_factors <- function(dense, j) {
 }
 
 # plain_quad_forms() for a setup with a discrepancy (see the top of this
-# file): per base grid point, the whitened residuals' |z|^2 and their
-# coordinates U = Z H in the basis; then the rotations U T of all kernels in
-# one product, and every ratio's weights. The products run on the tiled
-# kernels (tiled_matmul_cpp()).
+# file): discrepancy_forms() at every grid point.
 discrepancy_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()) {
-  dense <- setup$dense
-  grid <- dense$grid
-  n_x <- dim(setup$Rx_chol)[1]
-  product <- function(X, B) tiled_matmul_cpp(X, B, threads)
-  C <- matrix(0, nrow(Y), nrow(grid))
   resid <- matrix(y_field, nrow(Y), length(y_field), byrow = TRUE) - Y
-  blocks <- if (!dense$kron) group_columns(resid, dense)
-  for (g in seq_along(dense$A)) {
-    Z <- if (dense$kron) {
-      list(whiten_rows(resid, dense$A[[g]], n_x, ncol(resid) %/% n_x))
-    } else {
-      Map(product, blocks, dense$A[[g]])
-    }
-    here <- which(grid$base == g)
-    used <- unique(grid$kernel[here][grid$ratio[here] > 0])
-    Ck <- lapply(seq_along(Z), function(k) {
-      C0 <- rowSums(Z[[k]]^2) + setup$pure_ss[k]
-      out <- matrix(C0, nrow(Y), length(here))
-      if (length(used) == 0L) return(out)
-      rots <- lapply(dense$rot[[g]][used], `[[`, k)
-      Z2 <- product(product(Z[[k]], dense$H[[g]][[k]]), do.call(cbind, lapply(rots, `[[`, "T")))^2
-      ends <- cumsum(vapply(rots, function(r) length(r$d), 1L))
-      for (i in seq_along(used)) {
-        at <- which(grid$kernel[here] == used[i] & grid$ratio[here] > 0)
-        lambda <- grid$ratio[here][at]
-        d <- rots[[i]]$d
-        weights <- outer(d, lambda, function(d, lam) lam / (1 + lam * d))
-        cols <- seq_len(length(d)) + ends[i] - length(d)
-        # a quadratic form is >= 0; the difference can round below
-        out[, at] <- pmax(out[, at, drop = FALSE] - Z2[, cols, drop = FALSE] %*% weights, 0)
-      }
-      out
-    })
-    C[, here] <- if (length(Ck) == 1L) Ck[[1]] else {
-      vapply(seq_along(here), function(j) {
-        fold_groups(vapply(Ck, function(M) M[, j], numeric(nrow(Y))), setup)
-      }, numeric(nrow(Y)))
-    }
-  }
+  C <- discrepancy_forms(resid, setup, seq_len(nrow(setup$dense$grid)), threads = threads)$C
   if (!all(is.finite(C))) {
     griddy_abort("quad_forms: a misfit is not finite: the outputs hold NA, NaN or Inf, or ",
                  "overflow double precision.", class = "numeric")
@@ -261,24 +220,146 @@ discrepancy_quad_forms <- function(Y, y_field, setup, threads = griddy_threads()
 }
 
 # group_quad_forms() at grid point g of a setup with a discrepancy: each
-# group's |z|^2 less the ratio's weighted squares of the rotated
-# coordinates (as discrepancy_quad_forms(), for one grid point), with the
-# group's pure error.
+# group's form, with the group's pure error (runs x groups).
 discrepancy_group_forms <- function(resid, setup, g) {
+  discrepancy_forms(resid, setup, g, fold = FALSE)$C
+}
+
+# emulated_quad_forms() (emulation.R) for a setup with a discrepancy: runs
+# predicted with error model `err` and relative variances `kappa`, at every
+# grid point; list(C, logdet = the error's extra log-determinants).
+discrepancy_emulated_forms <- function(y, y_field, setup, err, kappa) {
+  resid <- matrix(y_field, nrow(y), length(y_field), byrow = TRUE) - y
+  discrepancy_forms(resid, setup, seq_len(nrow(setup$dense$grid)), err, kappa)
+}
+
+# emulated_group_forms() for a setup with a discrepancy, at grid point g:
+# list(C = runs x noise groups, logdet).
+discrepancy_emulated_group_forms <- function(y, y_field, setup, err, kappa, g) {
+  resid <- matrix(y_field, nrow(y), length(y_field), byrow = TRUE) - y
+  discrepancy_forms(resid, setup, g, err, kappa, fold = FALSE)
+}
+
+# The quadratic forms of residual rows `resid` (library order) at grid
+# points `points` of a setup with a discrepancy (see the top of this file):
+# per base grid point, each group's whitened residuals z = A'r, their |z|^2
+# and their coordinates in the basis, rotated by every kernel used in one
+# product; every ratio then weighs the squared coordinates. Returns
+# list(C = runs x points, folded over the noise groups, or runs x groups
+# for one point with `fold = FALSE`; logdet).
+#
+# With an emulation error (`err`, emulation.R: V = U diag(lambda) U', on
+# each group's noise variance s2_k) a run's covariance gains kappa_i F F',
+# F = U diag(sqrt(lambda / s2_k)) over the group's sd-scaled points. With S
+# the grid point's covariance (R + lambda K), b = F' S^-1 r and F' S^-1 F =
+# Q diag(gamma) Q', the form loses sum_m kappa_i (b'Q)_m^2 / (1 + kappa_i
+# gamma_m) and `logdet` (the error's extra log-determinant, as
+# emulated_group_forms()'s) is sum_m log(1 + kappa_i gamma_m). Both come
+# from the whitened factor A'F in the same coordinates: S^-1 = A (I - G
+# diag(w) G') A' with G = H T and w = lambda / (1 + lambda d), so, per ratio,
+# only m x m matrices and one product of every run's coordinates, no n x n
+# work. `logdet` is NULL without an error.
+discrepancy_forms <- function(resid, setup, points, err = NULL, kappa = NULL, fold = TRUE,
+                              threads = griddy_threads()) {
   dense <- setup$dense
-  at <- dense$grid[g, ]
-  Z <- if (dense$kron) {
-    w <- dense$A[[at$base]]
-    list(whiten_rows(resid, w, w$n_x, w$n_t))
-  } else {
-    Map(`%*%`, group_columns(resid, dense), dense$A[[at$base]])
+  grid <- dense$grid
+  product <- function(X, B) tiled_matmul_cpp(X, B, threads)
+  n_groups <- length(dense$groups)
+  n_x <- dim(setup$Rx_chol)[1]
+  s2 <- if (!is.null(err)) rep_len(err$noise_var, n_groups)
+  whiten <- function(M, g) {
+    if (dense$kron) {
+      w <- dense$A[[g]]
+      list(whiten_rows(M, w, n_x, ncol(M) %/% n_x))
+    } else {
+      Map(product, group_columns(M, dense), dense$A[[g]])
+    }
   }
-  Ck <- vapply(seq_along(Z), function(k) {
-    C0 <- rowSums(Z[[k]]^2) + setup$pure_ss[k]
-    if (at$ratio == 0) return(C0)
-    r <- dense$rot[[at$base]][[at$kernel]][[k]]
-    u <- Z[[k]] %*% (dense$H[[at$base]][[k]] %*% r$T)
-    pmax(C0 - drop(u^2 %*% (at$ratio / (1 + at$ratio * r$d))), 0)
-  }, numeric(nrow(resid)))
-  matrix(Ck, nrow(resid))
+  C <- matrix(0, nrow(resid), if (fold) length(points) else n_groups)
+  extra <- if (!is.null(err)) matrix(0, nrow(resid), if (fold) length(points) else 1L)
+  for (g in unique(grid$base[points])) {
+    here <- which(grid$base[points] == g)
+    Z <- whiten(resid, g)
+    WF <- if (!is.null(err)) {
+      Map(function(W, s) W * sqrt(err$lambda / s), whiten(t(err$U), g), s2)
+    }
+    Ck <- lapply(seq_len(n_groups), function(k) {
+      discrepancy_group_block(Z[[k]], WF[[k]], dense, g, k, points[here], setup$pure_ss[k],
+                              kappa, product)
+    })
+    if (!fold) {
+      C[] <- vapply(Ck, `[[`, numeric(nrow(resid)), "C")
+      if (!is.null(err)) extra[] <- Reduce(`+`, lapply(Ck, `[[`, "logdet"))
+      next
+    }
+    C[, here] <- if (n_groups == 1L) Ck[[1]]$C else {
+      vapply(seq_along(here), function(j) {
+        fold_groups(vapply(Ck, function(f) f$C[, j], numeric(nrow(resid))), setup)
+      }, numeric(nrow(resid)))
+    }
+    if (!is.null(err)) extra[, here] <- Reduce(`+`, lapply(Ck, `[[`, "logdet"))
+  }
+  list(C = C, logdet = if (!is.null(err)) drop_one(extra, fold))
+}
+
+# A run's extra log-determinant at one grid point is a vector.
+drop_one <- function(extra, fold) if (fold) extra else extra[, 1]
+
+# Noise group k's forms at grid points `at` (rows of dense$grid, all on base
+# point g): Z its whitened residuals (runs x points), WF its whitened error
+# factor A'F, transposed (rank x points; NULL without an error), `pure_ss`
+# its replicates' pure error. list(C, logdet), runs x points (see
+# discrepancy_forms()).
+discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, product) {
+  grid <- dense$grid[at, , drop = FALSE]
+  out <- matrix(rowSums(Z^2) + pure_ss, nrow(Z), length(at))
+  error <- !is.null(WF)
+  extra <- if (error) matrix(0, nrow(Z), length(at))
+  on <- grid$ratio > 0
+  if (error) {
+    zF <- product(Z, t(WF))   # F' R^-1 r
+    FF <- tcrossprod(WF)      # F' R^-1 F
+    # ratio 0: the noise and the error alone
+    if (any(!on)) {
+      eg <- eigen(FF, symmetric = TRUE)
+      gamma <- pmax(eg$values, 0)
+      loss <- rowSums(product(zF, eg$vectors)^2 * error_shrink(kappa, gamma))
+      out[, !on] <- out[, !on] - loss
+      extra[, !on] <- error_logdet(kappa, gamma)
+    }
+  }
+  used <- unique(grid$kernel[on])
+  if (length(used) == 0L) return(list(C = out, logdet = extra))
+  rots <- lapply(dense$rot[[g]][used], `[[`, k)
+  H <- dense$H[[g]][[k]]
+  T_all <- do.call(cbind, lapply(rots, `[[`, "T"))
+  P <- product(product(Z, H), T_all)          # G'z, every kernel's
+  PF <- if (error) (WF %*% H) %*% T_all       # (G'A'F)'
+  ends <- cumsum(vapply(rots, function(r) length(r$d), 1L))
+  for (i in seq_along(used)) {
+    cols <- seq_len(length(rots[[i]]$d)) + ends[i] - length(rots[[i]]$d)
+    pts <- which(on & grid$kernel == used[i])
+    lambda <- grid$ratio[pts]
+    weights <- outer(rots[[i]]$d, lambda, function(d, lam) lam / (1 + lam * d))
+    Pi <- P[, cols, drop = FALSE]
+    # a quadratic form is >= 0; the difference can round below
+    out[, pts] <- pmax(out[, pts, drop = FALSE] - Pi^2 %*% weights, 0)
+    if (!error) next
+    # per ratio, F' S^-1 F = FF - PF diag(w) PF' = Q diag(gamma) Q', and the
+    # runs' (b'Q) = [zF, P] [Q; -diag(w) PF' Q], all ratios in one product
+    PFi <- PF[, cols, drop = FALSE]
+    pieces <- lapply(seq_along(lambda), function(m) {
+      wPF <- weights[, m] * t(PFi)
+      eg <- eigen(FF - PFi %*% wPF, symmetric = TRUE)
+      list(phi = rbind(eg$vectors, -wPF %*% eg$vectors), gamma = pmax(eg$values, 0))
+    })
+    E <- product(cbind(zF, Pi), do.call(cbind, lapply(pieces, `[[`, "phi")))
+    m_e <- ncol(zF)
+    for (m in seq_along(pts)) {
+      e <- E[, (m - 1L) * m_e + seq_len(m_e), drop = FALSE]
+      out[, pts[m]] <- out[, pts[m]] - rowSums(e^2 * error_shrink(kappa, pieces[[m]]$gamma))
+      extra[, pts[m]] <- error_logdet(kappa, pieces[[m]]$gamma)
+    }
+  }
+  list(C = out, logdet = extra)
 }

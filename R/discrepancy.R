@@ -136,7 +136,7 @@
 #' (lengths over the existing axes), so that the discrepancy's mean square
 #' grows like \eqn{\lambda^{1/2}}, not \eqn{\lambda}. It combines with
 #' `orthogonal` (the projection first). Its kernel depends on the ratio, so
-#' every ratio needs its own eigen-decomposition (see Cost). On our
+#' every ratio needs its own rotation (see Cost). On our
 #' oscillator study it changed little (see `vignette("discrepancy")`), so it
 #' is not the default.
 #'
@@ -200,12 +200,15 @@
 #' recover a physical \eqn{\theta}, state what you know (`zero_at`,
 #' `flat_at`).
 #'
-#' **Cost.** Every combination of correlation grid point and length scales
-#' needs one eigen-decomposition of the observed points' covariance
-#' (\eqn{O(n^3)}) and one rotation of every run's residuals (\eqn{O(N n^2)});
-#' the ratios then cost \eqn{O(N n)} each. A scaled discrepancy's kernel
-#' depends on the ratio, so there every ratio costs a decomposition and a
-#' rotation.
+#' **Cost.** The kernels enter through low-rank factors (their eigenvalues
+#' above 1e-15 of the largest: \eqn{m}, tens over a grid of hundreds of
+#' points). Per correlation grid point every run's residuals are whitened
+#' and projected on one basis of all length scales (\eqn{O(N n m)}), each
+#' length scale rotates those coordinates (\eqn{O(N m^2)}) and each ratio
+#' then costs \eqn{O(N m)}. A scaled discrepancy's kernel depends on the
+#' ratio, so there every ratio costs a rotation. A run predicted by an
+#' emulator adds its error's rank \eqn{r} to the rotation, and
+#' \eqn{O((m + r) r)} per run and ratio.
 #'
 #' @param ratio The grid of \eqn{\lambda}, the discrepancy's variance
 #'   relative to the noise variance: non-negative values; 0 is the model

@@ -114,6 +114,8 @@ error_logdet <- function(kappa, gamma) rowSums(log1p(outer(kappa, gamma)))
 # the noise groups: list(C, logdet = the extra log-determinants), runs x grid
 # points.
 emulated_quad_forms <- function(y, y_field, setup, err, kappa, n_x, n_t) {
+  # a discrepancy: every grid point at once, through its factors
+  if (isTRUE(setup$dense$lowrank)) return(discrepancy_emulated_forms(y, y_field, setup, err, kappa))
   C <- matrix(0, nrow(y), n_grid_points(setup))
   extra <- C
   for (g in seq_len(n_grid_points(setup))) {
@@ -129,6 +131,9 @@ emulated_quad_forms <- function(y, y_field, setup, err, kappa, n_x, n_t) {
 # sd under a noise pattern); with noise groups the error applies within
 # each group, V restricted to its points and s2 its noise variance.
 emulated_group_forms <- function(y, y_field, setup, err, kappa, n_x, n_t, g) {
+  if (isTRUE(setup$dense$lowrank)) {
+    return(discrepancy_emulated_group_forms(y, y_field, setup, err, kappa, g))
+  }
   point <- grid_point(setup, g)
   whiten <- function(M) {
     if (is.null(point$dense)) list(whiten_rows(M, point, n_x, n_t)) else whiten_groups(M, point)

@@ -132,81 +132,45 @@ same_matrix_class <- function(stack) {
 
 # The dense factors of a noise pattern at every grid point. For each noise
 # group k, with U_k the upper Cholesky factor of the observed block R_kk of
-# R_g, the inverse covariance is R_kk^-1 = A_k A_k' with A_k = U_k^-1. With a
-# discrepancy (discrepancy.R) the block is R_kk + lambda K_kk (K scaled by
-# 1/sd on both sides, as R is): with U_k^-T K_kk U_k^-1 = V diag(s) V', it is
-# U_k' V (I + lambda diag(s)) V' U_k, so A_k = W_k diag((1 + lambda s)^-1/2)
-# for the rotation W_k = U_k^-1 V, and its log-determinant gains
-# sum log(1 + lambda s). One rotation serves every ratio lambda of a
-# (rho, length scale) pair, so the factors are kept as rotations `W` (one
-# per pair, a list over groups), the rotation `rot` of each grid point and
-# its column weights `w` ((1 + lambda s)^-1, NULL for lambda = 0):
-# grid_point() assembles A. The grid points are the base points (one per
-# rho) within each discrepancy point, base points fastest. An observed
-# block that is numerically singular (settings too close for the
-# correlation) is an error. Also returned: the log-determinant of the
-# covariance S R S (+ lambda K) restricted to the observed points and
-# grouped.
+# R_g, the inverse covariance is R_kk^-1 = A_k A_k' with A_k = U_k^-1: kept
+# as `W` (a list over groups per grid point), with `rot` (grid point g's
+# entry of W) and column weights `w` (NULL: none), the shape
+# plain_quad_forms() and grid_point() read. A discrepancy has factors of its
+# own (discrepancy_dense_factors()). An observed block that is numerically
+# singular (settings too close for the correlation) is an error. Also
+# returned: the log-determinant of the covariance S R S restricted to the
+# observed points and grouped.
 dense_factors <- function(setup, t, pattern, disc = NULL, kernels = NULL) {
   # a discrepancy: low-rank factors of its kernels (discrepancy-engine.R)
   if (!is.null(disc)) return(discrepancy_dense_factors(setup, t, pattern, disc, kernels))
+  layout <- observed_layout(pattern)
+  G <- length(setup$logdet)
+  W <- vector("list", G)
+  logdet <- numeric(G)
+  for (g in seq_len(G)) {
+    U <- observed_noise_cholesky(setup, g, t, layout$obs, layout$groups)
+    logdet[g] <- sum(vapply(U, function(u) 2 * sum(log(diag(u))), 0)) + layout$log_sd
+    W[[g]] <- lapply(U, function(u) backsolve(u, diag(nrow(u))))
+  }
+  c(layout[c("obs", "scale", "groups")],
+    list(W = W, rot = seq_len(G), w = vector("list", G), logdet = logdet))
+}
+
+# The observed outputs of a noise pattern (`obs`, library order), its noise
+# groups (positions in `obs`, one element per group, named by label), the
+# outputs' 1/sd (`scale`, NULL without relative sd) and log|S|^2 over the
+# cells plus the constant that makes it the replicates' own
+# (field_layout()): what dense_factors() and discrepancy_dense_factors()
+# both start from.
+observed_layout <- function(pattern) {
   obs <- which(pattern$observed)
   groups <- split(seq_along(obs), factor(pattern$group[obs], seq_along(pattern$labels)))
   names(groups) <- pattern$labels
-  scale <- if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs]
-  # log|S R S| over the cells, plus the constant that makes it the
-  # replicates' own (field_layout())
-  log_sd <- if (is.null(pattern$sd_mean)) 0 else
-    2 * sum(log(pattern$sd_mean[obs])) + pattern$log_sd_excess
-  if (is.null(disc)) {
-    disc <- data.frame(ratio = 0, kernel = 0L)
-  }
-  # the kernels over the observed points, scaled like R and cut into groups
-  kernel_blocks <- lapply(kernels, function(K) {
-    K <- K[obs, obs, drop = FALSE]
-    if (!is.null(scale)) K <- K * outer(scale, scale)
-    lapply(groups, function(idx) K[idx, idx, drop = FALSE])
-  })
-  G <- length(setup$logdet)
-  n_kernels <- length(kernels)
-  W <- vector("list", G * (n_kernels + 1L))
-  s <- W
-  base_logdet <- numeric(G)
-  for (g in seq_len(G)) {
-    U <- observed_noise_cholesky(setup, g, t, obs, groups)
-    base_logdet[g] <- sum(vapply(U, function(u) 2 * sum(log(diag(u))), 0)) + log_sd
-    A <- lapply(U, function(u) backsolve(u, diag(nrow(u))))
-    W[[rotation_index(g, 0L, G)]] <- A
-    for (k in seq_len(n_kernels)) {
-      eig <- Map(function(a, K) eigen(crossprod(a, K %*% a), symmetric = TRUE), A,
-                 kernel_blocks[[k]])
-      r <- rotation_index(g, k, G)
-      W[[r]] <- Map(function(a, e) a %*% e$vectors, A, eig)
-      s[[r]] <- lapply(eig, function(e) pmax(e$values, 0))
-    }
-  }
-  D <- nrow(disc)
-  rot <- integer(G * D)
-  w <- vector("list", G * D)
-  logdet <- numeric(G * D)
-  for (d in seq_len(D)) {
-    for (g in seq_len(G)) {
-      j <- (d - 1L) * G + g
-      rot[j] <- rotation_index(g, disc$kernel[d], G)
-      logdet[j] <- base_logdet[g]
-      if (disc$ratio[d] > 0) {
-        w[[j]] <- lapply(s[[rot[j]]], function(v) 1 / (1 + disc$ratio[d] * v))
-        logdet[j] <- logdet[j] - sum(log(unlist(w[[j]])))
-      }
-    }
-  }
-  used <- sort(unique(rot))
-  W[-used] <- list(NULL)
-  list(obs = obs, scale = scale, groups = groups, W = W, rot = rot, w = w, logdet = logdet)
+  list(obs = obs, groups = groups,
+       scale = if (!is.null(pattern$sd_mean)) 1 / pattern$sd_mean[obs],
+       log_sd = if (is.null(pattern$sd_mean)) 0 else
+         2 * sum(log(pattern$sd_mean[obs])) + pattern$log_sd_excess)
 }
-
-# The rotation of base grid point g under kernel k (0: no discrepancy).
-rotation_index <- function(g, k, G) k * G + g
 
 # The data a setup's noise model sees, the same at every grid point: the
 # observed library outputs `obs` (library order), their 1/sd `scale` (NULL

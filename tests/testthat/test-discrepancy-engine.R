@@ -112,3 +112,75 @@ test_that("tiled_matmul_cpp() is the matrix product, on any shape and thread cou
     expect_identical(tiled_matmul_cpp(X, B, 2L), tiled_matmul_cpp(X, B, 1L))
   }
 })
+
+# Predicted runs' forms with a discrepancy: C = r' (S R S + lambda K + kappa_i
+# U diag(lambda_e / s2_k) U')^-1 r per noise group (folded) and the error's
+# extra log-determinant, by dense solves.
+brute_emulated_forms <- function(lib, y, setup, err, kappa) {
+  disc <- setup$discrepancy
+  K <- discrepancy_kernels(lib, attr(disc, "kernels"))
+  obs <- setup$dense$obs
+  groups <- setup$dense$groups
+  s <- if (is.null(setup$dense$scale)) rep(1, length(obs)) else 1 / setup$dense$scale
+  s2 <- rep_len(err$noise_var, length(groups))
+  Y <- lib_outputs(lib, seq_len(lib_n_runs(lib)))
+  r <- t(matrix(y[obs], nrow(Y), length(obs), byrow = TRUE) - Y[, obs])
+  U <- err$U[obs, , drop = FALSE]
+  C <- matrix(0, nrow(Y), length(setup$gd))
+  extra <- C
+  for (j in seq_along(setup$gd)) {
+    R_x <- crossprod(setup$Rx_chol[, , setup$gx[j]])
+    S <- kronecker(R_x, corr_t(lib_t(lib), setup$rho_t[setup$gt[j]]))[obs, obs] * outer(s, s)
+    d <- disc[setup$gd[j], ]
+    if (d$ratio > 0) S <- S + d$ratio * K[[d$kernel]][obs, obs]
+    for (i in seq_len(nrow(Y))) {
+      Ck <- vapply(seq_along(groups), function(k) {
+        idx <- groups[[k]]
+        V <- U[idx, , drop = FALSE] %*% (err$lambda / s2[k] * t(U[idx, , drop = FALSE]))
+        Sk <- S[idx, idx] + kappa[i] * V
+        extra[i, j] <<- extra[i, j] + as.numeric(determinant(Sk)$modulus) -
+          as.numeric(determinant(S[idx, idx])$modulus)
+        sum(r[idx, i] * solve(Sk, r[idx, i])) + setup$pure_ss[k]
+      }, 0)
+      C[i, j] <- fold_groups(matrix(Ck, 1), setup)
+    }
+  }
+  list(C = C, logdet = extra)
+}
+
+expect_emulated_exact <- function(case, discrepancy, noise_var, noise_groups = NULL) {
+  problem <- calibration_problem(case$lib, case$field, 0, c(0, 0.5, 0.9), NULL, 2, NULL,
+                                 noise_groups = noise_groups, discrepancy = discrepancy)
+  setup <- problem$setup
+  set.seed(5)
+  n_out <- lib_n_out(case$lib)
+  err <- list(U = qr.Q(qr(matrix(rnorm(n_out * 4), n_out))),
+              lambda = c(0.02, 0.01, 0.004, 0.001), noise_var = noise_var)
+  kappa <- c(0, stats::runif(lib_n_runs(case$lib) - 1, 0, 3))
+  Y <- lib_outputs(case$lib, seq_len(lib_n_runs(case$lib)))
+  ref <- brute_emulated_forms(case$lib, problem$y_field, setup, err, kappa)
+  got <- emulated_quad_forms(Y, problem$y_field, setup, err, kappa, lib_n_x(case$lib),
+                             lib_n_t(case$lib))
+  expect_lt(max(abs(got$C - ref$C) / ref$C), 1e-8)
+  expect_lt(max(abs(got$logdet - ref$logdet)), 1e-8 * max(1, abs(ref$logdet)))
+  # one grid point's group forms (emulated_group_forms()) are the table's
+  for (j in c(1L, 7L, length(setup$gd))) {
+    one <- emulated_group_forms(Y, problem$y_field, setup, err, kappa, lib_n_x(case$lib),
+                                lib_n_t(case$lib), j)
+    expect_equal(fold_groups(one$C, setup), got$C[, j], tolerance = 1e-10)
+    expect_equal(one$logdet, got$logdet[, j], tolerance = 1e-10)
+  }
+}
+
+test_that("predicted runs' forms under a discrepancy match dense solves", {
+  case <- engine_case()
+  expect_emulated_exact(case, gp_discrepancy(), 0.0025)
+  expect_emulated_exact(case, gp_discrepancy(scaled = TRUE, orthogonal = FALSE), 0.0025)
+})
+
+test_that("predicted runs' forms under a discrepancy match dense solves with gaps, sd and groups", {
+  expect_emulated_exact(engine_case(missing = TRUE), gp_discrepancy(), 0.0025)
+  sd <- matrix(seq(0.5, 2, length.out = 36), 3)
+  expect_emulated_exact(engine_case(missing = TRUE, sd = sd), gp_discrepancy(),
+                        c(0.002, 0.004), noise_groups = rep(c("a", "b"), 18))
+})
