@@ -241,8 +241,8 @@ test_that("the math model is the emulator's mean without a predict.ppgasp() per 
   lib <- emulated_toy_library(n_runs = 50)
   calls <- new.env()
   calls$n <- 0L
-  suppressMessages(trace("predict.ppgasp", bquote(.(calls)$n <- .(calls)$n + 1L), print = FALSE,
-                         where = asNamespace("RobustGaSP")))
+  count <- bquote(assign("n", .(calls)$n + 1L, envir = .(calls)))
+  suppressMessages(trace("predict.ppgasp", count, print = FALSE, where = asNamespace("RobustGaSP")))
   on.exit(suppressMessages(untrace("predict.ppgasp", where = asNamespace("RobustGaSP"))))
   koh_calibrate(lib, emulated_toy_field(), discrepancy = "none", n_iter = 300, burn_in = 100,
                 tune_rounds = 1, tune_iter = 100, seed = 1)
