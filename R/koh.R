@@ -13,7 +13,9 @@
 #' ([RobustGaSP::ppgasp()], no nugget) from the library's parameters to all
 #' its outputs, fitted once and passed to [RobustCalibration::rcalibration()]
 #' as the math model, so the sampler evaluates the emulator's predictive mean
-#' at each proposed \eqn{\theta}. The discrepancy is a GP (`"GaSP"`), a scaled
+#' at each proposed \eqn{\theta} (as a closed form whose weights are solved
+#' once, so an iteration costs what it costs RobustCalibration on its own
+#' emulator; see `runtime`). The discrepancy is a GP (`"GaSP"`), a scaled
 #' GP (`"S-GaSP"`, Gu and Wang 2018) over the observations' inputs (the
 #' library's x settings, and t if any), or absent (`"none"`,
 #' RobustCalibration's `"no-discrepancy"`: the data are the emulator's mean
@@ -35,9 +37,12 @@
 #'   own emulator of its design runs is then the math model (its predicted
 #'   runs are not used), the prior on \eqn{\theta} uniform on its range.
 #' @param field A [field_data()] object at the library's x and t. Missing
-#'   cells are left out of the likelihood; a relative `sd` and replicated
-#'   measurements are not supported (an error of class
-#'   `griddy_error_unsupported`; [calibrate()] takes them).
+#'   cells are left out of the likelihood. Replicated measurements are passed
+#'   to RobustCalibration as it takes them (a row of replicates per cell: the
+#'   cells' means and their pure error) when every measured cell has the
+#'   same number; unequal replicates and a relative `sd` are not supported
+#'   (an error of class `griddy_error_unsupported`; [calibrate()] takes
+#'   them).
 #' @param discrepancy `"GaSP"`, `"S-GaSP"` or `"none"`.
 #' @param n_iter Total MCMC iterations, burn-in included.
 #' @param burn_in Iterations discarded at the start.
@@ -73,7 +78,8 @@
 #'   parameter), the `parameters`' names, the fitted `emulator` (a list: the [RobustGaSP::ppgasp()] fit
 #'   `gp` of the outputs that vary over the runs, `vary`, and `constant`),
 #'   the `discrepancy`, the `proposal_sd` used, the `acceptance` rates of
-#'   the \eqn{\theta} and kernel moves, `y_field`, the `design` of the
+#'   the \eqn{\theta} and kernel moves, `y_field` (each cell's
+#'   measurement, or its replicates' mean), the `design` of the
 #'   observations, and the `runtime` in seconds (`emulator`, `tuning`,
 #'   `sampling`). Use [summary()][summary.griddy_koh] and
 #'   [predict()][predict.griddy_koh] on it.
