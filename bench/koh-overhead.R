@@ -125,9 +125,9 @@ rc_quiet <- function(...) {
 # their first calls, which an installed (byte-compiled) griddy does not pay
 invisible(suppressWarnings(calibrate(sim, ball$field, discrepancy = gp_discrepancy(),
                                      seed = 1, progress = FALSE)))
-invisible(suppressWarnings(koh_calibrate(sim, ball$field, "GaSP", n_iter = 200, burn_in = 100,
-                                         tune_rounds = 1, tune_iter = 100, seed = 1,
-                                         progress = FALSE)))
+invisible(suppressWarnings(koh_calibrate(ball$library, ball$field, "GaSP", n_iter = 200,
+                                         burn_in = 100, tune_rounds = 1, tune_iter = 100,
+                                         seed = 1, progress = FALSE)))
 chosen <- strsplit(Sys.getenv("KOH_SETS", paste(names(sets), collapse = ";")), ";")[[1]]
 sets <- sets[chosen]
 for (data in names(sets)) {
