@@ -218,7 +218,7 @@ test_that("koh_calibrate() passes its settings to RobustCalibration: the draws o
   }
 })
 
-test_that("the math model is the emulator's mean without a predict.ppgasp() per iteration (it took 2-10 ms a call)", {
+test_that("the math model is the emulator's mean, no predict.ppgasp() per iteration (was 2-10 ms)", {
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy()
   em <- koh_emulator(as.matrix(lib_theta(toy$library)), lib_outputs(toy$library), TRUE)
@@ -251,7 +251,7 @@ test_that("the math model is the emulator's mean without a predict.ppgasp() per 
   expect_identical(calls$n, 0L)
 })
 
-test_that("koh_calibrate() takes equally replicated measurements as RobustCalibration does (they were refused)", {
+test_that("koh_calibrate() takes equal replicates as RobustCalibration does (they were refused)", {
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy(x = seq(0.1, 1, length.out = 8))
   set.seed(9)
