@@ -34,7 +34,8 @@
 # griddy with a discrepancy against RC direct (own emulator) per fit and per
 # effective sample. KOH_PROFILE=true profiles griddy's discrepancy fits that
 # take longer than RobustCalibration (Rprof; top of by.self in the .md);
-# KOH_SETS="spot weld;ball drop, simulator" runs some of the sets.
+# KOH_SETS="spot weld;ball drop, simulator" runs some of the sets; KOH_OUT
+# names the CSV (the .md beside it).
 #
 # Run from the package root (GRIDDY_LOAD_ALL=true for the source tree):
 #   SEPIA_DIR=/work/.mirror/lanl+SEPIA/repo SAVE_TARBALL=/path/SAVE_1.0.tar.gz \
@@ -49,7 +50,7 @@ if (nzchar(Sys.getenv("SAVE_TARBALL"))) {
   file.copy(Sys.getenv("SAVE_TARBALL"), file.path(tempdir(), "SAVE_1.0.tar.gz"))
 }
 source(system.file("extdata", "real_data_gap_physics.R", package = "griddy"))  # fall_times()
-out_csv <- "bench/results/koh-overhead.csv"
+out_csv <- Sys.getenv("KOH_OUT", "bench/results/koh-overhead.csv")
 koh_iter <- as.integer(Sys.getenv("KOH_ITER", "55000"))
 koh_burn <- as.integer(Sys.getenv("KOH_BURN", "15000"))
 profile <- Sys.getenv("KOH_PROFILE") %in% c("true", "always")

@@ -218,7 +218,7 @@ test_that("koh_calibrate() passes its settings to RobustCalibration: the draws o
   }
 })
 
-test_that("the math model is the emulator's mean, no predict.ppgasp() per iteration (was 2-10 ms)", {
+test_that("the math model is the emulator's mean, with no predict.ppgasp() per iteration", {
   skip_if_not_installed("RobustCalibration")
   toy <- koh_toy()
   em <- koh_emulator(as.matrix(lib_theta(toy$library)), lib_outputs(toy$library), TRUE)
