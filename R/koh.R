@@ -13,9 +13,10 @@
 #' ([RobustGaSP::ppgasp()], no nugget) from the library's parameters to all
 #' its outputs, fitted once and passed to [RobustCalibration::rcalibration()]
 #' as the math model, so the sampler evaluates the emulator's predictive mean
-#' at each proposed \eqn{\theta} (as a closed form whose weights are solved
-#' once, so an iteration costs what it costs RobustCalibration on its own
-#' emulator; see `runtime`). The discrepancy is a GP (`"GaSP"`), a scaled
+#' at each proposed \eqn{\theta} (a closed form whose weights are solved
+#' once: the chain costs what [RobustCalibration::rcalibration()] costs on
+#' that model called directly; the emulator's fit and the pilot runs are
+#' timed apart in `runtime`). The discrepancy is a GP (`"GaSP"`), a scaled
 #' GP (`"S-GaSP"`, Gu and Wang 2018) over the observations' inputs (the
 #' library's x settings, and t if any), or absent (`"none"`,
 #' RobustCalibration's `"no-discrepancy"`: the data are the emulator's mean
@@ -290,8 +291,8 @@ koh_emulator <- function(theta, y, quiet) {
 # mean at the observed cells, at one theta. It was koh_emulate(), i.e.
 # RobustGaSP::predict.ppgasp() with its predictive variances, per call (and
 # on an emulated library one call per x setting, through griddy_map()):
-# 2-10 ms an iteration, which made koh_calibrate() 10-40 times
-# RobustCalibration's own cost on the published sets. The predictive mean is
+# 2-10 ms an iteration (124-159 s for the ball drop's 58,000 iterations),
+# several times the rest of RobustCalibration's iteration. The mean is
 # linear in the correlations with the runs, so its weights are solved here,
 # once (ppgasp_mean_function()).
 koh_math_model <- function(emulator, observed) {
