@@ -13,7 +13,10 @@
 #' ([RobustGaSP::ppgasp()], no nugget) from the library's parameters to all
 #' its outputs, fitted once and passed to [RobustCalibration::rcalibration()]
 #' as the math model, so the sampler evaluates the emulator's predictive mean
-#' at each proposed \eqn{\theta}. The discrepancy is a GP (`"GaSP"`), a scaled
+#' at each proposed \eqn{\theta} (a closed form whose weights are solved
+#' once: the chain costs what [RobustCalibration::rcalibration()] costs on
+#' that model called directly; the emulator's fit and the pilot runs are
+#' timed apart in `runtime`). The discrepancy is a GP (`"GaSP"`), a scaled
 #' GP (`"S-GaSP"`, Gu and Wang 2018) over the observations' inputs (the
 #' library's x settings, and t if any), or absent (`"none"`,
 #' RobustCalibration's `"no-discrepancy"`: the data are the emulator's mean
@@ -35,9 +38,12 @@
 #'   own emulator of its design runs is then the math model (its predicted
 #'   runs are not used), the prior on \eqn{\theta} uniform on its range.
 #' @param field A [field_data()] object at the library's x and t. Missing
-#'   cells are left out of the likelihood; a relative `sd` and replicated
-#'   measurements are not supported (an error of class
-#'   `griddy_error_unsupported`; [calibrate()] takes them).
+#'   cells are left out of the likelihood. Replicated measurements are passed
+#'   to RobustCalibration as it takes them (a row of replicates per cell: the
+#'   cells' means and their pure error) when every measured cell has the
+#'   same number; unequal replicates and a relative `sd` are not supported
+#'   (an error of class `griddy_error_unsupported`; [calibrate()] takes
+#'   them).
 #' @param discrepancy `"GaSP"`, `"S-GaSP"` or `"none"`.
 #' @param n_iter Total MCMC iterations, burn-in included.
 #' @param burn_in Iterations discarded at the start.
@@ -73,7 +79,8 @@
 #'   parameter), the `parameters`' names, the fitted `emulator` (a list: the [RobustGaSP::ppgasp()] fit
 #'   `gp` of the outputs that vary over the runs, `vary`, and `constant`),
 #'   the `discrepancy`, the `proposal_sd` used, the `acceptance` rates of
-#'   the \eqn{\theta} and kernel moves, `y_field`, the `design` of the
+#'   the \eqn{\theta} and kernel moves, `y_field` (each cell's
+#'   measurement, or its replicates' mean), the `design` of the
 #'   observations, and the `runtime` in seconds (`emulator`, `tuning`,
 #'   `sampling`). Use [summary()][summary.griddy_koh] and
 #'   [predict()][predict.griddy_koh] on it.
@@ -124,11 +131,12 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
   }
   quiet <- !progress
   check_library(library)
-  y <- field_vector(library, field)
   if (!is.null(field$sd)) {
     griddy_abort("koh_calibrate() does not yet support field data with a relative `sd`; ",
                  "calibrate() does.", class = "unsupported")
   }
+  obs <- koh_observations(library, field)
+  y <- obs$y
   # missing measurements are no observations: KOH's likelihood is over the
   # observed cells (the design and math model are cut to them)
   observed <- !is.na(y)
@@ -160,12 +168,12 @@ koh_calibrate <- function(library, field, discrepancy = c("GaSP", "S-GaSP", "non
     } else {
       koh_emulator(theta, lib_outputs(library), quiet)
     }
+    math_model <- koh_math_model(emulator, observed)
     t1 <- proc.time()[["elapsed"]]
-    math_model <- function(x, th) as.vector(koh_emulate(emulator, matrix(th, 1L)))[observed]
     sampler <- function(sd_frac, S, S_0, start) {
       sd_all <- if (type == "no-discrepancy") sd_frac else c(sd_frac, rep(0.25, n_x), 0.25)
       koh_quietly(quiet, RobustCalibration::rcalibration(
-        design = obs_design, observations = y[observed], p_theta = p, simul_type = 1,
+        design = obs_design, observations = obs$values, p_theta = p, simul_type = 1,
         math_model = math_model, theta_range = theta_range, sd_proposal = sd_all,
         S = S, S_0 = S_0, discrepancy_type = type, kernel_type = kernel,
         initial_values = start))
@@ -277,6 +285,111 @@ koh_emulator <- function(theta, y, quiet) {
                                           nugget.est = FALSE))
   }
   list(gp = gp, vary = vary, constant = y[1, ])
+}
+
+# The math model rcalibration() evaluates once per iteration: the emulator's
+# mean at the observed cells, at one theta. It was koh_emulate(), i.e.
+# RobustGaSP::predict.ppgasp() with its predictive variances, per call (and
+# on an emulated library one call per x setting, through griddy_map()):
+# 2-10 ms an iteration (124-159 s for the ball drop's 58,000 iterations),
+# several times the rest of RobustCalibration's iteration. The mean is
+# linear in the correlations with the runs, so its weights are solved here,
+# once (ppgasp_mean_function()).
+koh_math_model <- function(emulator, observed) {
+  mean_at <- koh_mean_function(emulator)
+  function(x, th) mean_at(th)[observed]
+}
+
+# The emulator's mean outputs (library layout) at one theta, as koh_emulate()
+# gives them up to rounding.
+koh_mean_function <- function(emulator) {
+  gp <- emulator$design_gp
+  if (is.null(gp)) {
+    outputs <- ppgasp_outputs_function(emulator$gp, emulator$vary, emulator$constant)
+    return(function(th) as.vector(outputs(matrix(th, 1L))))
+  }
+  outputs <- ppgasp_outputs_function(gp$fit, gp$vary, gp$constant)
+  if (gp$mode == "theta") return(function(th) as.vector(outputs(gp_scale(gp, matrix(th, 1L)))))
+  # joint (x, theta) -> the n_t outputs of a run: one row per wanted setting,
+  # the library's layout being the settings' outputs in turn
+  rows <- rep(1L, gp$n_x)
+  function(th) {
+    inputs <- cbind(gp$settings, matrix(th, 1L)[rows, , drop = FALSE])
+    as.vector(t(outputs(gp_scale(gp, inputs))))
+  }
+}
+
+# A function of scaled inputs z (rows) returning the outputs (a matrix, one
+# row per row of z): the constant ones as they are, the varying ones the
+# ppgasp fit's mean.
+ppgasp_outputs_function <- function(fit, vary, constant) {
+  if (is.null(fit) || !any(vary)) {
+    return(function(z) matrix(constant, nrow(z), length(constant), byrow = TRUE))
+  }
+  mean_at <- ppgasp_mean_function(fit)
+  function(z) {
+    out <- matrix(constant, nrow(z), length(constant), byrow = TRUE)
+    out[, vary] <- mean_at(z)
+    out
+  }
+}
+
+# The predictive mean of a RobustGaSP::ppgasp() fit at the rows of z, as
+# pred_ppgasp() computes it, h(z) theta_hat + r(z)' R^-1 (Y - X theta_hat),
+# with R^-1 (Y - X theta_hat) solved once: a call then costs a correlation
+# row per input (tens of microseconds) instead of predict.ppgasp()'s
+# milliseconds. Fits it does not cover (an isotropic or periodic kernel, a
+# trend other than a constant) go through predict.ppgasp().
+ppgasp_mean_function <- function(fit) {
+  kernels <- fit@kernel_type
+  constant_trend <- fit@zero_mean == "Yes" || (ncol(fit@X) == 1L && all(fit@X == 1))
+  if (fit@isotropic || !all(kernels %in% c("matern_5_2", "matern_3_2", "pow_exp")) ||
+      !constant_trend) {
+    return(function(z) RobustGaSP::predict.ppgasp(fit, z)$mean)
+  }
+  mu <- if (fit@zero_mean == "Yes") numeric(ncol(fit@output)) else fit@theta_hat[1, ]
+  residual <- fit@output - rep(mu, each = nrow(fit@output))
+  weights <- backsolve(t(fit@L), forwardsolve(fit@L, residual))
+  input <- fit@input
+  beta <- fit@beta_hat
+  alpha <- rep_len(fit@alpha, ncol(input))
+  kernels <- rep_len(kernels, ncol(input))
+  function(z) {
+    r <- 1
+    for (j in seq_len(ncol(input))) {
+      d <- beta[j] * abs(outer(z[, j], input[, j], "-"))
+      r <- r * switch(kernels[j],
+                      matern_5_2 = (1 + sqrt(5) * d + 5 / 3 * d^2) * exp(-sqrt(5) * d),
+                      matern_3_2 = (1 + sqrt(3) * d) * exp(-sqrt(3) * d),
+                      pow_exp = exp(-d^alpha[j]))
+    }
+    r %*% weights + rep(mu, each = nrow(z))
+  }
+}
+
+# The field as rcalibration() takes it: `values`, one per observed cell, or
+# with replicates a matrix of a row per observed cell (which it reduces to
+# the cells' means and their pure error); and `y`, each cell's measurement
+# or replicates' mean in the library's layout (NA where not measured). It
+# also takes unequal replicates as a list, but then drops their pure error
+# (RobustCalibration 0.5.6 squares the sum of the deviations from the mean,
+# which is zero), so those are refused.
+koh_observations <- function(library, field) {
+  cells <- field_cells(library, field)
+  layout <- field_layout(library, field)
+  n_rep <- unique(layout$n_rep[layout$n_rep > 0L])
+  if (length(n_rep) > 1L) {
+    griddy_abort("koh_calibrate() takes replicated measurements only when every measured ",
+                 "cell has the same number (RobustCalibration drops the pure error of unequal ",
+                 "ones); `field` has ", paste(sort(n_rep), collapse = ", "), " per cell. ",
+                 "calibrate() takes them.", class = "unsupported")
+  }
+  observed <- which(layout$n_rep > 0L)
+  if (n_rep == 1L) return(list(y = layout$y, values = layout$y[observed]))
+  keep <- !is.na(cells$value)
+  by_cell <- split(cells$value[keep], factor(cells$cell[keep], levels = observed))
+  list(y = layout$y, values = matrix(unlist(by_cell, use.names = FALSE), ncol = n_rep,
+                                     byrow = TRUE))
 }
 
 # Emulator mean at the rows of th: one row per parameter set.

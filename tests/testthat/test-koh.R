@@ -1,7 +1,6 @@
 # A tiny problem: outputs linear in two parameters at 8 x settings, so a
 # 25-run emulator is essentially exact and the posterior must sit at the truth.
-koh_toy <- function(noise_sd = 0.02, seed = 3) {
-  x <- seq(0, 1, length.out = 8)
+koh_toy <- function(noise_sd = 0.02, seed = 3, x = seq(0, 1, length.out = 8)) {
   g <- function(th) th[1] * sin(3 * x) + th[2] * x^2
   theta <- expand.grid(a = seq(0, 2, length.out = 5), b = seq(1, 3, length.out = 5))
   y <- t(apply(as.matrix(theta), 1, g))
@@ -192,4 +191,88 @@ test_that("print.griddy_koh() and its summary's print are stable", {
                         runtime = c(tuning = 0.4, sampling = 1.5)), class = "griddy_koh")
   expect_snapshot(print(summary(koh), width = 80))
   expect_snapshot(print(koh), transform = scrub_print)
+})
+
+test_that("koh_calibrate() passes its settings to RobustCalibration: the draws of a direct call", {
+  skip_if_not_installed("RobustCalibration")
+  # (RobustCalibration's own emulator refuses an output constant over the runs)
+  toy <- koh_toy(x = seq(0.1, 1, length.out = 8))
+  theta <- as.matrix(lib_theta(toy$library))
+  for (d in c("GaSP", "none")) {
+    fit <- koh_calibrate(toy$library, toy$field, discrepancy = d, n_iter = 400, burn_in = 100,
+                         proposal_sd = c(0.05, 0.08), kernel = "matern_3_2", seed = 7)
+    # RobustCalibration on its own ppgasp emulator of the same runs (simul_type
+    # 0), as its users call it, with the same proposal, start and lengths
+    type <- if (d == "none") "no-discrepancy" else d
+    direct <- withr::with_seed(7, utils::capture.output(out <- RobustCalibration::rcalibration(
+      design = cbind(x = lib_x(toy$library)$x), observations = drop(toy$field$y), p_theta = 2,
+      simul_type = 0, input_simul = theta, output_simul = as.matrix(lib_outputs(toy$library)),
+      loc_index_emulator = 1:8,
+      theta_range = t(apply(theta, 2, range)), S = 400, S_0 = 100,
+      sd_proposal = c(0.05, 0.08, if (d != "none") c(0.25, 0.25)), discrepancy_type = type,
+      kernel_type = "matern_3_2")))
+    post <- as.matrix(out@post_sample)
+    expect_equal(unname(as.matrix(fit$draws[c("a", "b")])), unname(post[, 1:2]),
+                 tolerance = 1e-8)
+    expect_equal(fit$draws$sigma2, post[, ncol(post)], tolerance = 1e-8)
+  }
+})
+
+test_that("the math model is the emulator's mean, with no predict.ppgasp() per iteration", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy()
+  em <- koh_emulator(as.matrix(lib_theta(toy$library)), lib_outputs(toy$library), TRUE)
+  emulated <- list(design_gp = lib_design_emulator(emulated_toy_library(n_runs = 50)))
+  d <- emulated_toy_design()
+  by_theta <- list(design_gp = lib_design_emulator(emulated_library(d$theta, d$y, n_runs = 50,
+                                                                    seed = 1)))
+  expect_identical(by_theta$design_gp$mode, "theta")
+  expect_identical(emulated$design_gp$mode, "joint")
+  at <- rbind(c(1.3, 2.2), c(0.1, 2.9))
+  for (e in list(em, emulated, by_theta)) {
+    f <- koh_mean_function(e)
+    th <- if (is.null(e$design_gp)) at else cbind(k = c(2.1, 1.2), c = c(0.3, 0.45))
+    for (i in 1:2) {
+      expect_equal(f(th[i, ]), as.vector(koh_emulate(e, th[i, , drop = FALSE])),
+                   tolerance = 1e-6)
+    }
+  }
+  # the sampler's iterations call no predict.ppgasp()
+  lib <- emulated_toy_library(n_runs = 50)
+  calls <- new.env()
+  calls$n <- 0L
+  count <- bquote(assign("n", .(calls)$n + 1L, envir = .(calls)))
+  suppressMessages(trace("predict.ppgasp", count, print = FALSE, where = asNamespace("RobustGaSP")))
+  on.exit(suppressMessages(untrace("predict.ppgasp", where = asNamespace("RobustGaSP"))))
+  koh_calibrate(lib, emulated_toy_field(), discrepancy = "none", n_iter = 300, burn_in = 100,
+                tune_rounds = 1, tune_iter = 100, seed = 1)
+  koh_calibrate(toy$library, toy$field, discrepancy = "none", n_iter = 300, burn_in = 100,
+                tune_rounds = 1, tune_iter = 100, seed = 1)
+  expect_identical(calls$n, 0L)
+})
+
+test_that("koh_calibrate() takes equal replicates as RobustCalibration does (they were refused)", {
+  skip_if_not_installed("RobustCalibration")
+  toy <- koh_toy(x = seq(0.1, 1, length.out = 8))
+  set.seed(9)
+  truth <- toy$truth[["a"]] * sin(3 * lib_x(toy$library)$x) + toy$truth[["b"]] *
+    lib_x(toy$library)$x^2
+  reps <- matrix(truth + stats::rnorm(24, sd = 0.02), 8, 3)
+  long <- field_data(as.vector(reps), x = data.frame(x = rep(lib_x(toy$library)$x, 3)))
+  fit <- koh_calibrate(toy$library, long, discrepancy = "GaSP", n_iter = 400, burn_in = 100,
+                       proposal_sd = c(0.05, 0.08), seed = 3)
+  expect_equal(fit$y_field, rowMeans(reps))
+  theta <- as.matrix(lib_theta(toy$library))
+  utils::capture.output(out <- withr::with_seed(3, RobustCalibration::rcalibration(
+    design = cbind(x = lib_x(toy$library)$x), observations = reps, p_theta = 2,
+    simul_type = 0, input_simul = theta, output_simul = as.matrix(lib_outputs(toy$library)),
+      loc_index_emulator = 1:8,
+    theta_range = t(apply(theta, 2, range)), S = 400, S_0 = 100,
+    sd_proposal = c(0.05, 0.08, 0.25, 0.25), discrepancy_type = "GaSP")))
+  expect_equal(unname(as.matrix(fit$draws[c("a", "b")])),
+               unname(as.matrix(out@post_sample)[, 1:2]), tolerance = 1e-8)
+  # unequal replicates: RobustCalibration would drop their pure error
+  uneven <- field_data(as.vector(reps)[-1], x = data.frame(x = rep(lib_x(toy$library)$x, 3)[-1]))
+  expect_error(koh_calibrate(toy$library, uneven, discrepancy = "none"),
+               "same number.*2, 3 per cell", class = "griddy_error_unsupported")
 })
