@@ -197,7 +197,9 @@ basic_ess <- function(m) {
 fit_diagnostics <- function(fit) {
   as_chains <- chain_shaper(fit$draws$chain)
   params <- sampled_columns(fit)
-  discrete <- names(params) %in% names(lib_theta(fit$library))
+  # theta columns and correlation parameters take few values, the
+  # precisions any
+  discrete <- !names(params) %in% tau_columns(fit)
   bulk <- list()
   rhat <- vapply(seq_along(params), function(k) {
     m <- as_chains(params[[k]])
