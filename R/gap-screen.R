@@ -110,9 +110,13 @@ screen_problem <- function(fit, runs, g, discrepancy = screen_discrepancy()) {
   setup <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern, disc)
   # the replicates' constant of the log-determinant, which a setup does not
   # keep: grid point g of the fit has the same correlation and no
-  # discrepancy
-  base <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern)
-  setup$logdet <- setup$logdet + (fit$setup$logdet[g] - base$logdet[1])
+  # discrepancy. A fit in the Kronecker case (complete data, one group, no
+  # sd: no pattern kept) has none, and its setup's log|R_g| is the one the
+  # discrepancy's factors start from: no second setup is built
+  if (!is.null(fit$setup$pattern)) {
+    base <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern)
+    setup$logdet <- setup$logdet + (fit$setup$logdet[g] - base$logdet[1])
+  }
   C <- fold_extra_logdet(predicted_forms(lib, runs, fit$y_field, setup), fit$prior, fit$n_obs)
   new_griddy_problem(sub, fit$y_field, fit$prior, normalise_log_prob(fit$log_prior_run[runs]),
                      setup, C = C)

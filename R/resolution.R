@@ -59,8 +59,12 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
   rows <- lapply(names(theta), function(j) {
     marginal_resolution(p[support], theta[[j]], support, level, min_values)
   })
-  out <- cbind(data.frame(parameter = names(theta)), do.call(rbind, rows))
-  rownames(out) <- NULL
+  # one data.frame from the rows' columns (an rbind() of one-row
+  # data.frames cost most of the table on a small problem)
+  out <- data.frame(parameter = names(theta),
+                    lapply(stats::setNames(nm = names(rows[[1]])), function(col) {
+                      unlist(lapply(rows, `[[`, col), use.names = FALSE)
+                    }))
   # from four parameters, or in a library grown by refine()'s proposals
   # (`scattered`), the posterior over runs as an importance sample
   # (resolution-runs.R): a parameter is limited while it is not resolved
@@ -99,12 +103,12 @@ marginal_resolution <- function(mass, v, support, level, min_values) {
   lower <- bounds[1]
   upper <- bounds[2]
   band <- max(tol, edge_band_share * (upper - lower))
-  data.frame(lower = lower, upper = upper, effective_values = effective_count(group_mass),
-             distinct_in_interval = sum(values >= lower & values <= upper),
-             limited = effective_count(group_mass) < min_values,
-             mass_at_min = sum(mass[vs <= span[1] + band]),
-             mass_at_max = sum(mass[vs >= span[2] - band]),
-             constant = span[1] == span[2])
+  list(lower = lower, upper = upper, effective_values = effective_count(group_mass),
+       distinct_in_interval = sum(values >= lower & values <= upper),
+       limited = effective_count(group_mass) < min_values,
+       mass_at_min = sum(mass[vs <= span[1] + band]),
+       mass_at_max = sum(mass[vs >= span[2] - band]),
+       constant = span[1] == span[2])
 }
 
 # Group ids (1, 2, ... in increasing order of value) that merge values closer

@@ -128,3 +128,36 @@ test_that("rank_rhat() and rank_ess_bulk() give posterior's rhat() and ess_bulk(
   m <- matrix(c(stats::rnorm(99), Inf), 50, 2)
   expect_identical(rank_rhat(m), posterior::rhat(m))
 })
+
+test_that("the diagnostics' shortcuts give the numbers of the general path", {
+  set.seed(4)
+  # discrete draws: ranks counted per value, as sorting all draws gives them
+  m <- matrix(sample(c(0.3, 0.35, 0.4, 0.45), 4000, TRUE), 1000, 4)
+  expect_identical(normal_scores(m, discrete = TRUE), normal_scores(m))
+  # too many values for counting: the general path
+  m <- matrix(stats::rnorm(400), 100, 4)
+  expect_identical(normal_scores(m, discrete = TRUE), normal_scores(m))
+  # one mvfft() over the chains, as fft() chain by chain
+  m <- cbind(stats::rnorm(200), 1, cumsum(stats::rnorm(200)))
+  one <- function(x) {
+    n <- length(x)
+    v <- stats::var(x)
+    if (v == 0) return(rep(0, n))
+    ac <- Re(stats::fft(abs(stats::fft(c(x - mean(x), rep.int(0, 2 * stats::nextn(n) - n))))^2,
+                        inverse = TRUE)[seq_len(n)])
+    ac / ac[1] * v * (n - 1) / n
+  }
+  expect_identical(chain_autocovariances(m), vapply(1:3, function(k) one(m[, k]), numeric(200)))
+  # a fit's columns without its data.frame, shaped without split()
+  ex <- griddy_example()
+  fit <- suppressWarnings(calibrate(ex$library, ex$field, rho_t = c(0, 0.5), n_iter = 300,
+                                    burn_in = 100, chains = 2, seed = 1),
+                          classes = "griddy_warning_resolution")
+  expect_identical(sampled_columns(fit), as.list(parameter_draws(fit)))
+  shape <- chain_shaper(fit$draws$chain)
+  expect_equal(shape(fit$draws$tau), chain_matrix(fit$draws$tau, fit$draws$chain),
+               ignore_attr = TRUE)
+  shuffled <- sample(nrow(fit$draws))
+  expect_identical(chain_shaper(fit$draws$chain[shuffled])(fit$draws$tau[shuffled]),
+                   chain_matrix(fit$draws$tau[shuffled], fit$draws$chain[shuffled]))
+})

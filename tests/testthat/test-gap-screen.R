@@ -252,3 +252,25 @@ test_that("the screen's discrepancy is built once and is the one it describes", 
   expect_identical(screen_discrepancy(), gp_discrepancy(ratio = gp_discrepancy()$ratio[-1]))
   expect_identical(screen_discrepancy(), screen_cache$discrepancy)
 })
+
+test_that("a Kronecker fit's screen needs no second setup: its replicates' constant is 0", {
+  fit <- quiet_fit(screen_system(0.1, seed = 2), rho_t = c(0, 0.5))$fit
+  expect_null(fit$setup$pattern)
+  runs <- screen_runs(fit$exact$run)
+  g <- which.max(fit$exact$grid$prob)
+  lib <- fit$library
+  sub <- runs_piece(lib_theta(lib)[runs, , drop = FALSE], lib_outputs(lib, runs), lib_x(lib),
+                    lib_t(lib))
+  pattern <- setup_noise_pattern(fit$setup, lib_n_out(lib), fit$prior)
+  rho <- grid_rho(fit, g)
+  base <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern)
+  # what the second setup added before
+  expect_equal(fit$setup$logdet[g] - base$logdet[1], 0, tolerance = 1e-10)
+  disc_fit <- quiet_fit(screen_system(0.1, seed = 2), rho_t = c(0, 0.5),
+                        discrepancy = gp_discrepancy())$fit
+  problem <- suppressWarnings(screen_problem(fit, runs, g))
+  expect_equal(problem$setup$logdet[1],
+               disc_fit$setup$logdet[which(disc_fit$setup$gd == 2L &
+                                            disc_fit$setup$gt == fit$setup$gt[g])[1]],
+               tolerance = 1e-10)
+})
