@@ -536,10 +536,7 @@ discrepancy_for_data <- function(discrepancy, library, y, pattern, best = NULL) 
 # data best (best_fitting_run()). Parameters the library holds constant, or
 # that the nearest runs do not vary, are left out. NULL when none is left.
 discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
-  theta <- as.matrix(lib_theta(library))
-  span <- apply(theta, 2, function(v) diff(range(v)))
-  theta <- sweep(sweep(theta, 2, apply(theta, 2, min)), 2, pmax(span, 1e-300), "/")
-  theta <- theta[, span > 0, drop = FALSE]
+  theta <- unit_scaled_theta(lib_theta(library))
   if (ncol(theta) == 0L) return(NULL)
   if (is.null(best)) best <- best_fitting_run(library, y, pattern)
   k <- min(nrow(theta), max(4L * ncol(theta) + 2L, 12L))
@@ -553,6 +550,18 @@ discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
   G <- t(matrix(as.matrix(fit$coefficients)[-1, , drop = FALSE], ncol(X)))
   G <- G[, colSums(!is.finite(G)) == 0L, drop = FALSE]
   if (ncol(G) == 0L) NULL else G
+}
+
+# The library's parameters that vary, each scaled to [0, 1] (a matrix).
+# Column by column: at 10^6 runs apply() and sweep() over the whole matrix
+# took most of the gap screen (the same arithmetic, so the same values).
+unit_scaled_theta <- function(theta) {
+  cols <- lapply(as.data.frame(theta), as.numeric)
+  span <- vapply(cols, function(v) diff(range(v)), numeric(1))
+  keep <- which(span > 0)
+  scaled <- lapply(keep, function(j) (cols[[j]] - min(cols[[j]])) / span[[j]])
+  matrix(as.numeric(unlist(scaled, use.names = FALSE)), length(cols[[1]]), length(keep),
+         dimnames = list(NULL, names(cols)[keep]))
 }
 
 # The run that fits the field data best with independent noise (the noise

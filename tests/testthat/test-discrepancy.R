@@ -318,3 +318,14 @@ test_that("the simple machine's band at x = 6 holds reality with zero_at and fla
   before <- band(known(length_x = c(0.1, 0.3, 1)))
   expect_false(before$pred_lower <= truth && truth <= before$pred_upper)
 })
+
+test_that("unit_scaled_theta() scales the varying parameters to [0, 1] as the matrix arithmetic does", {
+  set.seed(3)
+  theta <- data.frame(a = runif(50, 2, 5), fixed = 1, b = sample(1:4, 50, TRUE))
+  m <- as.matrix(theta)
+  span <- apply(m, 2, function(v) diff(range(v)))
+  ref <- sweep(sweep(m, 2, apply(m, 2, min)), 2, pmax(span, 1e-300), "/")[, span > 0]
+  expect_identical(unit_scaled_theta(theta), ref)
+  expect_identical(unit_scaled_theta(m), ref)
+  expect_equal(ncol(unit_scaled_theta(data.frame(a = rep(1, 5)))), 0L)
+})
