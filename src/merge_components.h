@@ -31,6 +31,18 @@ struct Merged {
   std::vector<int> nu_class;
 };
 
+// The range of the components' locations and log scales, which sets the
+// grid (next_gains_cpp() gathers it as it computes them).
+struct Bounds {
+  double m_min = INFINITY, m_max = -INFINITY, ls_min = INFINITY, ls_max = -INFINITY;
+  void add(double m, double ls) {
+    m_min = std::min(m_min, m);
+    m_max = std::max(m_max, m);
+    ls_min = std::min(ls_min, ls);
+    ls_max = std::max(ls_max, ls);
+  }
+};
+
 namespace merge_detail {
 
 const double kMaxBins = 1e7;      // the first pass's grid at most
@@ -182,19 +194,20 @@ bool merge_small(const Grid& grid, const double* w, const double* m, const doubl
 inline void merge_components(const double* w, const double* m, const double* s,
                              const double* ls, const int* nu_class, long n, int n_classes,
                              double width_location, double width_scale,
-                             int max_components, Merged& out) {
+                             int max_components, Merged& out,
+                             const Bounds* known = nullptr) {
   using namespace merge_detail;
-  Grid grid;
-  grid.ls_min = INFINITY;
-  grid.ls_max = -INFINITY;
-  grid.m_min = INFINITY;
-  grid.m_max = -INFINITY;
-  for (long i = 0; i < n; ++i) {
-    grid.ls_min = std::min(grid.ls_min, ls[i]);
-    grid.ls_max = std::max(grid.ls_max, ls[i]);
-    grid.m_min = std::min(grid.m_min, m[i]);
-    grid.m_max = std::max(grid.m_max, m[i]);
+  Bounds bounds;
+  if (known) {
+    bounds = *known;
+  } else {
+    for (long i = 0; i < n; ++i) bounds.add(m[i], ls[i]);
   }
+  Grid grid;
+  grid.ls_min = bounds.ls_min;
+  grid.ls_max = bounds.ls_max;
+  grid.m_min = bounds.m_min;
+  grid.m_max = bounds.m_max;
   grid.n_classes = n_classes;
   grid.wl = width_location;
   grid.ws = width_scale;

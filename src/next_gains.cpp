@@ -76,7 +76,8 @@ struct Entropies {
 };
 
 Entropies mixture_entropies(const double* w, const double* m, const double* s, const double* ls,
-                            const int* cls, long n, double total,
+                            const int* cls, long n, const griddy::Bounds& bounds,
+                            double total,
                             const std::vector<double>& class_nu,
                             const std::vector<double>& class_mass,
                             const std::vector<double>& weight, Quantiles& quant,
@@ -90,7 +91,8 @@ Entropies mixture_entropies(const double* w, const double* m, const double* s, c
     mc.s2 = {s[0] * s[0]};
     mc.nu_class = {cls[0]};
   } else {
-    griddy::merge_components(w, m, s, ls, cls, n, C, 0.25, 0.05, max_components, mc);
+    griddy::merge_components(w, m, s, ls, cls, n, C, 0.25, 0.05, max_components, mc,
+                             &bounds);
   }
   const size_t J = mc.w.size();
   std::vector<double> wj(J), sj(J), lsj(J), nu(J), c_log(J), c_ent(J);
@@ -187,6 +189,7 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
   std::vector<double> class_nu(M);
   for (int j = 0; j < n_candidates; ++j) {
     double h_comp = 0;
+    griddy::Bounds bounds;
     for (int mod = 0; mod < M; ++mod) {
       const Rcpp::List part = models[mod];
       const Rcpp::NumericVector rho = part["rho"], nu = part["nu"];
@@ -241,11 +244,13 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
           si[i] = cs[i] * sd[gi];
           lsi[i] = cl[i] + log_sd[gi];
           sum_wls += wi[i] * lsi[i];
+          bounds.add(mi[i], lsi[i]);
         }
       } else {
         for (long i = 0; i < K; ++i) {
           mi[i] = col[run[i]];
           sum_wls += wi[i] * cl[i];
+          bounds.add(mi[i], cl[i]);
         }
         std::copy(cs.begin(), cs.end(), si);
         std::copy(cl.begin(), cl.end(), lsi);
@@ -253,7 +258,7 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
       h_comp += (sum_wls + mass[mod] * ent) / total;
     }
     const Entropies h = mixture_entropies(w.data(), m.data(), s.data(), ls.data(), cls.data(),
-                                          n, total, class_nu, mass, weight, quant,
+                                          n, bounds, total, class_nu, mass, weight, quant,
                                           max_components * M);
     out(0, j) = std::max(h.mix - h_comp, 0.0);
     out(1, j) = M > 1 ? std::max(h.mix - h.classes, 0.0) : NA_REAL;

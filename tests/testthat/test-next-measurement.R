@@ -217,4 +217,8 @@ test_that("the C++ pass over the candidates equals the plain-R path", {
   m <- stream_models(one = griddy_stream(lib, prior = prior),
                      two = griddy_stream(rival, prior = list(shape = 2, rate = 0.01)))
   check(update(m, y = 1.3, x = data.frame(x = 2), t = tt[3]))
+  # degrees of freedom not a whole number: the kernel by exp and log, not
+  # by products and a square root
+  check(update(griddy_stream(lib, prior = list(shape = 0.8, rate = 0.01)), y = c(1.3, 1.5),
+               x = data.frame(x = c(2, 2)), t = tt[3:4]))
 })
