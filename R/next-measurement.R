@@ -34,18 +34,25 @@
 #' \eqn{\sum_j w_j [H(p_j) + KL(p_j \| p)]}, each Kullback-Leibler term by
 #' 32-point Gauss-Legendre quadrature over the component's quantiles (its
 #' integrand, the log ratio of a component to the mixture, is bounded and
-#' tends to constants in the tails). Before that, components below the last
-#' \eqn{10^{-6}} of the mass are dropped, and components whose locations lie
+#' tends to constants in the tails). Before that, each model's components
+#' below the last \eqn{10^{-4}} of its mass are dropped: that changes the
+#' exact gain by at most \eqn{h(\epsilon) + \epsilon \max(I, \log n_D)}
+#' nats (\eqn{\epsilon
+#' \le 10^{-4}} the mass dropped, \eqn{h} the binary entropy, \eqn{n_D} the
+#' components dropped, \eqn{I} the gain), under 0.003 nats up to \eqn{10^8}
+#' components, and `gain_model` by at most \eqn{h(\epsilon) + \epsilon
+#' \max(I, \log M)} for \eqn{M} models. Then components whose locations lie
 #' within a quarter of their scale (and whose scales agree to 5%) are merged
-#' into one with the same weight, mean and variance; if more than 64 remain,
-#' the components are summed into a grid of at most 2^16 such bins, and the
-#' bins widen over those sums until 64 remain (the answer is then an
-#' approximation, from coarser components, which loses some of the
-#' information that separates close runs). Against adaptive quadrature the
-#' mixture entropy agrees to about 10^-3 nats for a few components; for a
-#' posterior spread over 10^5 runs after two measurements the gain of one
-#' candidate checked was 0.01 nats above the unmerged mixture's
-#' (bench/README.md). Numerical noise
+#' into one with the same weight, mean and variance, a merged component
+#' keeping to one model (so one merge serves the mixture and each model's
+#' part); if more than 64 per model remain, the components are summed into a
+#' grid of at most 2^16 such bins, and the bins widen over those sums until
+#' 64 per model remain (the answer is then an approximation, from coarser
+#' components, which loses some of the information that separates close
+#' runs). Against adaptive quadrature the mixture entropy agrees to about
+#' 10^-3 nats for a few components; for a posterior spread over 10^5 runs
+#' after two measurements the gain of one candidate checked was 0.01 nats
+#' above the unmerged mixture's (bench/README.md). Numerical noise
 #' below zero is returned as 0.
 #'
 #' **Scope.** Candidates are cells the library has (its x settings and t);
@@ -355,16 +362,22 @@ ar1_conditional <- function(nb, state, run, g, column) {
        var = (1 - p1^2) * (1 - p2^2) / d)
 }
 
-# The components to keep: the largest weights over all models carrying
-# 1 - 1e-6 of the mass (positions in each model's weights).
-prune_components <- function(w, tail = 1e-6) {
-  all_w <- unlist(w, use.names = FALSE)
-  o <- order(all_w, decreasing = TRUE)
-  n_keep <- min(length(o), sum(cumsum(all_w[o]) < (1 - tail) * sum(all_w)) + 1L)
-  kept <- logical(length(all_w))
-  kept[o[seq_len(n_keep)]] <- TRUE
-  ends <- cumsum(lengths(w))
-  lapply(seq_along(w), function(m) which(kept[(ends[m] - length(w[[m]]) + 1L):ends[m]]))
+# The components to keep (positions in each model's weights): each model's
+# largest weights carrying 1 - 1e-4 of its mass, so that a model nearly
+# ruled out keeps its components and stays in `gain_model`. Dropping mass
+# eps (at most 1e-4 of the whole) changes the exact gain I(Y; K) by at most
+# h(eps) + eps max(I, log n dropped), h the binary entropy: with Z the
+# indicator of a dropped component, I(Y; K) = I(Y; Z) + (1 - eps) I(Y; K |
+# kept) + eps I(Y; K | dropped), where I(Y; Z) <= h(eps) and I(Y; K |
+# dropped) <= log n dropped. Up to 10^8 components that is under 0.003 nats,
+# about the merge's error; for the model, log n dropped becomes log M.
+prune_components <- function(w, tail = 1e-4) {
+  lapply(w, function(wm) {
+    total <- sum(wm)
+    if (total <= 0) return(integer(0))
+    o <- order(wm, decreasing = TRUE)
+    sort(o[seq_len(min(length(o), sum(cumsum(wm[o]) < (1 - tail) * total) + 1L))])
+  })
 }
 
 # Gauss-Legendre nodes and weights on (0, 1) (Golub-Welsch).

@@ -16,8 +16,11 @@
 # pkgload::load_all() build compiles C++ without optimisation):
 #   Rscript bench/next-measurement.R
 # Options (environment): NEXT_RUNS (default 1e5), GRIDDY_NEW_LIB (a library
-# holding the griddy to test). Writes
-# bench/results/next-measurement.csv and .md. About a minute here.
+# holding the griddy to test), NEXT_LABEL (default: the short commit of
+# HEAD; name it after the griddy installed when that differs). Writes
+# bench/results/next-measurement-<label>.csv and .md, and every candidate's
+# gains to next-measurement-<label>-gains.csv (to compare two builds'
+# rankings). About a minute here.
 source("bench/helpers.R")
 if (nzchar(new_griddy_lib())) .libPaths(c(new_griddy_lib(), .libPaths()))
 suppressPackageStartupMessages(library(griddy))
@@ -55,7 +58,9 @@ elapsed <- function(expr) {
   c(elapsed = t1[["elapsed"]] - t0[["elapsed"]],
     cpu = t1[["user.self"]] + t1[["sys.self"]] - t0[["user.self"]] - t0[["sys.self"]])
 }
+label <- Sys.getenv("NEXT_LABEL", system("git rev-parse --short HEAD", intern = TRUE))
 rows <- list()
+gains <- list()
 for (n in c(2, 20)) {
   for (case in c("independent", "ar1", "models")) {
     set.seed(10 + n)
@@ -73,6 +78,8 @@ for (n in c(2, 20)) {
     ess <- 1 / sum(post$joint^2)
     times <- vapply(1:3, function(r) elapsed(next_measurement(obj)), numeric(2))
     res <- next_measurement(obj)
+    gains[[length(gains) + 1L]] <- data.frame(measurements = n, case = case, res[c("candidate",
+      intersect(c("gain", "gain_model"), names(res)))])
     rows[[length(rows) + 1L]] <- data.frame(
       runs = N, measurements = n, case = case, candidates = nrow(res),
       effective_components = round(ess), seconds_median = median(times["elapsed", ]),
@@ -83,16 +90,21 @@ for (n in c(2, 20)) {
 }
 out <- do.call(rbind, rows)
 dir.create("bench/results", showWarnings = FALSE)
-write.csv(out, "bench/results/next-measurement.csv", row.names = FALSE)
+stem <- paste0("bench/results/next-measurement-", label)
+write.csv(out, paste0(stem, ".csv"), row.names = FALSE)
+all_gains <- do.call(rbind, lapply(gains, function(g) {
+  if (is.null(g$gain_model)) g$gain_model <- NA_real_
+  g
+}))
+write.csv(all_gains, paste0(stem, "-gains.csv"), row.names = FALSE)
 md <- c("# next_measurement(): time per ranking",
         "",
-        paste0("bench/next-measurement.R, commit ", system("git rev-parse --short HEAD",
-                                                          intern = TRUE), ", ",
+        paste0("bench/next-measurement.R, griddy at ", label, ", ",
                format(Sys.time(), tz = "UTC", usetz = TRUE), "; R ", getRversion(),
                "; a 2-core machine shared with other jobs (load ",
                paste(round(as.numeric(strsplit(readLines("/proc/loadavg"), " ")[[1]][1:3]),
                            2), collapse = ", "), "): times are upper bounds."),
         "",
         paste(knitr::kable(out, format = "pipe", row.names = FALSE), collapse = "\n"))
-writeLines(md, "bench/results/next-measurement.md")
+writeLines(md, paste0(stem, ".md"))
 writeLines(md)

@@ -31,6 +31,18 @@ struct Merged {
   std::vector<int> nu_class;
 };
 
+// The range of the components' locations and log scales, which sets the
+// grid (next_gains_cpp() gathers it as it computes them).
+struct Bounds {
+  double m_min = INFINITY, m_max = -INFINITY, ls_min = INFINITY, ls_max = -INFINITY;
+  void add(double m, double ls) {
+    m_min = std::min(m_min, m);
+    m_max = std::max(m_max, m);
+    ls_min = std::min(ls_min, ls);
+    ls_max = std::max(ls_max, ls);
+  }
+};
+
 namespace merge_detail {
 
 const double kMaxBins = 1e7;      // the first pass's grid at most
@@ -110,12 +122,40 @@ int assign_bins(long n, Key key, long n_key, std::vector<int>& slot) {
   return used;
 }
 
-// The merged component's mean and squared scale from its sums of w, w m,
-// w m^2 and w s^2.
-inline void finish(std::vector<double>& m2, Merged& out) {
-  for (size_t j = 0; j < out.w.size(); ++j) {
-    out.m[j] /= out.w[j];
-    out.s2[j] = out.s2[j] / out.w[j] + std::max(m2[j] / out.w[j] - out.m[j] * out.m[j], 0.0);
+// A bin's sums of w, w m, w m^2, w s^2 and w log s over its members.
+struct Sums {
+  double w, wm, wm2, ws2, wls;
+  long count;
+  void add(double wi, double mi, double si, double lsi) {
+    w += wi;
+    wm += wi * mi;
+    wm2 += wi * mi * mi;
+    ws2 += wi * si * si;
+    wls += wi * lsi;
+  }
+  void add(const Sums& b) {
+    w += b.w;
+    wm += b.wm;
+    wm2 += b.wm2;
+    ws2 += b.ws2;
+    wls += b.wls;
+  }
+};
+const Sums kEmpty = {0, 0, 0, 0, 0, 0};
+
+// The merged components from their bins' sums: each with its members'
+// weight, mean and variance (mean square scale plus the locations' variance).
+inline void finish(const std::vector<Sums>& sums, const std::vector<int>& cls, Merged& out) {
+  const size_t J = sums.size();
+  out.w.resize(J);
+  out.m.resize(J);
+  out.s2.resize(J);
+  out.nu_class = cls;
+  for (size_t j = 0; j < J; ++j) {
+    const Sums& b = sums[j];
+    out.w[j] = b.w;
+    out.m[j] = b.wm / b.w;
+    out.s2[j] = b.ws2 / b.w + std::max(b.wm2 / b.w - out.m[j] * out.m[j], 0.0);
   }
 }
 
@@ -124,15 +164,12 @@ inline void finish(std::vector<double>& m2, Merged& out) {
 // appearance); false, with `out` unfinished, as soon as one more is needed.
 template <class Key>
 bool merge_small(const Grid& grid, const double* w, const double* m, const double* s,
-                 Key key, long n, int max_components, std::vector<double>& m2, Merged& out) {
+                 const double* ls, Key key, long n, int max_components, Merged& out) {
   size_t size = 16;
   while (size < 2 * static_cast<size_t>(max_components)) size *= 2;
   std::vector<int> table_key(size, -1), table_slot(size);
-  out.w.assign(max_components, 0.0);
-  out.m.assign(max_components, 0.0);
-  out.s2.assign(max_components, 0.0);
-  out.nu_class.assign(max_components, 0);
-  m2.assign(max_components, 0.0);
+  std::vector<Sums> sums(max_components, kEmpty);
+  std::vector<int> cls(max_components, 0);
   int used = 0;
   for (long i = 0; i < n; ++i) {
     const int k = key(i);
@@ -142,20 +179,13 @@ bool merge_small(const Grid& grid, const double* w, const double* m, const doubl
       if (used == max_components) return false;
       table_key[p] = k;
       table_slot[p] = used++;
-      out.nu_class[table_slot[p]] = grid.class_of(k);
+      cls[table_slot[p]] = grid.class_of(k);
     }
-    const int j = table_slot[p];
-    out.w[j] += w[i];
-    out.m[j] += w[i] * m[i];
-    m2[j] += w[i] * m[i] * m[i];
-    out.s2[j] += w[i] * s[i] * s[i];
+    sums[table_slot[p]].add(w[i], m[i], s[i], ls[i]);
   }
-  out.w.resize(used);
-  out.m.resize(used);
-  out.s2.resize(used);
-  out.nu_class.resize(used);
-  m2.resize(used);
-  finish(m2, out);
+  sums.resize(used);
+  cls.resize(used);
+  finish(sums, cls, out);
   return true;
 }
 
@@ -164,77 +194,58 @@ bool merge_small(const Grid& grid, const double* w, const double* m, const doubl
 inline void merge_components(const double* w, const double* m, const double* s,
                              const double* ls, const int* nu_class, long n, int n_classes,
                              double width_location, double width_scale,
-                             int max_components, Merged& out) {
+                             int max_components, Merged& out,
+                             const Bounds* known = nullptr) {
   using namespace merge_detail;
-  Grid grid;
-  grid.ls_min = INFINITY;
-  grid.ls_max = -INFINITY;
-  grid.m_min = INFINITY;
-  grid.m_max = -INFINITY;
-  for (long i = 0; i < n; ++i) {
-    grid.ls_min = std::min(grid.ls_min, ls[i]);
-    grid.ls_max = std::max(grid.ls_max, ls[i]);
-    grid.m_min = std::min(grid.m_min, m[i]);
-    grid.m_max = std::max(grid.m_max, m[i]);
+  Bounds bounds;
+  if (known) {
+    bounds = *known;
+  } else {
+    for (long i = 0; i < n; ++i) bounds.add(m[i], ls[i]);
   }
+  Grid grid;
+  grid.ls_min = bounds.ls_min;
+  grid.ls_max = bounds.ls_max;
+  grid.m_min = bounds.m_min;
+  grid.m_max = bounds.m_max;
   grid.n_classes = n_classes;
   grid.wl = width_location;
   grid.ws = width_scale;
   grid.cap_bins(kMaxBins);
   auto raw_key = [&](long i) { return grid.key(ls[i], m[i], nu_class[i]); };
-  std::vector<double> m2;
   grid.fix();
-  if (merge_small(grid, w, m, s, raw_key, n, max_components, m2, out)) return;
+  if (merge_small(grid, w, m, s, ls, raw_key, n, max_components, out)) return;
   grid.cap_bins(kDenseBins);
   // the dense table: each component's sums into its bin of a grid of at
   // most 2^16 bins, one cache line a bin (bins in order of first appearance)
   grid.fix();
-  struct Sums {
-    double w, wm, wm2, ws2, wls;
-    long count;
-  };
   static thread_local std::vector<Sums> dense;
   const size_t n_bins = static_cast<size_t>(n_classes) * grid.span_sb * grid.span_mb;
-  if (dense.size() < n_bins) dense.resize(n_bins, Sums{0, 0, 0, 0, 0, 0});
+  if (dense.size() < n_bins) dense.resize(n_bins, kEmpty);
   std::vector<int> touched;
   for (long i = 0; i < n; ++i) {
     const int k = raw_key(i);
     Sums& b = dense[k];
     if (b.count++ == 0) touched.push_back(k);
-    b.w += w[i];
-    b.wm += w[i] * m[i];
-    b.wm2 += w[i] * m[i] * m[i];
-    b.ws2 += w[i] * s[i] * s[i];
-    b.wls += w[i] * ls[i];
-  }
-  const size_t n_touched = touched.size();
-  std::vector<double> fw(n_touched), fm(n_touched), fm2(n_touched), fs2(n_touched),
-      fls(n_touched);
-  std::vector<int> fcls(n_touched);
-  for (size_t j = 0; j < n_touched; ++j) {
-    Sums& b = dense[touched[j]];
-    fw[j] = b.w;
-    fm[j] = b.wm;
-    fm2[j] = b.wm2;
-    fs2[j] = b.ws2;
-    fls[j] = b.wls;
-    fcls[j] = grid.class_of(touched[j]);
-    b = Sums{0, 0, 0, 0, 0, 0};
+    b.add(w[i], m[i], s[i], ls[i]);
   }
   const long n_fine = touched.size();
+  std::vector<Sums> fine(n_fine);
+  std::vector<int> fcls(n_fine);
+  for (long j = 0; j < n_fine; ++j) {
+    fine[j] = dense[touched[j]];
+    fcls[j] = grid.class_of(touched[j]);
+    dense[touched[j]] = kEmpty;
+  }
   if (n_fine <= max_components) {
-    out.w = fw;
-    out.m = fm;
-    out.s2 = fs2;
-    out.nu_class = fcls;
-    finish(fm2, out);
+    finish(fine, fcls, out);
     return;
   }
   // widen over the fine bins, each at its weighted mean location and log scale
   std::vector<double> mean_m(n_fine), mean_ls(n_fine);
   for (long j = 0; j < n_fine; ++j) {
-    mean_m[j] = fm[j] / fw[j];
-    mean_ls[j] = fls[j] / fw[j];
+    mean_m[j] = fine[j].wm / fine[j].w;
+    mean_ls[j] = fine[j].wls / fine[j].w;
   }
   auto fine_key = [&](long j) { return grid.key(mean_ls[j], mean_m[j], fcls[j]); };
   long n_key = n_fine;
@@ -245,20 +256,13 @@ inline void merge_components(const double* w, const double* m, const double* s,
   }
   std::vector<int> slot;
   const int used = assign_bins(n_fine, fine_key, n_key, slot);
-  out.w.assign(used, 0.0);
-  out.m.assign(used, 0.0);
-  out.s2.assign(used, 0.0);
-  out.nu_class.assign(used, 0);
-  m2.assign(used, 0.0);
+  std::vector<Sums> merged(used, kEmpty);
+  std::vector<int> cls(used, 0);
   for (long j = 0; j < n_fine; ++j) {
-    const int c = slot[j];
-    out.w[c] += fw[j];
-    out.m[c] += fm[j];
-    m2[c] += fm2[j];
-    out.s2[c] += fs2[j];
-    out.nu_class[c] = fcls[j];
+    merged[slot[j]].add(fine[j]);
+    cls[slot[j]] = fcls[j];
   }
-  finish(m2, out);
+  finish(merged, cls, out);
 }
 
 }  // namespace griddy

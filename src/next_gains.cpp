@@ -38,13 +38,52 @@ struct Quantiles {
   }
 };
 
-// The entropy of sum w t_nu(m, s) / total: merged, then
-// sum_j w_j [H(p_j) + KL(p_j || p)] by quadrature over p_j's quantiles.
-double mixture_entropy(const double* w, const double* m, const double* s, const double* ls,
-                       const int* cls, long n, double total,
-                       const std::vector<double>& class_nu, const std::vector<double>& weight,
-                       Quantiles& quant, int max_components) {
-  if (n == 0) return 0;
+// p[i] += amp (1 + ((y[i] - m) / s)^2 / nu)^(-(nu + 1) / 2) for i < n: the
+// power by products and a square root when nu is a whole number (a whole
+// prior shape: nu = 2a + n), else by exp and log; the same value to rounding.
+void add_t_kernel(const double* y, size_t n, double m, double inv_s, double nu, double amp,
+                  double* p) {
+  const double inv_nu = 1 / nu;
+  if (nu == std::floor(nu) && nu <= 256) {
+    const int whole = static_cast<int>(nu + 1) / 2;
+    const bool half = static_cast<int>(nu + 1) % 2 == 1;
+    for (size_t i = 0; i < n; ++i) {
+      const double d = (y[i] - m) * inv_s;
+      double r = 1 / (1 + d * d * inv_nu);
+      double v = half ? std::sqrt(r) : 1.0;
+      for (int e = whole; e > 0; e >>= 1) {
+        if (e & 1) v *= r;
+        r *= r;
+      }
+      p[i] += amp * v;
+    }
+  } else {
+    const double expo = -(nu + 1) / 2;
+    for (size_t i = 0; i < n; ++i) {
+      const double d = (y[i] - m) * inv_s;
+      p[i] += amp * std::exp(expo * std::log1p(d * d * inv_nu));
+    }
+  }
+}
+
+// The entropy of the mixture sum w t_nu(m, s) / total, and with several
+// classes (models) the class-weighted sum of each class's own mixture
+// entropy: merged once (a merged component keeps to one class), then
+// sum_j w_j [H(p_j) + KL(p_j || p)] by quadrature over p_j's quantiles, with
+// p the whole mixture or p_j's class's part; one pass of kernels gives both.
+struct Entropies {
+  double mix, classes;
+};
+
+Entropies mixture_entropies(const double* w, const double* m, const double* s, const double* ls,
+                            const int* cls, long n, const griddy::Bounds& bounds,
+                            double total,
+                            const std::vector<double>& class_nu,
+                            const std::vector<double>& class_mass,
+                            const std::vector<double>& weight, Quantiles& quant,
+                            int max_components) {
+  if (n == 0) return {0, 0};
+  const int C = class_nu.size();
   griddy::Merged mc;
   if (n == 1) {
     mc.w = {w[0]};
@@ -52,44 +91,51 @@ double mixture_entropy(const double* w, const double* m, const double* s, const 
     mc.s2 = {s[0] * s[0]};
     mc.nu_class = {cls[0]};
   } else {
-    griddy::merge_components(w, m, s, ls, cls, n, class_nu.size(), 0.25, 0.05,
-                             max_components, mc);
+    griddy::merge_components(w, m, s, ls, cls, n, C, 0.25, 0.05, max_components, mc,
+                             &bounds);
   }
   const size_t J = mc.w.size();
-  std::vector<double> wj(J), sj(J), lsj(J), inv_s(J), nu(J), inv_nu(J), expo(J), c_log(J),
-      c_ent(J), amp(J);
+  std::vector<double> wj(J), sj(J), lsj(J), nu(J), c_log(J), c_ent(J);
   for (size_t j = 0; j < J; ++j) {
     wj[j] = mc.w[j] / total;
     sj[j] = std::sqrt(mc.s2[j]);
     lsj[j] = std::log(sj[j]);
-    inv_s[j] = 1 / sj[j];
     nu[j] = class_nu[mc.nu_class[j] - 1];
-    inv_nu[j] = 1 / nu[j];
-    expo[j] = -(nu[j] + 1) / 2;
     c_log[j] = t_log_const(nu[j]);
     c_ent[j] = t_entropy_const(nu[j]);
-    amp[j] = std::exp(c_log[j]) * wj[j] * inv_s[j];
   }
-  if (J == 1) return lsj[0] + c_ent[0];
-  const size_t Q = weight.size();
-  double h = 0;
+  if (J == 1) return {lsj[0] + c_ent[0], lsj[0] + c_ent[0]};
+  // the nodes, Q per component, and each class's density there
+  const size_t Q = weight.size(), P = J * Q;
+  std::vector<double> y(P), p(C * P, 0.0);
   for (size_t j = 0; j < J; ++j) {
     const std::vector<double>& z = quant.at(nu[j]);
-    double kl = 0;
+    for (size_t q = 0; q < Q; ++q) y[j * Q + q] = z[q] * sj[j] + mc.m[j];
+  }
+  for (size_t k = 0; k < J; ++k) {
+    add_t_kernel(y.data(), P, mc.m[k], 1 / sj[k], nu[k], std::exp(c_log[k]) * wj[k] / sj[k],
+                 &p[(mc.nu_class[k] - 1) * P]);
+  }
+  std::vector<double> log_mass(C);
+  for (int c = 0; c < C; ++c) log_mass[c] = std::log(class_mass[c] / total);
+  double h_mix = 0, h_classes = 0;
+  for (size_t j = 0; j < J; ++j) {
+    const std::vector<double>& z = quant.at(nu[j]);
+    const int c = mc.nu_class[j] - 1;
+    double kl = 0, kl_class = 0;
     for (size_t q = 0; q < Q; ++q) {
-      const double y = z[q] * sj[j] + mc.m[j];
-      double p = 0;
-      for (size_t k = 0; k < J; ++k) {
-        const double d = (y - mc.m[k]) * inv_s[k];
-        p += amp[k] * std::exp(expo[k] * std::log(1 + d * d * inv_nu[k]));
-      }
+      const size_t i = j * Q + q;
       const double log_pj = c_log[j] - (nu[j] + 1) / 2 * std::log1p(z[q] * z[q] / nu[j]) -
                             lsj[j];
-      kl += weight[q] * (log_pj - std::log(p));
+      double p_all = 0;
+      for (int c2 = 0; c2 < C; ++c2) p_all += p[c2 * P + i];
+      kl += weight[q] * (log_pj - std::log(p_all));
+      if (C > 1) kl_class += weight[q] * (log_pj - std::log(p[c * P + i]) + log_mass[c]);
     }
-    h += wj[j] * (lsj[j] + c_ent[j] + kl);
+    h_mix += wj[j] * (lsj[j] + c_ent[j] + kl);
+    h_classes += wj[j] * (lsj[j] + c_ent[j] + kl_class);
   }
-  return h;
+  return {h_mix, C > 1 ? h_classes : h_mix};
 }
 
 }  // namespace
@@ -118,7 +164,12 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
   }
   const long n = start[M];
   std::vector<double> m(n), s(n), ls(n);
-  std::vector<int> cls(n), ones(n, 1);
+  // a component's class in the merge is its model: a merged component keeps
+  // to one model, so one merge serves the mixture and each model's part
+  std::vector<int> cls(n);
+  for (int mod = 0; mod < M; ++mod) {
+    std::fill(cls.begin() + start[mod], cls.begin() + start[mod + 1], mod + 1);
+  }
   // the weights, the same at every candidate
   std::vector<double> w(n);
   for (int mod = 0; mod < M; ++mod) {
@@ -135,11 +186,10 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
   // each (model, noise group)'s scales without a neighbour, and their logs,
   // computed once; a neighbour multiplies a scale by sqrt(var) per grid point
   std::vector<std::vector<double>> cache_s(M * n_groups_max), cache_ls(M * n_groups_max);
-  std::vector<double> class_nu;
+  std::vector<double> class_nu(M);
   for (int j = 0; j < n_candidates; ++j) {
-    class_nu.clear();
-    std::vector<int> model_class(M);
     double h_comp = 0;
+    griddy::Bounds bounds;
     for (int mod = 0; mod < M; ++mod) {
       const Rcpp::List part = models[mod];
       const Rcpp::NumericVector rho = part["rho"], nu = part["nu"];
@@ -165,10 +215,7 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
         sd[k] = std::sqrt(var[k]);
         log_sd[k] = std::log(sd[k]);
       }
-      size_t c = 0;
-      while (c < class_nu.size() && class_nu[c] != nu[j]) ++c;
-      if (c == class_nu.size()) class_nu.push_back(nu[j]);
-      model_class[mod] = c + 1;
+      class_nu[mod] = nu[j];
       std::vector<double>& cs = cache_s[mod * n_groups_max + group[j]];
       std::vector<double>& cl = cache_ls[mod * n_groups_max + group[j]];
       const long K = start[mod + 1] - start[mod];
@@ -186,7 +233,6 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
       double* si = &s[start[mod]];
       double* lsi = &ls[start[mod]];
       const double* wi = &w[start[mod]];
-      std::fill(cls.begin() + start[mod], cls.begin() + start[mod + 1], c + 1);
       double sum_wls = 0;
       if (has_b || has_a) {
         for (long i = 0; i < K; ++i) {
@@ -198,33 +244,24 @@ Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates,
           si[i] = cs[i] * sd[gi];
           lsi[i] = cl[i] + log_sd[gi];
           sum_wls += wi[i] * lsi[i];
+          bounds.add(mi[i], lsi[i]);
         }
       } else {
         for (long i = 0; i < K; ++i) {
           mi[i] = col[run[i]];
           sum_wls += wi[i] * cl[i];
+          bounds.add(mi[i], cl[i]);
         }
         std::copy(cs.begin(), cs.end(), si);
         std::copy(cl.begin(), cl.end(), lsi);
       }
       h_comp += (sum_wls + mass[mod] * ent) / total;
     }
-    const double h_mix = mixture_entropy(w.data(), m.data(), s.data(), ls.data(), cls.data(), n,
-                                         total, class_nu, weight, quant, max_components);
-    out(0, j) = std::max(h_mix - h_comp, 0.0);
-    out(1, j) = NA_REAL;
-    if (M > 1) {
-      double h_models = 0;
-      for (int mod = 0; mod < M; ++mod) {
-        const long a = start[mod], b = start[mod + 1];
-        if (b == a) continue;
-        const std::vector<double> one_nu = {class_nu[model_class[mod] - 1]};
-        h_models += mass[mod] / total *
-                    mixture_entropy(&w[a], &m[a], &s[a], &ls[a], ones.data(), b - a, mass[mod],
-                                    one_nu, weight, quant, max_components);
-      }
-      out(1, j) = std::max(h_mix - h_models, 0.0);
-    }
+    const Entropies h = mixture_entropies(w.data(), m.data(), s.data(), ls.data(), cls.data(),
+                                          n, bounds, total, class_nu, mass, weight, quant,
+                                          max_components * M);
+    out(0, j) = std::max(h.mix - h_comp, 0.0);
+    out(1, j) = M > 1 ? std::max(h.mix - h.classes, 0.0) : NA_REAL;
   }
   return out;
 }

@@ -4,30 +4,24 @@
 # quadrature, as the C++ computes them. test-next-measurement.R checks the
 # package's answers against it; the package itself does not use it.
 
-# c(gain, gain_model) at one candidate from each model's components there.
+# c(gain, gain_model) at one candidate from each model's components there:
+# one merge, into at most 64 components per model, whose merged components
+# keep to one model, gives both the mixture's entropy and each model's.
 candidate_information <- function(comps) {
   one <- length(comps) == 1L
-  glue <- function(field) if (one) comps[[1]][[field]] else
-    unlist(lapply(comps, `[[`, field), use.names = FALSE)
+  glue <- function(field) unlist(lapply(comps, `[[`, field), use.names = FALSE)
   w <- glue("w")
   total <- sum(w)
-  nus <- vapply(comps, `[[`, 0, "nu")
-  nu <- if (all(nus == nus[1])) nus[1] else rep(nus, lengths(lapply(comps, `[[`, "w")))
+  sizes <- lengths(lapply(comps, `[[`, "w"))
+  nu <- rep(vapply(comps, `[[`, 0, "nu"), sizes)
+  model <- rep(seq_along(comps), sizes)
   s <- glue("s")
   log_s <- log(s)
-  h_mix <- mixture_entropy(w / total, glue("m"), s, nu, log_s = log_s)
-  gain <- h_mix - sum(w / total * t_entropy(nu, s, log_s))
-  gain_model <- if (!one) {
-    mass <- vapply(comps, function(cm) sum(cm$w), numeric(1))
-    h_models <- vapply(comps, function(cm) {
-      if (length(cm$w) == 0L) return(0)
-      mixture_entropy(cm$w / sum(cm$w), cm$m, cm$s, cm$nu)
-    }, numeric(1))
-    h_mix - sum(mass / total * h_models)
-  } else {
-    NA_real_
-  }
-  c(max(gain, 0), max(gain_model, 0))
+  mc <- merge_components(w / total, glue("m"), s, nu, 64L * length(comps), log_s,
+                         class = model, n_classes = length(comps))
+  h <- mixture_entropies(mc)
+  gain <- h[1] - sum(w / total * t_entropy(nu, s, log_s))
+  c(max(gain, 0), if (one) NA_real_ else max(h[1] - h[2], 0))
 }
 
 # The entropy of a Student-t with nu degrees of freedom and scale s: log s
@@ -59,18 +53,33 @@ by_distinct <- function(v, f) {
 # (merge_components()), then sum_j w_j [H(p_j) + KL(p_j || p)], each KL by
 # Gauss-Legendre quadrature over the component's quantiles.
 mixture_entropy <- function(w, m, s, nu, max_components = 64L, log_s = log(s)) {
-  mc <- merge_components(w, m, s, nu, max_components, log_s)
-  if (length(mc$w) == 1L) return(t_entropy(mc$nu, mc$s))
+  mixture_entropies(merge_components(w, m, s, nu, max_components, log_s))[1]
+}
+
+# c(the entropy of the merged mixture mc, sum over its classes (models) of
+# the class's mass times its own mixture's entropy): each KL of a component
+# against the whole mixture and against its class's part, at the same nodes.
+mixture_entropies <- function(mc) {
+  if (length(mc$w) == 1L) return(rep(t_entropy(mc$nu, mc$s), 2))
   rule <- legendre_rule()
   Q <- length(rule$u)
   nus <- unique(mc$nu)
   quantiles <- vapply(nus, function(v) stats::qt(rule$u, v), numeric(Q))
   z <- matrix(quantiles, Q)[, match(mc$nu, nus), drop = FALSE]   # Q x components
   y <- as.vector(z * rep(mc$s, each = Q) + rep(mc$m, each = Q))   # the nodes
-  log_p <- log(mixture_density(y, mc))
+  classes <- unique(mc$class)
+  dens <- vapply(classes, function(k) {
+    mixture_density(y, lapply(mc, function(v) v[mc$class == k]))
+  }, numeric(length(y)))
+  dens <- matrix(dens, length(y))
   log_pj <- t_log_kernel(z, mc$nu) - rep(log(mc$s), each = Q)
-  kl <- colSums(rule$weight * (log_pj - matrix(log_p, Q)))
-  sum(mc$w * (t_entropy(mc$nu, mc$s) + kl))
+  h_part <- t_entropy(mc$nu, mc$s)
+  kl <- colSums(rule$weight * (log_pj - matrix(log(rowSums(dens)), Q)))
+  mass <- vapply(classes, function(k) sum(mc$w[mc$class == k]), 0)
+  own <- rep(match(mc$class, classes), each = Q)
+  log_own <- log(dens[cbind(seq_along(y), own)]) - log(mass[own])
+  kl_class <- colSums(rule$weight * (log_pj - matrix(log_own, Q)))
+  c(sum(mc$w * (h_part + kl)), sum(mc$w * (h_part + kl_class)))
 }
 
 # The mixture's density at y: the squared standardised distances from a
@@ -97,13 +106,20 @@ mixture_density <- function(y, mc) {
 
 # Components merged into at most `max_components`: those in one bin of
 # location (width a quarter of the scale) and log scale (width 0.05), per
-# degrees of freedom, become one with their weight, mean and variance
-# (squared scale: the weighted mean square scale plus the locations'
-# variance). While too many remain, the bins widen (src/merge_components.cpp).
-merge_components <- function(w, m, s, nu, max_components, log_s = log(s)) {
-  if (length(w) <= 1L) return(list(w = w, m = m, s = s, nu = rep_len(nu, length(w))))
-  nus <- unique(nu)
-  cls <- if (length(nus) == 1L) rep(1L, length(w)) else match(rep_len(nu, length(w)), nus)
-  out <- merge_components_cpp(w, m, s, log_s, cls, length(nus), 0.25, 0.05, max_components)
-  list(w = out$w, m = out$m, s = sqrt(out$s2), nu = nus[out$nu_class])
+# class (by default, per degrees of freedom; next_measurement() uses the
+# model), become one with their weight, mean and variance (squared scale:
+# the weighted mean square scale plus the locations' variance). While too
+# many remain, the bins widen (src/merge_components.cpp). Given, `class`
+# takes values in 1..n_classes.
+merge_components <- function(w, m, s, nu, max_components, log_s = log(s), class = NULL,
+                             n_classes = max(class)) {
+  nu <- rep_len(nu, length(w))
+  if (is.null(class)) {
+    class <- match(nu, unique(nu))
+    n_classes <- max(class)
+  }
+  if (length(w) <= 1L) return(list(w = w, m = m, s = s, nu = nu, class = class))
+  out <- merge_components_cpp(w, m, s, log_s, class, n_classes, 0.25, 0.05, max_components)
+  list(w = out$w, m = out$m, s = sqrt(out$s2), nu = nu[match(out$nu_class, class)],
+       class = out$nu_class)
 }

@@ -217,4 +217,19 @@ test_that("the C++ pass over the candidates equals the plain-R path", {
   m <- stream_models(one = griddy_stream(lib, prior = prior),
                      two = griddy_stream(rival, prior = list(shape = 2, rate = 0.01)))
   check(update(m, y = 1.3, x = data.frame(x = 2), t = tt[3]))
+  # degrees of freedom not a whole number: the kernel by exp and log, not
+  # by products and a square root
+  check(update(griddy_stream(lib, prior = list(shape = 0.8, rate = 0.01)), y = c(1.3, 1.5),
+               x = data.frame(x = c(2, 2)), t = tt[3:4]))
+})
+
+test_that("each model keeps the components carrying all but 1e-4 of its own mass", {
+  # model two holds 1e-6 of the whole: a cut over all models at once would
+  # drop it, and gain_model with it (test above: "the ranking still holds")
+  w <- list(one = c(0.5, 0.3, 0.2 - 1e-6, 5e-5, 4e-5), two = 1e-6 * c(0.9, 0.09, 0.01))
+  keep <- prune_components(w)
+  expect_equal(keep$one, 1:3)
+  expect_equal(keep$two, 1:3)
+  for (m in 1:2) expect_gte(sum(w[[m]][keep[[m]]]), (1 - 1e-4) * sum(w[[m]]))
+  expect_equal(prune_components(list(c(0.7, 0.3), c(0, 0)))[[2]], integer(0))
 })
