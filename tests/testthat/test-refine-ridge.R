@@ -111,3 +111,31 @@ test_that("more posterior beyond an earlier bound than Monte Carlo error allows 
   expect_identical(drifted(tab, earlier, p, theta), c(TRUE, FALSE))
   expect_identical(drifted(tab, tab, p, theta), c(FALSE, FALSE))
 })
+
+# An importance sample of a posterior flat along a product ridge, a b = 0.1
+# for a in [0.1, 1] (b = 0.1 / a, thin across), from runs drawn along a
+# with density proportional to `q` (on [0.1, 1]); weights 1 / q.
+ridge_sample <- function(q, n = 3000) {
+  set.seed(351)
+  a <- stats::runif(20 * n, 0.1, 1)
+  a <- a[stats::runif(20 * n) * max(q(a)) < q(a)][seq_len(n)]
+  theta <- data.frame(a = a, b = 0.1 / a + stats::rnorm(n, sd = 0.002), c = 0.5)
+  p <- (1 / q(a)) / sum(1 / q(a))
+  list(theta = theta, p = p, table = resolution_table(p, theta, scattered = TRUE))
+}
+
+test_that("runs that thin out along a ridge before the posterior does are seen", {
+  # runs drawn mostly near a = 0.1, thinning out by a = 0.6 while the ridge
+  # goes on to 1: the few runs out there carry the tails' mass on uneven
+  # weights, though the count of effective runs passes
+  cut <- ridge_sample(function(a) stats::dnorm(a - 0.1, sd = 0.3))
+  expect_gt(effective_count(cut$p), effective_runs_needed(2))
+  expect_identical(thin_tails(cut$table, cut$p, cut$theta), c(TRUE, TRUE, FALSE))
+  # drawn more densely towards both ends than the posterior (as refine()'s
+  # heavier-tailed proposals are): the tails are not thin
+  whole <- ridge_sample(function(a) 1 + 4 * ((a - 0.55) / 0.45)^2)
+  expect_identical(thin_tails(whole$table, whole$p, whole$theta), c(FALSE, FALSE, FALSE))
+  # boxes (below four parameters) keep their own tests
+  expect_identical(thin_tails(cut$table, cut$p, cut$theta, applies = FALSE),
+                   c(FALSE, FALSE, FALSE))
+})
