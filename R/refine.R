@@ -117,7 +117,10 @@
 #' rounds (the posterior with them dropped) nor has more of the posterior
 #' beyond it now than its 2.5% and three Monte Carlo sds; the warning at `max_runs`
 #' then has class `griddy_warning_reach` too and names the parameters whose
-#' intervals still moved.
+#' intervals still moved. Nor is it resolved while the runs outside an
+#' interval carry fewer effective runs than their share of the
+#' posterior's (the runs thin out before the posterior does, as at the
+#' unreached end of a ridge); the warning names those parameters too.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped. Otherwise the refined fit
@@ -387,13 +390,17 @@ warn_unresolved <- function(state, rounds) {
   few_values <- tab$effective_values < resolution_min_values
   drift <- drifted(tab, drift_reference(rounds$history, state$problem$library), state$p,
                    lib_theta(state$problem$library))
+  thin <- state_thin_tails(state)
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
          ifelse(moved, "its interval still moved in the last round",
          ifelse(drift, paste0("its interval still moved over the last ", drift_rounds,
                               " rounds: the runs have not followed the posterior to its end"),
-                NA))))
+         ifelse(thin, paste0("the runs outside its interval are fewer than their share ",
+                             "of the posterior's: the runs thin out before the posterior does, ",
+                             "which may go on past them"),
+                NA)))))
   bad <- !is.na(why)
   extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
              if (state$far_mass > far_mass_tol) {
@@ -421,6 +428,6 @@ warn_unresolved <- function(state, rounds) {
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
-              class = c(if (any(drift) || !explored(state$problem$library)) "reach",
+              class = c(if (any(drift | thin) || !explored(state$problem$library)) "reach",
                         "resolution"))
 }
