@@ -37,6 +37,10 @@ merge_components_cpp <- function(w, m, s, ls, nu_class, n_classes, width_locatio
     .Call(`_griddy_merge_components_cpp`, w, m, s, ls, nu_class, n_classes, width_location, width_scale, max_components)
 }
 
+near_candidates_cpp <- function(cols, span, best, k, slack) {
+    .Call(`_griddy_near_candidates_cpp`, cols, span, best, k, slack)
+}
+
 next_gains_cpp <- function(models, n_candidates, u, weight, max_components) {
     .Call(`_griddy_next_gains_cpp`, models, n_candidates, u, weight, max_components)
 }

@@ -536,15 +536,24 @@ discrepancy_for_data <- function(discrepancy, library, y, pattern, best = NULL) 
 # data best (best_fitting_run()). Parameters the library holds constant, or
 # that the nearest runs do not vary, are left out. NULL when none is left.
 discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
-  theta <- unit_scaled_theta(lib_theta(library))
-  if (ncol(theta) == 0L) return(NULL)
+  scale <- theta_scale(lib_theta(library))
+  n_varying <- length(scale$cols)
+  if (n_varying == 0L) return(NULL)
   if (is.null(best)) best <- best_fitting_run(library, y, pattern)
-  k <- min(nrow(theta), max(4L * ncol(theta) + 2L, 12L))
-  near <- nearest_runs(theta[best, , drop = FALSE], theta, k)$idx[1, ]
-  X <- sweep(theta[near, , drop = FALSE], 2, theta[best, ])
+  k <- min(length(scale$cols[[1]]), max(4L * n_varying + 2L, 12L))
+  # nearest_runs() over the runs that can be among the k nearest: those
+  # whose distance by differences is within rounding of the k-th smallest
+  # (nearest_runs() computes it another way, and its rounding breaks ties),
+  # found in one read in C++: at 10^6 runs a search over every run in R
+  # took half of calibrate()
+  rows <- near_candidates_cpp(scale$cols, scale$span, as.integer(best), as.integer(k), 1e-9)
+  scaled <- scaled_rows(scale, rows)
+  at_best <- match(best, rows)
+  near <- nearest_runs(scaled[at_best, , drop = FALSE], scaled, k)$idx[1, ]
+  X <- sweep(scaled[near, , drop = FALSE], 2, scaled[at_best, ])
   X <- X[, apply(X, 2, function(v) diff(range(v)) > 0), drop = FALSE]
   if (ncol(X) == 0L) return(NULL)
-  fit <- stats::lm.fit(cbind(1, X), lib_outputs(library, near))
+  fit <- stats::lm.fit(cbind(1, X), lib_outputs(library, rows[near]))
   # lm.fit() drops a one-column response: a library of one output has a
   # vector of coefficients
   G <- t(matrix(as.matrix(fit$coefficients)[-1, , drop = FALSE], ncol(X)))
@@ -552,16 +561,30 @@ discrepancy_sensitivity <- function(library, y, pattern, best = NULL) {
   if (ncol(G) == 0L) NULL else G
 }
 
-# The library's parameters that vary, each scaled to [0, 1] (a matrix).
-# Column by column: at 10^6 runs apply() and sweep() over the whole matrix
-# took most of the gap screen (the same arithmetic, so the same values).
-unit_scaled_theta <- function(theta) {
+# The library's parameters that vary (their columns), with their smallest
+# value and range, each read once.
+theta_scale <- function(theta) {
   cols <- lapply(as.data.frame(theta), as.numeric)
-  span <- vapply(cols, function(v) diff(range(v)), numeric(1))
+  ranges <- vapply(cols, value_range_cpp, numeric(2))
+  span <- ranges[2, ] - ranges[1, ]
   keep <- which(span > 0)
-  scaled <- lapply(keep, function(j) (cols[[j]] - min(cols[[j]])) / span[[j]])
-  matrix(as.numeric(unlist(scaled, use.names = FALSE)), length(cols[[1]]), length(keep),
-         dimnames = list(NULL, names(cols)[keep]))
+  list(cols = cols[keep], min = ranges[1, keep], span = span[keep])
+}
+
+# Rows `rows` of the varying parameters, each scaled to [0, 1] by its range
+# over all runs (a matrix): column by column, the arithmetic of sweep()
+# over the whole matrix (the same values).
+scaled_rows <- function(scale, rows) {
+  scaled <- lapply(seq_along(scale$cols),
+                   function(j) (scale$cols[[j]][rows] - scale$min[[j]]) / scale$span[[j]])
+  matrix(as.numeric(unlist(scaled, use.names = FALSE)), length(rows), length(scale$cols),
+         dimnames = list(NULL, names(scale$cols)))
+}
+
+# All runs' varying parameters scaled to [0, 1].
+unit_scaled_theta <- function(theta) {
+  scale <- theta_scale(theta)
+  scaled_rows(scale, seq_len(NROW(theta)))
 }
 
 # The run that fits the field data best with independent noise (the noise

@@ -145,6 +145,21 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// near_candidates_cpp
+Rcpp::IntegerVector near_candidates_cpp(Rcpp::List cols, Rcpp::NumericVector span, int best, int k, double slack);
+RcppExport SEXP _griddy_near_candidates_cpp(SEXP colsSEXP, SEXP spanSEXP, SEXP bestSEXP, SEXP kSEXP, SEXP slackSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::List >::type cols(colsSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type span(spanSEXP);
+    Rcpp::traits::input_parameter< int >::type best(bestSEXP);
+    Rcpp::traits::input_parameter< int >::type k(kSEXP);
+    Rcpp::traits::input_parameter< double >::type slack(slackSEXP);
+    rcpp_result_gen = Rcpp::wrap(near_candidates_cpp(cols, span, best, k, slack));
+    return rcpp_result_gen;
+END_RCPP
+}
 // next_gains_cpp
 Rcpp::NumericMatrix next_gains_cpp(const Rcpp::List& models, int n_candidates, const std::vector<double>& u, const std::vector<double>& weight, int max_components);
 RcppExport SEXP _griddy_next_gains_cpp(SEXP modelsSEXP, SEXP n_candidatesSEXP, SEXP uSEXP, SEXP weightSEXP, SEXP max_componentsSEXP) {
@@ -377,6 +392,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},
     {"_griddy_merge_components_cpp", (DL_FUNC) &_griddy_merge_components_cpp, 9},
+    {"_griddy_near_candidates_cpp", (DL_FUNC) &_griddy_near_candidates_cpp, 5},
     {"_griddy_next_gains_cpp", (DL_FUNC) &_griddy_next_gains_cpp, 5},
     {"_griddy_other_drops_cpp", (DL_FUNC) &_griddy_other_drops_cpp, 8},
     {"_griddy_piston_precompute_cpp", (DL_FUNC) &_griddy_piston_precompute_cpp, 8},

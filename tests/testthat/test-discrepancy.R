@@ -329,3 +329,25 @@ test_that("unit_scaled_theta() scales the varying parameters to [0, 1] as the ma
   expect_identical(unit_scaled_theta(m), ref)
   expect_equal(ncol(unit_scaled_theta(data.frame(a = rep(1, 5)))), 0L)
 })
+
+test_that("discrepancy_sensitivity() finds the nearest runs as a search over every run does, ties included", {
+  # the search runs over near_candidates_cpp()'s candidates only; on a grid
+  # many runs tie, and nearest_runs()'s rounding breaks the ties
+  full_search <- function(lib, best) {
+    theta <- unit_scaled_theta(lib_theta(lib))
+    k <- max(4L * ncol(theta) + 2L, 12L)
+    near <- nearest_runs(theta[best, , drop = FALSE], theta, k)$idx[1, ]
+    X <- sweep(theta[near, , drop = FALSE], 2, theta[best, ])
+    fit <- stats::lm.fit(cbind(1, X), lib_outputs(lib, near))
+    t(matrix(fit$coefficients[-1, , drop = FALSE], ncol(X)))
+  }
+  th <- expand.grid(a = seq(0, 1, length.out = 12), b = seq(2, 3, length.out = 9),
+                    c = c(1, 2, 4, 5, 7))
+  lib <- sim_library(th, cbind(th$a * 2 + th$c, sin(th$a) + th$b^2, th$a * th$c))
+  for (best in c(1L, 50L, 271L, nrow(th))) {
+    expect_identical(discrepancy_sensitivity(lib, NULL, NULL, best), full_search(lib, best))
+  }
+  expect_identical(near_candidates_cpp(list(c(0, 1, 2, 3)), 3, 2L, 10L, 1e-9), 1:4)
+  expect_identical(near_candidates_cpp(list(c(0, 1, 2, 3, 1)), 3, 2L, 2L, 1e-9), c(2L, 5L))
+  expect_identical(near_candidates_cpp(list(c(0, 1, 2, 3, 1)), 3, 2L, 3L, 1e-9), c(1L, 2L, 3L, 5L))
+})
