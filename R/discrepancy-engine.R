@@ -81,7 +81,9 @@ discrepancy_kernel_factors <- function(library, kernels) {
     coef <- scaled_coefs(basis, coef, kernels)
     axes <- NULL
   }
-  list(basis = basis, coef = coef, axes = axes)
+  # the basis's leading columns stay kronecker(B_x, B_t) whatever follows
+  list(basis = basis, coef = coef, axes = axes,
+       axis_basis = list(x = fx$basis, t = ft$basis))
 }
 
 # With knowledge the kernel is not a Kronecker product: each length scale's
@@ -142,6 +144,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
   H <- A
   rot <- A
   axis_rot <- if (kron && !is.null(factors$axes)) A
+  axis_basis <- if (kron && is.null(axis_rot) && !is.null(factors$axis_basis)) A
   base_logdet <- numeric(G)
   for (g in seq_len(G)) {
     if (kron) {
@@ -166,6 +169,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
       })
       next
     }
+    if (!is.null(axis_basis)) axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
     J <- lapply(H[[g]], crossprod)
     rot[[g]] <- lapply(factors$coef, function(C) lapply(J, function(Jk) {
       e <- eigen(crossprod(C, Jk %*% C), symmetric = TRUE)
@@ -182,6 +186,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
   }
   list(obs = obs, scale = scale, groups = groups, kron = kron, A = A, H = H, rot = rot,
        axes = if (!is.null(axis_rot)) factors$axes[c("kx", "kt")], axis_rot = axis_rot,
+       axis_basis = axis_basis,
        grid = grid, logdet = logdet, lowrank = TRUE, basis_all = factors$basis)
 }
 
@@ -192,10 +197,9 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
 # d_x (x) d_t). Per axis length: T, d and G = H T (the whitened factor's
 # columns, which the forms multiply the residuals by).
 kron_axis_rotations <- function(point, axes) {
-  A_x <- backsolve(point$Rx_chol, diag(point$n_x))
-  H_x <- crossprod(A_x, axes$x$basis)
-  H_t <- axes$t$basis
-  if (any(point$phi != 0)) H_t <- t(ar1_whiten_rows_cpp(t(H_t), point$phi, 1L))
+  H <- whitened_axes(point, list(x = axes$x$basis, t = axes$t$basis))
+  H_x <- H$x
+  H_t <- H$t
   rotate <- function(H, C) {
     e <- eigen(crossprod(H %*% C), symmetric = TRUE)
     rotation <- C %*% e$vectors
@@ -203,6 +207,38 @@ kron_axis_rotations <- function(point, axes) {
   }
   list(x = lapply(axes$x$coef, function(C) rotate(H_x, C)),
        t = lapply(axes$t$coef, function(C) rotate(H_t, C)))
+}
+
+# The axes' bases whitened at a Kronecker grid point: kronecker(x, t) is the
+# whitened kronecker(B_x, B_t).
+whitened_axes <- function(point, basis) {
+  A_x <- backsolve(point$Rx_chol, diag(point$n_x))
+  H_t <- basis$t
+  if (any(point$phi != 0)) H_t <- t(ar1_whiten_rows_cpp(t(H_t), point$phi, 1L))
+  list(x = crossprod(A_x, basis$x), t = H_t)
+}
+
+# Z (runs x n_x n_t) times kronecker(G_x, G_t): one product over every
+# (run, setting) by G_t, then one over the settings by G_x.
+kron_product <- function(Z, G_x, G_t, product) {
+  runs <- nrow(Z)
+  n_x <- nrow(G_x)
+  n_t <- nrow(G_t)
+  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
+  W <- product(Zs, G_t)
+  W <- matrix(aperm(array(W, c(runs, n_x, ncol(G_t))), c(1L, 3L, 2L)), runs * ncol(G_t), n_x)
+  matrix(product(W, G_x), runs, ncol(G_t) * ncol(G_x))
+}
+
+# Z H for the whitened basis H of base point g: its Kronecker columns per
+# axis (kron_product()), the rest (the sensitivities') as one product.
+whitened_coordinates <- function(Z, dense, g, H, product) {
+  ax <- dense$axis_basis[[g]]
+  if (is.null(ax)) return(product(Z, H))
+  m <- ncol(ax$x) * ncol(ax$t)
+  ZH <- kron_product(Z, ax$x, ax$t, product)
+  if (m == ncol(H)) return(ZH)
+  cbind(ZH, product(Z, H[, -seq_len(m), drop = FALSE]))
 }
 
 # The coordinates G_l'z of whitened residuals Z (runs x n_x n_t, complete
@@ -407,7 +443,7 @@ discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, prod
   P <- if (!is.null(dense$axis_rot)) {
     kron_coordinates(Z, dense, g, used, product)
   } else {
-    product(product(Z, H), T_all)             # G'z, every kernel's
+    product(whitened_coordinates(Z, dense, g, H, product), T_all)   # G'z, every kernel's
   }
   PF <- if (error) (WF %*% H) %*% T_all       # (G'A'F)'
   ends <- cumsum(vapply(rots, function(r) length(r$d), 1L))

@@ -197,10 +197,16 @@ test_that("complete data and Kronecker kernels take the per-axis coordinates, to
   whole <- setup
   whole$dense$axis_rot <- NULL
   expect_lt(max(abs(C - plain_quad_forms(Y, problem$y_field, whole)) / C), 1e-10)
-  # a projected (orthogonal) or scaled kernel is no Kronecker product: the whole basis
+  # a projected (orthogonal) or scaled kernel is no Kronecker product, but its
+  # basis's leading columns are: the residuals' coordinates in it per axis
   for (disc in list(gp_discrepancy(), gp_discrepancy(scaled = TRUE))) {
     other <- calibration_problem(case$lib, case$field, 0, c(0, 0.5), NULL, 2, NULL,
                                  discrepancy = disc)
     expect_null(other$setup$dense$axis_rot)
+    expect_false(is.null(other$setup$dense$axis_basis))
+    C <- plain_quad_forms(Y, other$y_field, other$setup)
+    whole <- other$setup
+    whole$dense$axis_basis <- NULL
+    expect_lt(max(abs(C - plain_quad_forms(Y, other$y_field, whole)) / C), 1e-10)
   }
 })
