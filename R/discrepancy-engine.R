@@ -65,15 +65,25 @@ discrepancy_kernel_factors <- function(library, kernels) {
               ft$coef[[match(kernels$length_t[k], ft$lens)]])
   })
   G <- attr(kernels, "sensitivity")
+  # the axes' factors, while every kernel is their Kronecker product (not
+  # after a projection or a scaling): the forms then work per axis
+  axes <- list(x = fx, t = ft, kx = match(kernels$length_x, fx$lens),
+               kt = match(kernels$length_t, ft$lens))
   if (!is.null(G) && ncol(G) > 0L) {
+    axes <- NULL
     # P F = F - Q (Q' F): B gains Q's columns, C_l the rows -Q' B C_l
     Q <- qr.Q(qr(G))
     QB <- crossprod(Q, basis)
     coef <- lapply(coef, function(C) rbind(C, -QB %*% C))
     basis <- cbind(basis, Q)
   }
-  if (!is.null(kernels$ratio)) coef <- scaled_coefs(basis, coef, kernels)
-  list(basis = basis, coef = coef)
+  if (!is.null(kernels$ratio)) {
+    coef <- scaled_coefs(basis, coef, kernels)
+    axes <- NULL
+  }
+  # the basis's leading columns stay kronecker(B_x, B_t) whatever follows
+  list(basis = basis, coef = coef, axes = axes,
+       axis_basis = list(x = fx$basis, t = ft$basis))
 }
 
 # With knowledge the kernel is not a Kronecker product: each length scale's
@@ -133,6 +143,8 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
   A <- vector("list", G)
   H <- A
   rot <- A
+  axis_rot <- if (kron && !is.null(factors$axes)) A
+  axis_basis <- if (kron && is.null(axis_rot) && !is.null(factors$axis_basis)) A
   base_logdet <- numeric(G)
   for (g in seq_len(G)) {
     if (kron) {
@@ -147,6 +159,17 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
       H[[g]] <- Map(function(a, idx) crossprod(a, basis[idx, , drop = FALSE]), A[[g]], groups)
       base_logdet[g] <- base$logdet + log_sd
     }
+    if (kron && !is.null(factors$axes)) {
+      ax <- kron_axis_rotations(A[[g]], factors$axes)
+      axis_rot[[g]] <- ax
+      rot[[g]] <- lapply(seq_along(factors$coef), function(l) {
+        x <- ax$x[[factors$axes$kx[l]]]
+        t <- ax$t[[factors$axes$kt[l]]]
+        list(list(T = kronecker(x$T, t$T), d = as.vector(kronecker(x$d, t$d))))
+      })
+      next
+    }
+    if (!is.null(axis_basis)) axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
     J <- lapply(H[[g]], crossprod)
     rot[[g]] <- lapply(factors$coef, function(C) lapply(J, function(Jk) {
       e <- eigen(crossprod(C, Jk %*% C), symmetric = TRUE)
@@ -162,7 +185,91 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
     logdet[j] <- logdet[j] + sum(log1p(grid$ratio[j] * d))
   }
   list(obs = obs, scale = scale, groups = groups, kron = kron, A = A, H = H, rot = rot,
+       axes = if (!is.null(axis_rot)) factors$axes[c("kx", "kt")], axis_rot = axis_rot,
+       axis_basis = axis_basis,
        grid = grid, logdet = logdet, lowrank = TRUE, basis_all = factors$basis)
+}
+
+# Complete data and Kronecker kernels: R^-1 = (A_x A_x') (x) (W_t' W_t) and
+# K_l = (B_x C_x)(B_x C_x)' (x) (B_t C_t)(B_t C_t)', so the whitened basis
+# is H_x (x) H_t and C_l' H'H C_l = (C_x' H_x'H_x C_x) (x) (C_t' H_t'H_t C_t):
+# its eigenpairs are the products of the axes' (T_l = T_x (x) T_t, d_l =
+# d_x (x) d_t). Per axis length: T, d and G = H T (the whitened factor's
+# columns, which the forms multiply the residuals by).
+kron_axis_rotations <- function(point, axes) {
+  H <- whitened_axes(point, list(x = axes$x$basis, t = axes$t$basis))
+  H_x <- H$x
+  H_t <- H$t
+  rotate <- function(H, C) {
+    e <- eigen(crossprod(H %*% C), symmetric = TRUE)
+    rotation <- C %*% e$vectors
+    list(T = rotation, d = pmax(e$values, 0), G = H %*% rotation)
+  }
+  list(x = lapply(axes$x$coef, function(C) rotate(H_x, C)),
+       t = lapply(axes$t$coef, function(C) rotate(H_t, C)))
+}
+
+# The axes' bases whitened at a Kronecker grid point: kronecker(x, t) is the
+# whitened kronecker(B_x, B_t).
+whitened_axes <- function(point, basis) {
+  A_x <- backsolve(point$Rx_chol, diag(point$n_x))
+  H_t <- basis$t
+  if (any(point$phi != 0)) H_t <- t(ar1_whiten_rows_cpp(t(H_t), point$phi, 1L))
+  list(x = crossprod(A_x, basis$x), t = H_t)
+}
+
+# Z (runs x n_x n_t) times kronecker(G_x, G_t): one product over every
+# (run, setting) by G_t, then one over the settings by G_x.
+kron_product <- function(Z, G_x, G_t, product) {
+  runs <- nrow(Z)
+  n_x <- nrow(G_x)
+  n_t <- nrow(G_t)
+  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
+  W <- product(Zs, G_t)
+  W <- matrix(aperm(array(W, c(runs, n_x, ncol(G_t))), c(1L, 3L, 2L)), runs * ncol(G_t), n_x)
+  matrix(product(W, G_x), runs, ncol(G_t) * ncol(G_x))
+}
+
+# Z H for the whitened basis H of base point g: its Kronecker columns per
+# axis (kron_product()), the rest (the sensitivities') as one product.
+whitened_coordinates <- function(Z, dense, g, H, product) {
+  ax <- dense$axis_basis[[g]]
+  if (is.null(ax)) return(product(Z, H))
+  m <- ncol(ax$x) * ncol(ax$t)
+  ZH <- kron_product(Z, ax$x, ax$t, product)
+  if (m == ncol(H)) return(ZH)
+  cbind(ZH, product(Z, H[, -seq_len(m), drop = FALSE]))
+}
+
+# The coordinates G_l'z of whitened residuals Z (runs x n_x n_t, complete
+# data) for kernels `used`, side by side in the order of their rotations
+# (kronecker(T_x, T_t)): per t length one product over every (run, setting),
+# then per kernel one over the settings, runs x n_x (m_t + m_x m_t) numbers
+# per kernel instead of runs x n m_B.
+kron_coordinates <- function(Z, dense, g, used, product) {
+  ax <- dense$axis_rot[[g]]
+  runs <- nrow(Z)
+  n_x <- nrow(ax$x[[1]]$G)
+  n_t <- ncol(Z) %/% n_x
+  kt <- dense$axes$kt[used]
+  kx <- dense$axes$kx[used]
+  t_used <- unique(kt)
+  Gt <- do.call(cbind, lapply(ax$t[t_used], `[[`, "G"))
+  m_t <- vapply(ax$t[t_used], function(a) ncol(a$G), 1L)
+  start <- cumsum(m_t) - m_t
+  # rows (run, setting), run fastest
+  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
+  W <- product(Zs, Gt)
+  # per t length, rows (run, t coordinate) and a column per setting
+  Wt <- lapply(seq_along(t_used), function(b) {
+    Wb <- W[, start[b] + seq_len(m_t[b]), drop = FALSE]
+    matrix(aperm(array(Wb, c(runs, n_x, m_t[b])), c(1L, 3L, 2L)), runs * m_t[b], n_x)
+  })
+  do.call(cbind, lapply(seq_along(used), function(i) {
+    b <- match(kt[i], t_used)
+    Gx <- ax$x[[kx[i]]]$G
+    matrix(product(Wt[[b]], Gx), runs, m_t[b] * ncol(Gx))
+  }))
 }
 
 # What whiten_rows() needs of base grid point g of a Kronecker setup.
@@ -333,7 +440,11 @@ discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, prod
   rots <- lapply(dense$rot[[g]][used], `[[`, k)
   H <- dense$H[[g]][[k]]
   T_all <- do.call(cbind, lapply(rots, `[[`, "T"))
-  P <- product(product(Z, H), T_all)          # G'z, every kernel's
+  P <- if (!is.null(dense$axis_rot)) {
+    kron_coordinates(Z, dense, g, used, product)
+  } else {
+    product(whitened_coordinates(Z, dense, g, H, product), T_all)   # G'z, every kernel's
+  }
   PF <- if (error) (WF %*% H) %*% T_all       # (G'A'F)'
   ends <- cumsum(vapply(rots, function(r) length(r$d), 1L))
   for (i in seq_along(used)) {
@@ -343,7 +454,7 @@ discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, prod
     weights <- outer(rots[[i]]$d, lambda, function(d, lam) lam / (1 + lam * d))
     Pi <- P[, cols, drop = FALSE]
     # a quadratic form is >= 0; the difference can round below
-    out[, pts] <- pmax(out[, pts, drop = FALSE] - Pi^2 %*% weights, 0)
+    out[, pts] <- pmax(out[, pts, drop = FALSE] - product(Pi^2, weights), 0)
     if (!error) next
     # per ratio, F' S^-1 F = FF - PF diag(w) PF' = Q diag(gamma) Q', and the
     # runs' (b'Q) = [zF, P] [Q; -diag(w) PF' Q], all ratios in one product

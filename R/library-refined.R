@@ -239,12 +239,16 @@ lib_with_noise_var.refined_library <- function(library, noise_var, y_field) {
 # predicted ones, as list(C, extra_logdet) (0 for simulated runs).
 added_quad_forms <- function(library, which, y_field, setup) {
   y <- library$added$y[which, , drop = FALSE]
-  C <- plain_quad_forms(y, y_field, setup)
-  extra <- matrix(0, nrow(C), ncol(C))
-  for (r in unique(library$added$round[which])) {
+  round <- library$added$round[which]
+  C <- matrix(0, length(which), n_grid_points(setup))
+  extra <- C
+  # a run with a prediction error has only its emulated forms (the plain
+  # ones, half the cost under a discrepancy, would be overwritten)
+  plain <- vapply(round, function(r) is.null(library$rounds[[r]]$error), logical(1))
+  if (any(plain)) C[plain, ] <- plain_quad_forms(y[plain, , drop = FALSE], y_field, setup)
+  for (r in unique(round[!plain])) {
     err <- library$rounds[[r]]$error
-    if (is.null(err)) next
-    rows <- which(library$added$round[which] == r)
+    rows <- which(round == r)
     em <- emulated_quad_forms(y[rows, , drop = FALSE], y_field, setup, err,
                               library$added$rel_var[which][rows], lib_n_x(library),
                               lib_n_t(library))

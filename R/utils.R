@@ -36,8 +36,14 @@ row_groups <- function(x, tolerance = match_tolerance) {
   first <- exact_row_match(x, x)
   if (tolerance > 0 && length(x[[1]]) > 1L) {
     scale <- vapply(x, function(v) max(0, abs(v), na.rm = TRUE) * tolerance, 0)
-    near <- near_row_match(x, x, scale)
-    first <- ifelse(is.na(near), first, pmin(near, first))
+    # near rows among the distinct rows only: a column of few values (a
+    # candidate's strength levels over 10^5 runs) would otherwise pair every
+    # row with every equal one, n^2 / levels pairs
+    reps <- which(first == seq_along(first))
+    x_reps <- lapply(x, `[`, reps)
+    near <- near_row_match(x_reps, x_reps, scale)
+    near_first <- ifelse(is.na(near), reps, pmin(reps[near], reps))
+    first <- near_first[match(first, reps)]
   }
   match(first, unique(first))
 }

@@ -184,3 +184,29 @@ test_that("predicted runs' forms under a discrepancy match dense solves with gap
   expect_emulated_exact(engine_case(missing = TRUE, sd = sd), gp_discrepancy(),
                         c(0.002, 0.004), noise_groups = rep(c("a", "b"), 18))
 })
+
+test_that("complete data and Kronecker kernels take the per-axis coordinates, to rounding", {
+  case <- engine_case()
+  problem <- calibration_problem(case$lib, case$field, 0, c(0, 0.5, 0.9), NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(orthogonal = FALSE))
+  setup <- problem$setup
+  expect_false(is.null(setup$dense$axis_rot))
+  Y <- lib_outputs(case$lib, seq_len(lib_n_runs(case$lib)))
+  C <- plain_quad_forms(Y, problem$y_field, setup)
+  # the same rotations through the whole whitened basis
+  whole <- setup
+  whole$dense$axis_rot <- NULL
+  expect_lt(max(abs(C - plain_quad_forms(Y, problem$y_field, whole)) / C), 1e-10)
+  # a projected (orthogonal) or scaled kernel is no Kronecker product, but its
+  # basis's leading columns are: the residuals' coordinates in it per axis
+  for (disc in list(gp_discrepancy(), gp_discrepancy(scaled = TRUE))) {
+    other <- calibration_problem(case$lib, case$field, 0, c(0, 0.5), NULL, 2, NULL,
+                                 discrepancy = disc)
+    expect_null(other$setup$dense$axis_rot)
+    expect_false(is.null(other$setup$dense$axis_basis))
+    C <- plain_quad_forms(Y, other$y_field, other$setup)
+    whole <- other$setup
+    whole$dense$axis_basis <- NULL
+    expect_lt(max(abs(C - plain_quad_forms(Y, other$y_field, whole)) / C), 1e-10)
+  }
+})

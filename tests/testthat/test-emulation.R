@@ -10,6 +10,27 @@ test_that("one truncation rule: the leading directions hold 99.99% of the second
   expect_gte(sum(err$lambda) / sum(d2), error_energy)
 })
 
+test_that("the error model's leading directions are those of the full SVD, tall or wide", {
+  set.seed(2)
+  for (shape in list(c(600, 240), c(240, 600))) {
+    decay <- 10^(-(seq_len(60) - 1) / 8)
+    E <- matrix(rnorm(shape[1] * 60), shape[1]) %*%
+      (decay * matrix(rnorm(60 * shape[2]), 60)) + 1e-9 * rnorm(prod(shape))
+    s <- leading_svd(E, 80L)
+    full <- svd(E, nu = 0L)
+    m <- error_rank(full$d^2)
+    expect_gt(m, 10L)
+    # the kept values, and the directions up to sign: the same projections
+    expect_equal(s$d[1:m], full$d[1:m], tolerance = 1e-10)
+    V <- s$v[, 1:m] %*% (s$d[1:m]^2 * t(s$v[, 1:m]))
+    W <- full$v[, 1:m] %*% (full$d[1:m]^2 * t(full$v[, 1:m]))
+    expect_lt(max(abs(V - W)) / max(abs(W)), 1e-10)
+    err <- emulation_error_model(E, 1)
+    expect_identical(ncol(err$U), error_rank(full$d^2 / nrow(E)))
+    expect_equal(err$lambda, full$d[1:m]^2 / nrow(E), tolerance = 1e-10)
+  }
+})
+
 test_that("the error model is the Kronecker product of settings and outputs, as dense algebra", {
   skip_if_not_installed("RobustGaSP")
   lib <- emulated_toy_library(n_runs = 50)

@@ -59,6 +59,28 @@ test_that("the prediction error in the likelihood is the Woodbury form of the fu
   }
 })
 
+test_that("predicted runs' forms are their emulated forms alone, no plain forms beside them", {
+  toy <- refine_toy()
+  lib <- refine(toy$fit, max_runs = 300, runs_per_round = 100, seed = 2)$library
+  y <- toy$fit$y_field
+  setup <- toy$fit$setup
+  i <- which(lib$added$round == 1)[1:4]
+  err <- lib$rounds[[1]]$error
+  expect_false(is.null(err))
+  calls <- new.env()
+  calls$plain <- 0L
+  ns <- environment(added_quad_forms)
+  suppressMessages(trace("plain_quad_forms", quote(calls$plain <- calls$plain + 1L),
+                         print = FALSE, where = ns))
+  withr::defer(suppressMessages(untrace("plain_quad_forms", where = ns)))
+  got <- added_quad_forms(lib, i, y, setup)
+  expect_identical(calls$plain, 0L)
+  want <- emulated_quad_forms(lib$added$y[i, , drop = FALSE], y, setup, err, lib$added$rel_var[i],
+                              1L, length(y))
+  expect_identical(got$C, want$C)
+  expect_identical(got$extra_logdet, want$logdet)
+})
+
 test_that("the folded misfit gives the exact Gamma-normal likelihood of the extra covariance", {
   prior <- list(shape = 2, rate = 0.5)
   C <- matrix(c(3, 7), 2, 1)
