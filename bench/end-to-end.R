@@ -3,8 +3,8 @@
 # default thread count against one thread. The library is precompute-pass.R's:
 # 10^6 random runs x 54 outputs of the three-parameter test response
 # (thesis_runs(), 412 MB, scattered: every run has its own values), field
-# thesis_field(54), rho fixed (rho_t = 0), calibrate()'s default 35,000
-# iterations (burn-in 15,000), one chain, collapsed update.
+# thesis_field(54), rho fixed (rho_t = 0), calibrate()'s default chain (5,000
+# iterations, burn-in 1,000, when they pass its checks), one chain, collapsed update.
 #
 # One pass is measured two ways: R's sum() over the library's outputs (the
 # definition the goals use: calibrate() within 3 of them, print() and
@@ -120,8 +120,8 @@ md <- c(
             "bench/end-to-end.R", start_note, c(load_before, each$load_1min), other_cores),
   "",
   paste0(format(n_runs, big.mark = ",", scientific = FALSE), " runs x ", n_points,
-         " outputs (", round(results$library_mb), " MB), rho fixed, 35,000 iterations ",
-         "(burn-in 15,000), one chain; medians of ", repeats, " repeats in one process. ",
+         " outputs (", round(results$library_mb), " MB), rho fixed, calibrate()'s default chain (5,000 iterations, burn-in ",
+         "1,000, when they pass its checks, else 35,000 and 15,000), one chain; medians of ", repeats, " repeats in one process. ",
          "Elapsed time of the whole call, and in passes over the library's memory ",
          "(R's `sum()`, and a C++ read loop). Goals: `calibrate()` within ", goal_calibrate,
          " `sum()` passes, `print()` and `summary()` within ", goal_print,
