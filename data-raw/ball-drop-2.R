@@ -15,12 +15,7 @@
 # inst/extdata/ball_drop_2.rds. Run from the package root:
 #   SEPIA_DIR=/path/to/SEPIA Rscript data-raw/ball-drop-2.R
 pkgload::load_all(".", quiet = TRUE)
-sepia_dir <- Sys.getenv("SEPIA_DIR", "/work/.mirror/lanl+SEPIA/repo")
-sepia_file <- function(path) {
-  if (file.exists(file.path(sepia_dir, path))) return(readLines(file.path(sepia_dir, path)))
-  system2("git", c("--git-dir", shQuote(sepia_dir), "show", paste0("HEAD:", path)),
-          stdout = TRUE)
-}
+source("data-raw/sepia-files.R")  # sepia_dir, sepia_file()
 numbers <- function(name) {
   as.matrix(utils::read.table(text = sepia_file(file.path(
     "examples/Ball_Drop/data/data_ball_drop_2", name)), comment.char = "#"))

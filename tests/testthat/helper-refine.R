@@ -68,15 +68,19 @@ linear4_sim <- function(theta) {
   as.matrix(theta) %*% t(X)
 }
 
+# An n-run Latin hypercube over [0, 1]^4 (th1 to th4), from R's RNG.
+lhs_theta4 <- function(n) {
+  theta <- as.data.frame(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n,
+                                numeric(n)))
+  stats::setNames(theta, paste0("th", 1:4))
+}
+
 # A 500-run Latin hypercube library of linear4_sim() and a fit to data at
 # (0.4, 0.55, 0.6, 0.45) with noise sd 0.02: the posterior is far narrower
 # than the runs' spacing.
 linear4_toy <- function() {
   set.seed(4)
-  n <- 500
-  theta <- as.data.frame(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n,
-                                numeric(n)))
-  names(theta) <- paste0("th", 1:4)
+  theta <- lhs_theta4(500)
   lib <- sim_library(theta, linear4_sim(theta))
   y <- linear4_sim(matrix(c(0.4, 0.55, 0.6, 0.45), 1)) + stats::rnorm(30, sd = 0.02)
   field <- field_data(y, t = lib$t)

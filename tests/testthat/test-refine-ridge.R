@@ -153,10 +153,7 @@ test_that("refine() on a product ridge does not stop resolved while its tails ar
     (th[, 1] * th[, 2]) %o% cos(pi * x) + th[, 3] %o% cos(2 * pi * x) + th[, 4] %o% (1 + 0 * x)
   }
   set.seed(4)
-  n <- 500
-  theta <- as.data.frame(vapply(1:4, function(j) (sample.int(n) - stats::runif(n)) / n,
-                                numeric(n)))
-  names(theta) <- paste0("th", 1:4)
+  theta <- lhs_theta4(500)
   lib <- sim_library(theta, sim(theta))
   y <- sim(matrix(c(0.3, 0.4, 0.6, 0.45), 1)) + stats::rnorm(30, sd = 0.02)
   fit <- suppressWarnings(calibrate(lib, field_data(y, t = lib$t), n_iter = 500, burn_in = 100,
