@@ -85,10 +85,8 @@
 #'   file <- tempfile(fileext = ".h5")
 #'   lib <- simulate_library(sim, design, file, t = seq(0, 1, length.out = 20))
 #'   lib
-#'   # a larger design on the same file: only the new rows are simulated
-#'   more <- rbind(design, design_lhs(10, k = c(1, 4), seed = 2))
-#'   lib <- simulate_library(sim, more, file, t = seq(0, 1, length.out = 20))
-#'   nrow(as.data.frame(lib))
+#'   # run again with a larger design on the same file, and only the new rows
+#'   # are simulated: see vignette("simulate-library")
 #'   unlink(file)
 #' }
 #' @export
