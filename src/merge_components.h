@@ -100,26 +100,45 @@ long count_bins(const Grid& grid, long n, Key key, long stop) {
   return n_key;
 }
 
-// Bins in order of first appearance through an open-addressing table:
-// slot[i] for each i < n; returns the number of bins.
+// An open-addressing table from bin keys to slots 0, 1, ..., numbered in
+// order of first appearance, sized for `capacity` keys.
+class SlotTable {
+ public:
+  explicit SlotTable(long capacity) {
+    while (size_ < 2 * static_cast<size_t>(capacity)) size_ *= 2;
+    key_.assign(size_, -1);
+    slot_.resize(size_);
+  }
+  // The slot of key k; a new one when k is new (`added` says so), or -1
+  // when k is new and `limit` slots are taken.
+  int slot(int k, int limit, bool& added) {
+    size_t p = (static_cast<uint32_t>(k) * 2654435761u) & (size_ - 1);
+    while (key_[p] >= 0 && key_[p] != k) p = (p + 1) & (size_ - 1);
+    added = key_[p] < 0;
+    if (added) {
+      if (used_ == limit) return -1;
+      key_[p] = k;
+      slot_[p] = used_++;
+    }
+    return slot_[p];
+  }
+  int used() const { return used_; }
+
+ private:
+  size_t size_ = 16;
+  std::vector<int> key_, slot_;
+  int used_ = 0;
+};
+
+// Bins in order of first appearance: slot[i] for each i < n; returns the
+// number of bins.
 template <class Key>
 int assign_bins(long n, Key key, long n_key, std::vector<int>& slot) {
-  size_t size = 16;
-  while (size < 2 * static_cast<size_t>(n_key)) size *= 2;
-  std::vector<int> table_key(size, -1), table_slot(size);
+  SlotTable table(n_key);
   slot.resize(n);
-  int used = 0;
-  for (long i = 0; i < n; ++i) {
-    const int k = key(i);
-    size_t p = (static_cast<uint32_t>(k) * 2654435761u) & (size - 1);
-    while (table_key[p] >= 0 && table_key[p] != k) p = (p + 1) & (size - 1);
-    if (table_key[p] < 0) {
-      table_key[p] = k;
-      table_slot[p] = used++;
-    }
-    slot[i] = table_slot[p];
-  }
-  return used;
+  bool added;
+  for (long i = 0; i < n; ++i) slot[i] = table.slot(key(i), -1, added);
+  return table.used();
 }
 
 // A bin's sums of w, w m, w m^2, w s^2 and w log s over its members.
@@ -165,26 +184,19 @@ inline void finish(const std::vector<Sums>& sums, const std::vector<int>& cls, M
 template <class Key>
 bool merge_small(const Grid& grid, const double* w, const double* m, const double* s,
                  const double* ls, Key key, long n, int max_components, Merged& out) {
-  size_t size = 16;
-  while (size < 2 * static_cast<size_t>(max_components)) size *= 2;
-  std::vector<int> table_key(size, -1), table_slot(size);
+  SlotTable table(max_components);
   std::vector<Sums> sums(max_components, kEmpty);
   std::vector<int> cls(max_components, 0);
-  int used = 0;
+  bool added;
   for (long i = 0; i < n; ++i) {
     const int k = key(i);
-    size_t p = (static_cast<uint32_t>(k) * 2654435761u) & (size - 1);
-    while (table_key[p] >= 0 && table_key[p] != k) p = (p + 1) & (size - 1);
-    if (table_key[p] < 0) {
-      if (used == max_components) return false;
-      table_key[p] = k;
-      table_slot[p] = used++;
-      cls[table_slot[p]] = grid.class_of(k);
-    }
-    sums[table_slot[p]].add(w[i], m[i], s[i], ls[i]);
+    const int j = table.slot(k, max_components, added);
+    if (j < 0) return false;
+    if (added) cls[j] = grid.class_of(k);
+    sums[j].add(w[i], m[i], s[i], ls[i]);
   }
-  sums.resize(used);
-  cls.resize(used);
+  sums.resize(table.used());
+  cls.resize(table.used());
   finish(sums, cls, out);
   return true;
 }
