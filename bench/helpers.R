@@ -406,3 +406,20 @@ write_thesis_hdf5 <- function(dir, N, n, chunk) {
     write_library(piece, file.path(dir, "library.h5"), append = k > 1)
   })
 }
+
+# A library of N random runs (a and b uniform on [0, 1], drawn after
+# set.seed(seed)) of y(x, t) = a (1 + t + x) + b sin(6 t + 2 x) at n_x
+# settings x and n_t times t in [0, 1], blocks of t by setting (the
+# missing-cell and stream-path benchmarks): list(lib, y, x, t, response).
+settings_times_case <- function(N, n_x, n_t, seed) {
+  tt <- seq(0, 1, length.out = n_t)
+  xs <- data.frame(x = seq(0, 1, length.out = n_x))
+  response <- function(a, b) {
+    do.call(cbind, lapply(xs$x, function(x) outer(a, 1 + tt + x) + outer(b, sin(6 * tt + 2 * x))))
+  }
+  set.seed(seed)
+  theta <- data.frame(a = runif(N), b = runif(N))
+  y <- response(theta$a, theta$b)
+  list(lib = griddy::sim_library(theta, y, x = xs, t = tt), y = y, x = xs, t = tt,
+       response = response)
+}

@@ -34,14 +34,12 @@ load_before <- load_1min()
 
 n_x <- 4
 n_t <- 40
-tt <- seq(0, 1, length.out = n_t)
-xs <- data.frame(x = seq(0, 1, length.out = n_x))
-response <- function(a, b) {
-  do.call(cbind, lapply(xs$x, function(x) outer(a, 1 + tt + x) + outer(b, sin(6 * tt + 2 * x))))
-}
-set.seed(1)
-theta <- data.frame(a = runif(N), b = runif(N))
-lib <- sim_library(theta, response(theta$a, theta$b), x = xs, t = tt)
+case <- settings_times_case(N, n_x, n_t, seed = 1)
+tt <- case$t
+xs <- case$x
+response <- case$response
+lib <- case$lib
+rm(case)
 truth <- matrix(response(0.4, 0.6), n_x, n_t, byrow = TRUE)
 
 make_field <- function(pattern) {

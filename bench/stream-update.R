@@ -141,15 +141,12 @@ path_rows <- list()
 for (N in if (part %in% c("all", "paths")) sizes else numeric()) {
   n_set <- 4
   n_tp <- 30
-  tp <- seq(0, 1, length.out = n_tp)
-  xp <- data.frame(x = seq(0, 1, length.out = n_set))
-  resp_p <- function(a, b) {
-    do.call(cbind, lapply(xp$x, function(x) outer(a, 1 + tp + x) + outer(b, sin(6 * tp + 2 * x))))
-  }
-  set.seed(3)
-  theta <- data.frame(a = runif(N), b = runif(N))
-  y_lib <- resp_p(theta$a, theta$b)
-  lib <- sim_library(theta, y_lib, x = xp, t = tp)
+  case <- settings_times_case(N, n_set, n_tp, seed = 3)
+  tp <- case$t
+  xp <- case$x
+  resp_p <- case$response
+  y_lib <- case$y
+  lib <- case$lib
   long <- data.frame(x = rep(xp$x, each = n_tp), t = rep(tp, n_set))
   long$y <- as.vector(resp_p(0.4, 0.6)) + rnorm(nrow(long), sd = 0.05)
   cols <- seq_len(nrow(long))
