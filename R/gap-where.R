@@ -140,13 +140,6 @@ block_precision <- function(ctx, point, pos, W, x) {
   point$Rx_inv[x, x] * point$Pt[W, W, drop = FALSE]
 }
 
-# The leave-block pieces of a run whose covariance is R_g: with h = R_g^-1 r
-# (its block `h_B`) and U'U = (R_g^-1)_BB, D = h_B' (R_g^-1)_BB^-1 h_B.
-plain_block <- function(h_B, U, Q) {
-  z <- backsolve(U, h_B, transpose = TRUE)
-  list(D = sum(z^2), Q = Q, logdet = 0, logdet_BB = 2 * sum(log(diag(U))))
-}
-
 # Indices of the largest weights holding `mass` of the total (at most `cap`).
 top_pairs <- function(w, mass, cap) {
   # only the `cap` largest can be chosen: order those (a partial sort finds
