@@ -581,12 +581,6 @@ scaled_rows <- function(scale, rows) {
          dimnames = list(NULL, names(scale$cols)))
 }
 
-# All runs' varying parameters scaled to [0, 1].
-unit_scaled_theta <- function(theta) {
-  scale <- theta_scale(theta)
-  scaled_rows(scale, seq_len(NROW(theta)))
-}
-
 # The run that fits the field data best with independent noise (the noise
 # pattern's sd and groups kept): one pass over the library.
 best_fitting_run <- function(library, y, pattern) {

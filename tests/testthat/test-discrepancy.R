@@ -319,7 +319,8 @@ test_that("the simple machine's band at x = 6 holds reality with zero_at and fla
   expect_false(before$pred_lower <= truth && truth <= before$pred_upper)
 })
 
-test_that("unit_scaled_theta() scales the varying parameters to [0, 1] as the matrix arithmetic does", {
+test_that("scaled_rows() scales the varying parameters to [0, 1] as the matrix arithmetic does", {
+  unit_scaled_theta <- function(theta) scaled_rows(theta_scale(theta), seq_len(NROW(theta)))
   set.seed(3)
   theta <- data.frame(a = runif(50, 2, 5), fixed = 1, b = sample(1:4, 50, TRUE))
   m <- as.matrix(theta)
@@ -334,7 +335,7 @@ test_that("discrepancy_sensitivity() finds the nearest runs as a search over eve
   # the search runs over near_candidates_cpp()'s candidates only; on a grid
   # many runs tie, and nearest_runs()'s rounding breaks the ties
   full_search <- function(lib, best) {
-    theta <- unit_scaled_theta(lib_theta(lib))
+    theta <- scaled_rows(theta_scale(lib_theta(lib)), seq_len(nrow(lib_theta(lib))))
     k <- max(4L * ncol(theta) + 2L, 12L)
     near <- nearest_runs(theta[best, , drop = FALSE], theta, k)$idx[1, ]
     X <- sweep(theta[near, , drop = FALSE], 2, theta[best, ])
