@@ -19,11 +19,15 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   # then the model with the discrepancy, whose posterior over theta may lie
   # elsewhere (the discrepancy absorbing what theta imitated), refined in turn
   problem <- discrepancy_problem(matched, discrepancy)
+  post <- NULL
   if (max_runs > 0L) {
-    problem <- with_seed(seed, refine_rounds(
-      problem, NULL, max_runs, default_runs_per_round(lib_theta(problem$library)))$problem)
+    refined <- with_seed(seed, refine_rounds(
+      problem, NULL, max_runs, default_runs_per_round(lib_theta(problem$library))))
+    problem <- refined$problem
+    # the last round's posterior is the refined problem's
+    post <- refined$posterior
   }
-  exact <- exact_from_problem(problem, joint = TRUE)
+  exact <- exact_from_problem(problem, joint = TRUE, post = post)
   evidence <- discrepancy_evidence(exact)
   # each model's evidence: its grid points' mass over its prior mass
   log_mass <- attr(exact, "log_grid_mass")
