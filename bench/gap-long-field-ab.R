@@ -13,7 +13,7 @@
 before_lib <- Sys.getenv("GAP_AB_BEFORE", "/tmp/lib-now")
 from <- Sys.getenv("GAP_AB_FROM", "abb7bf2")
 reps <- as.integer(Sys.getenv("GAP_AB_REPS", "3"))
-out_stem <- Sys.getenv("GAP_AB_OUT", "bench/results/gap-long-field-ab")
+ab_stem <- Sys.getenv("GAP_AB_OUT", "bench/results/gap-long-field-ab")
 git <- function(...) system2("git", c(...), stdout = TRUE)
 if (length(git("diff", "--name-only", from, "HEAD", "--", "src"))) {
   stop("src/ differs between ", from, " and HEAD: install both sides instead")
@@ -69,10 +69,11 @@ cat("verdict:", before$gap$verdict$answer, "->", after$gap$verdict$answer,
     format(after$gap$evidence$log_bayes_factor, digits = 15), "\n")
 cat("diagnosis identical (all.equal, tolerance 0):", isTRUE(same), "\n")
 if (!isTRUE(same)) print(same)
-utils::write.csv(tab, paste0(out_stem, ".csv"), row.names = FALSE)
+utils::write.csv(tab, paste0(ab_stem, ".csv"), row.names = FALSE)
 writeLines(c(paste("before: griddy installed at", before_lib, "(", from, ")"),
-             paste("after: HEAD", git("rev-parse", "--short", "HEAD"), "with", changed),
+             paste("after: HEAD", git("rev-parse", "--short", "HEAD"), "with",
+                   paste(changed, collapse = ", ")),
              paste("diagnosis identical:", isTRUE(same)),
              paste("log Bayes factor:", format(after$gap$evidence$log_bayes_factor,
                                                digits = 15)),
-             machine_note()), paste0(out_stem, ".txt"))
+             machine_note()), paste0(ab_stem, ".txt"))
