@@ -305,9 +305,12 @@ posterior_noise_var <- function(state) {
   sizes <- pr$setup$group_sizes
   denom <- pmax(pr$prior$shape + sizes / 2 - 1, 0.5)
   if (length(sizes) == 1L) {
-    # column by column: no temporaries as large as C (8 GB at 10^6 runs x 1,000 grid points)
-    weighted_C <- sum(vapply(seq_len(ncol(pr$C)), function(g) sum(state$joint[, g] * pr$C[, g]),
-                             numeric(1)))
+    # in blocks of columns: no temporaries as large as C (8 GB at 10^6 runs x
+    # 1,000 grid points), nor a call per column (the same sums: colSums()
+    # adds a column as sum() does)
+    weighted_C <- sum(unlist(lapply(column_blocks(ncol(pr$C), nrow(pr$C)), function(cols) {
+      colSums(state$joint[, cols, drop = FALSE] * pr$C[, cols, drop = FALSE])
+    })))
     return((pr$prior$rate * sum(state$joint) + weighted_C / 2) / denom)
   }
   total <- numeric(length(sizes))
@@ -318,6 +321,12 @@ posterior_noise_var <- function(state) {
     total <- total + colSums(state$joint[runs, g] * (pr$prior$rate + Ck / 2))
   }
   total / sum(state$joint) / denom
+}
+
+# Consecutive column blocks of a rows x n matrix, each of about 2^17 cells.
+column_blocks <- function(n, rows) {
+  size <- max(1L, floor(2^17 / max(rows, 1)))
+  unname(split(seq_len(n), ceiling(seq_len(n) / size)))
 }
 
 # One noise variance for all observed points: the groups' own (see

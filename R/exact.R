@@ -110,9 +110,10 @@ check_no_dots <- function(joint = TRUE, ..., owner = NULL) {
 
 # The exact posterior of a calibration problem, or of a fit (which holds its
 # problem). `joint = FALSE` leaves out the joint probabilities (NULL), a
-# table as large as C, for callers that need only the margins.
-exact_from_problem <- function(problem, joint = TRUE) {
-  post <- grid_posterior(problem, joint)
+# table as large as C, for callers that need only the margins. `post`: the
+# problem's grid_posterior() when the caller has it already.
+exact_from_problem <- function(problem, joint = TRUE, post = NULL) {
+  if (is.null(post) || (joint && is.null(post$joint))) post <- grid_posterior(problem, joint)
   grid <- problem$grid
   grid$prob <- post$grid
   disc <- problem$setup$discrepancy

@@ -19,11 +19,15 @@ gap_without_candidates <- function(fit, discrepancy, windows, fdr, prior_models,
   # then the model with the discrepancy, whose posterior over theta may lie
   # elsewhere (the discrepancy absorbing what theta imitated), refined in turn
   problem <- discrepancy_problem(matched, discrepancy)
+  post <- NULL
   if (max_runs > 0L) {
-    problem <- with_seed(seed, refine_rounds(
-      problem, NULL, max_runs, default_runs_per_round(lib_theta(problem$library)))$problem)
+    refined <- with_seed(seed, refine_rounds(
+      problem, NULL, max_runs, default_runs_per_round(lib_theta(problem$library))))
+    problem <- refined$problem
+    # the last round's posterior is the refined problem's
+    post <- refined$posterior
   }
-  exact <- exact_from_problem(problem, joint = TRUE)
+  exact <- exact_from_problem(problem, joint = TRUE, post = post)
   evidence <- discrepancy_evidence(exact)
   # each model's evidence: its grid points' mass over its prior mass
   log_mass <- attr(exact, "log_grid_mass")
@@ -167,18 +171,24 @@ discrepancy_where <- function(problem, exact, windows, fdr, found) {
   obs <- layout$obs
   none <- setup$discrepancy$ratio[setup$gd] == 0
   joint <- exact$joint
+  # the joint without a discrepancy, and with one: copies with the other
+  # columns zeroed (gap_windows() reads only where its largest entry is,
+  # which the log would not move)
+  w_none <- joint
+  w_none[, !none] <- 0
   win <- if (is.list(windows)) windows else gap_windows(list(n_t = n_t, t = t,
                           points = lapply(seq_len(n_grid_points(setup)), function(g) {
                             list(phi = setup$phi[, setup$gt[g]])
                           })),
-                     list(lj = log(joint * rep(none, each = nrow(joint)))), windows,
-                     scan = FALSE)
+                     list(lj = w_none), windows, scan = FALSE)
+  rm(w_none)
   blocks <- expand.grid(w = seq_along(win), x = seq_len(n_x))
   pos <- lapply(seq_len(nrow(blocks)), function(b) {
     block_positions(obs, blocks$x[b], win[[blocks$w[b]]], n_t)
   })
   size <- lengths(pos)
-  w_other <- joint * rep(!none, each = nrow(joint))
+  w_other <- joint
+  w_other[, none] <- 0
   pairs <- if (sum(w_other) > 0) top_pairs(w_other, 0.999, 200L) else integer(0)
   stat <- matrix(0, length(pairs), nrow(blocks))
   pval <- matrix(1, length(pairs), nrow(blocks))

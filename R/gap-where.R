@@ -145,8 +145,12 @@ top_pairs <- function(w, mass, cap) {
   # only the `cap` largest can be chosen: order those (a partial sort finds
   # them), the same indices in the same order as ordering all of w
   if (length(w) > cap) {
-    least <- -sort(-as.vector(w), partial = cap)[cap]
-    pool <- which(w >= least)
+    # the entries within 1e-6 of the largest hold the `cap` largest when
+    # there are that many (a posterior's mass rests on few): sort those only
+    pool <- which(w >= max(w) * 1e-6)
+    if (length(pool) < cap) pool <- seq_along(w)
+    least <- -sort(-w[pool], partial = cap)[cap]
+    pool <- pool[w[pool] >= least]
   } else {
     pool <- seq_along(w)
   }

@@ -68,6 +68,7 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
   }
   list(problem = state$problem, runs_added = added, rounds = length(history) - 1L,
        reason = reason, source = source, history = history, failure = failure,
+       posterior = state$posterior,
        emulation_error = if (!is.null(emulator)) emulation_error_ratio(emulator, state))
 }
 
@@ -127,12 +128,14 @@ simulated_round <- function(state, simulator, n, progress, store) {
        n = length(sim$rows), failure = sim$failure)
 }
 
-# The exact posterior over runs of a problem and its resolution table.
+# The exact posterior over runs of a problem and its resolution table (and
+# the whole grid_posterior(), which a caller of refine_rounds() may read
+# rather than compute again).
 refine_state <- function(problem) {
   post <- grid_posterior(problem)
   p <- post$run
   theta <- lib_theta(problem$library)
-  list(problem = problem, joint = post$joint, p = p, table = resolution_table(p, theta, scattered = has_proposal_rounds(problem$library)),
+  list(problem = problem, joint = post$joint, p = p, posterior = post, table = resolution_table(p, theta, scattered = has_proposal_rounds(problem$library)),
        far_mass = far_mass(p, theta, last_proposal(problem$library)),
        modes = mode_resolution(p, theta, last_proposal(problem$library)))
 }

@@ -111,6 +111,15 @@ test_that("the top pairs are those of ordering every weight", {
     if (i %% 2 == 0) w[sample(length(w), length(w) %/% 2)] <- 0
     for (cap in c(3L, 200L)) expect_identical(top_pairs(w, 0.999, cap), full(w, 0.999, cap))
   }
+  # a posterior on few pairs (fewer than `cap` within 1e-6 of the largest:
+  # the whole table is sorted), on many (only those are), and ties at the
+  # cap's weight, which both keep in index order
+  for (spread in c(50, 2)) {
+    w <- matrix(exp(-spread * rexp(4000)), ncol = 4)
+    for (cap in c(3L, 200L)) expect_identical(top_pairs(w, 0.999, cap), full(w, 0.999, cap))
+  }
+  w <- matrix(rep(c(1, 0.5, 1e-9), c(150, 300, 550)), ncol = 2)
+  expect_identical(top_pairs(w, 1, 200L), full(w, 1, 200L))
 })
 
 test_that("the default windows scan t: a peak between two tiles lies inside one window", {

@@ -8,6 +8,20 @@ test_that("match_rows() is match() over rows: first hit, NA where none", {
   expect_identical(match_rows(data.frame(a = c(NA, 1)), data.frame(a = c(1, NA))), c(2L, 1L))
 })
 
+test_that("exact row matches are those of the values' bits as text (-0 apart, NA and NaN apart)", {
+  bits_key <- function(cols) do.call(paste, c(lapply(cols, function(v) sprintf("%a", v)), sep = "|"))
+  set.seed(4)
+  pool <- c(0, -0, 1, -1, 0.1, NA, NaN, Inf, 1e-300)
+  for (k in 1:3) {
+    x <- replicate(k, sample(pool, 400, TRUE), simplify = FALSE)
+    table <- replicate(k, sample(pool, 300, TRUE), simplify = FALSE)
+    expect_identical(exact_row_match(x, table), match(bits_key(x), bits_key(table)))
+    expect_identical(exact_row_match(x, x), match(bits_key(x), bits_key(x)))
+  }
+  expect_identical(exact_row_match(list(numeric(0)), list(1)), integer(0))
+  expect_identical(exact_row_match(list(c(1, 2)), list(numeric(0))), c(NA_integer_, NA_integer_))
+})
+
 test_that("a design written with write.csv() or fwrite() and read back matches itself", {
   design <- design_lhs(50, k = c(1, 4), c = c(0, 1e-6), seed = 1)
   file <- withr::local_tempfile(fileext = ".csv")
