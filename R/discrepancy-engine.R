@@ -224,11 +224,14 @@ kron_product <- function(Z, G_x, G_t, product) {
   runs <- nrow(Z)
   n_x <- nrow(G_x)
   n_t <- nrow(G_t)
-  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
-  W <- product(Zs, G_t)
-  W <- matrix(aperm(array(W, c(runs, n_x, ncol(G_t))), c(1L, 3L, 2L)), runs * ncol(G_t), n_x)
+  W <- product(setting_rows(Z, runs, n_x, n_t), G_t)
+  W <- block_transpose_cpp(W, runs, n_x, ncol(G_t), 0L)
   matrix(product(W, G_x), runs, ncol(G_t) * ncol(G_x))
 }
+
+# Z (runs x n_x n_t, library order) with a row per (run, setting), run
+# fastest, and a column per t: the rows a product over t works on.
+setting_rows <- function(Z, runs, n_x, n_t) block_transpose_cpp(Z, runs, n_t, n_x, 0L)
 
 # Z H for the whitened basis H of base point g: its Kronecker columns per
 # axis (kron_product()), the rest (the sensitivities') as one product.
@@ -257,13 +260,10 @@ kron_coordinates <- function(Z, dense, g, used, product) {
   Gt <- do.call(cbind, lapply(ax$t[t_used], `[[`, "G"))
   m_t <- vapply(ax$t[t_used], function(a) ncol(a$G), 1L)
   start <- cumsum(m_t) - m_t
-  # rows (run, setting), run fastest
-  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
-  W <- product(Zs, Gt)
+  W <- product(setting_rows(Z, runs, n_x, n_t), Gt)
   # per t length, rows (run, t coordinate) and a column per setting
   Wt <- lapply(seq_along(t_used), function(b) {
-    Wb <- W[, start[b] + seq_len(m_t[b]), drop = FALSE]
-    matrix(aperm(array(Wb, c(runs, n_x, m_t[b])), c(1L, 3L, 2L)), runs * m_t[b], n_x)
+    block_transpose_cpp(W, runs, n_x, m_t[b], start[b])
   })
   do.call(cbind, lapply(seq_along(used), function(i) {
     b <- match(kt[i], t_used)

@@ -11,6 +11,21 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// block_transpose_cpp
+Rcpp::NumericMatrix block_transpose_cpp(const Rcpp::NumericVector& X, int runs, int a, int b, int col0);
+RcppExport SEXP _griddy_block_transpose_cpp(SEXP XSEXP, SEXP runsSEXP, SEXP aSEXP, SEXP bSEXP, SEXP col0SEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< int >::type runs(runsSEXP);
+    Rcpp::traits::input_parameter< int >::type a(aSEXP);
+    Rcpp::traits::input_parameter< int >::type b(bSEXP);
+    Rcpp::traits::input_parameter< int >::type col0(col0SEXP);
+    rcpp_result_gen = Rcpp::wrap(block_transpose_cpp(X, runs, a, b, col0));
+    return rcpp_result_gen;
+END_RCPP
+}
 // grid_posterior_cpp
 Rcpp::List grid_posterior_cpp(const arma::mat& C, double shape_post, double rate, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid, bool joint, int threads);
 RcppExport SEXP _griddy_grid_posterior_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP, SEXP jointSEXP, SEXP threadsSEXP) {
@@ -383,6 +398,7 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_griddy_block_transpose_cpp", (DL_FUNC) &_griddy_block_transpose_cpp, 5},
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
     {"_griddy_log_mass_cpp", (DL_FUNC) &_griddy_log_mass_cpp, 7},
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 2},

@@ -210,3 +210,21 @@ test_that("complete data and Kronecker kernels take the per-axis coordinates, to
     expect_lt(max(abs(C - plain_quad_forms(Y, other$y_field, whole)) / C), 1e-10)
   }
 })
+
+test_that("block_transpose_cpp() regroups blocks of runs as aperm() does, value for value", {
+  set.seed(2)
+  runs <- 5L
+  a <- 3L
+  b <- 4L
+  X <- matrix(rnorm(runs * a * (b + 2)), runs * a)
+  ref <- function(M) matrix(aperm(array(M, c(runs, a, ncol(M))), c(1L, 3L, 2L)),
+                            runs * ncol(M), a)
+  expect_identical(block_transpose_cpp(X, runs, a, b + 2L, 0L), ref(X))
+  # from column 2 on: the columns' blocks alone
+  expect_identical(block_transpose_cpp(X, runs, a, b, 2L), ref(X[, 3:6]))
+  # a matrix read by its length, whatever its dimensions: runs x (a b)
+  Z <- matrix(rnorm(runs * a * b), runs)
+  expect_identical(setting_rows(Z, runs, b, a),
+                   matrix(aperm(array(Z, c(runs, a, b)), c(1L, 3L, 2L)), runs * b, a))
+  expect_error(block_transpose_cpp(X, runs, a, b + 3L, 0L), "do not fit")
+})
