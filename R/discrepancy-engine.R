@@ -146,6 +146,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
   axis_rot <- if (kron && !is.null(factors$axes)) A
   axis_basis <- if (kron && is.null(axis_rot) && !is.null(factors$axis_basis)) A
   base_logdet <- numeric(G)
+  product <- function(X, B) tiled_matmul_cpp(X, B, griddy_threads())
   for (g in seq_len(G)) {
     if (kron) {
       # the whitening itself is kept, not its n x n matrix (made on demand)
@@ -169,12 +170,19 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
       })
       next
     }
-    if (!is.null(axis_basis)) axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
-    J <- lapply(H[[g]], crossprod)
-    rot[[g]] <- lapply(factors$coef, function(C) lapply(J, function(Jk) {
-      e <- eigen(crossprod(C, Jk %*% C), symmetric = TRUE)
-      list(T = C %*% e$vectors, d = pmax(e$values, 0))
-    }))
+    J <- if (!is.null(axis_basis)) {
+      axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
+      list(kron_gram(H[[g]][[1]], axis_basis[[g]], product))
+    } else {
+      lapply(H[[g]], crossprod)
+    }
+    rot[[g]] <- lapply(factors$coef, function(C) {
+      Ct <- t(C)
+      lapply(J, function(Jk) {
+        e <- eigen(product(Ct, product(Jk, C)), symmetric = TRUE)
+        list(T = product(C, e$vectors), d = pmax(e$values, 0))
+      })
+    })
   }
   D <- nrow(disc)
   grid <- data.frame(base = rep(seq_len(G), D), kernel = rep(disc$kernel, each = G),
@@ -207,6 +215,20 @@ kron_axis_rotations <- function(point, axes) {
   }
   list(x = lapply(axes$x$coef, function(C) rotate(H_x, C)),
        t = lapply(axes$t$coef, function(C) rotate(H_t, C)))
+}
+
+# H'H for the whitened basis H of a Kronecker grid point, whose leading
+# columns are kronecker(H_x, H_t) (`ax`, whitened_axes()): that block's Gram
+# matrix is kronecker(H_x'H_x, H_t'H_t), its products with the other
+# columns R one kron_product(), so only R'R is a product over the n
+# outputs (the rest per axis, n_x + n_t long).
+kron_gram <- function(H, ax, product) {
+  m <- ncol(ax$x) * ncol(ax$t)
+  J <- kronecker(crossprod(ax$x), crossprod(ax$t))
+  if (m == ncol(H)) return(J)
+  R <- H[, -seq_len(m), drop = FALSE]
+  JR <- t(kron_product(t(R), ax$x, ax$t, product))
+  rbind(cbind(J, JR), cbind(t(JR), crossprod(R)))
 }
 
 # The axes' bases whitened at a Kronecker grid point: kronecker(x, t) is the
