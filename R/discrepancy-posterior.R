@@ -106,8 +106,12 @@ run_residuals <- function(fit, runs) {
     lib_outputs(fit$library, runs)
 }
 
-# The fit's discrepancy kernels (discrepancy_kernels()), for delta_law().
+# The fit's discrepancy kernels (discrepancy_kernels()), for delta_law():
+# NULL when its law comes from the setup's low-rank factors, which need no
+# dense kernel (one n x n matrix per length scale, and the projection's
+# products, made for nothing: 4% of a discrepancy fit at 480 outputs).
 fit_kernels <- function(fit) {
+  if (isTRUE(fit$setup$dense$lowrank)) return(NULL)
   discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
 }
 
