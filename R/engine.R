@@ -239,8 +239,9 @@ whiten_rows <- function(M, point, n_x, n_t, over_x = TRUE) {
     return(do.call(cbind, unname(whiten_groups(M, point))))
   }
   # phi = 0 (independent t) whitens to M itself, exactly: skip the copy
-  if (any(point$phi != 0)) M <- ar1_whiten_rows_cpp(M, point$phi, n_x)
-  if (n_x > 1L && over_x) {
+  # (and R_x = I, rho_x = 0, the product)
+  if (any(point$phi != 0)) M <- ar1_whiten_columns_cpp(M, point$phi, n_x)
+  if (n_x > 1L && over_x && !is_identity(point$Rx_chol)) {
     A_x <- backsolve(point$Rx_chol, diag(n_x))          # U^-1, so R_x^-1 = A_x A_x'
     M <- matrix(matrix(M, nrow(M) * n_t, n_x) %*% A_x, nrow(M), n_x * n_t)
   }

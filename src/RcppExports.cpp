@@ -11,6 +11,19 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// ar1_whiten_columns_cpp
+Rcpp::NumericMatrix ar1_whiten_columns_cpp(const Rcpp::NumericMatrix& M, const Rcpp::NumericVector& phi, int n_x);
+RcppExport SEXP _griddy_ar1_whiten_columns_cpp(SEXP MSEXP, SEXP phiSEXP, SEXP n_xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type M(MSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< int >::type n_x(n_xSEXP);
+    rcpp_result_gen = Rcpp::wrap(ar1_whiten_columns_cpp(M, phi, n_x));
+    return rcpp_result_gen;
+END_RCPP
+}
 // block_transpose_cpp
 Rcpp::NumericMatrix block_transpose_cpp(const Rcpp::NumericVector& X, int runs, int a, int b, int col0);
 RcppExport SEXP _griddy_block_transpose_cpp(SEXP XSEXP, SEXP runsSEXP, SEXP aSEXP, SEXP bSEXP, SEXP col0SEXP) {
@@ -398,6 +411,7 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_griddy_ar1_whiten_columns_cpp", (DL_FUNC) &_griddy_ar1_whiten_columns_cpp, 3},
     {"_griddy_block_transpose_cpp", (DL_FUNC) &_griddy_block_transpose_cpp, 5},
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
     {"_griddy_log_mass_cpp", (DL_FUNC) &_griddy_log_mass_cpp, 7},
