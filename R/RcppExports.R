@@ -29,6 +29,10 @@ gibbs_chain_cpp <- function(C, tables, options, grid_start, tau_start) {
     .Call(`_griddy_gibbs_chain_cpp`, C, tables, options, grid_start, tau_start)
 }
 
+grid_log_mass_cpp <- function(C, k, rate, cst, logdet, log_prior_run, log_prior_grid) {
+    .Call(`_griddy_grid_log_mass_cpp`, C, k, rate, cst, logdet, log_prior_run, log_prior_grid)
+}
+
 ar1_whiten_rows_cpp <- function(M, phi, n_x) {
     .Call(`_griddy_ar1_whiten_rows_cpp`, M, phi, n_x)
 }

@@ -475,8 +475,11 @@ discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, prod
     lambda <- grid$ratio[pts]
     weights <- outer(rots[[i]]$d, lambda, function(d, lam) lam / (1 + lam * d))
     Pi <- P[, cols, drop = FALSE]
-    # a quadratic form is >= 0; the difference can round below
-    out[, pts] <- pmax(out[, pts, drop = FALSE] - product(Pi^2, weights), 0)
+    # a quadratic form is >= 0; the difference can round below (pmax()'s
+    # values, without its cost per call)
+    v <- out[, pts, drop = FALSE] - product(Pi^2, weights)
+    v[v < 0] <- 0
+    out[, pts] <- v
     if (!error) next
     # per ratio, F' S^-1 F = FF - PF diag(w) PF' = Q diag(gamma) Q', and the
     # runs' (b'Q) = [zF, P] [Q; -diag(w) PF' Q], all ratios in one product

@@ -117,6 +117,23 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// grid_log_mass_cpp
+Rcpp::NumericVector grid_log_mass_cpp(const Rcpp::NumericMatrix& C, double k, double rate, double cst, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid);
+RcppExport SEXP _griddy_grid_log_mass_cpp(SEXP CSEXP, SEXP kSEXP, SEXP rateSEXP, SEXP cstSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type C(CSEXP);
+    Rcpp::traits::input_parameter< double >::type k(kSEXP);
+    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
+    Rcpp::traits::input_parameter< double >::type cst(cstSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type logdet(logdetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_grid(log_prior_gridSEXP);
+    rcpp_result_gen = Rcpp::wrap(grid_log_mass_cpp(C, k, rate, cst, logdet, log_prior_run, log_prior_grid));
+    return rcpp_result_gen;
+END_RCPP
+}
 // ar1_whiten_rows_cpp
 arma::mat ar1_whiten_rows_cpp(const arma::mat& M, const arma::vec& phi, int n_x);
 RcppExport SEXP _griddy_ar1_whiten_rows_cpp(SEXP MSEXP, SEXP phiSEXP, SEXP n_xSEXP) {
@@ -418,6 +435,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 2},
     {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 6},
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
+    {"_griddy_grid_log_mass_cpp", (DL_FUNC) &_griddy_grid_log_mass_cpp, 7},
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},

@@ -431,3 +431,15 @@ test_that("the AR(1) whitening column by column gives ar1_whiten_rows_cpp()'s va
   expect_equal(whiten_rows(M, point, 3L, 4L),
                matrix(matrix(ar1_whiten_rows_cpp(M, point$phi, 3L), 8, 3) %*% A_x, 2, 12))
 })
+
+test_that("grid_log_mass() in C++ is the R definition, value for value", {
+  ex <- griddy_example()
+  problem <- calibration_problem(ex$library, ex$field, 0, c(0, 0.5), NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
+  expect_identical(grid_log_mass(problem), grid_log_mass_r(problem))
+  # run weights, and a grid point whose every run is impossible
+  problem$log_prior_run <- log(seq_len(nrow(problem$C)) / sum(seq_len(nrow(problem$C))))
+  problem$log_prior_grid[2] <- -Inf
+  expect_identical(grid_log_mass(problem), grid_log_mass_r(problem))
+  expect_identical(grid_log_mass(problem)[2], -Inf)
+})
