@@ -146,6 +146,7 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
   axis_rot <- if (kron && !is.null(factors$axes)) A
   axis_basis <- if (kron && is.null(axis_rot) && !is.null(factors$axis_basis)) A
   base_logdet <- numeric(G)
+  product <- function(X, B) tiled_matmul_cpp(X, B, griddy_threads())
   for (g in seq_len(G)) {
     if (kron) {
       # the whitening itself is kept, not its n x n matrix (made on demand)
@@ -169,12 +170,19 @@ discrepancy_dense_factors <- function(setup, t, pattern, disc, factors) {
       })
       next
     }
-    if (!is.null(axis_basis)) axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
-    J <- lapply(H[[g]], crossprod)
-    rot[[g]] <- lapply(factors$coef, function(C) lapply(J, function(Jk) {
-      e <- eigen(crossprod(C, Jk %*% C), symmetric = TRUE)
-      list(T = C %*% e$vectors, d = pmax(e$values, 0))
-    }))
+    J <- if (!is.null(axis_basis)) {
+      axis_basis[[g]] <- whitened_axes(A[[g]], factors$axis_basis)
+      list(kron_gram(H[[g]][[1]], axis_basis[[g]], product))
+    } else {
+      lapply(H[[g]], crossprod)
+    }
+    rot[[g]] <- lapply(factors$coef, function(C) {
+      Ct <- t(C)
+      lapply(J, function(Jk) {
+        e <- eigen(product(Ct, product(Jk, C)), symmetric = TRUE)
+        list(T = product(C, e$vectors), d = pmax(e$values, 0))
+      })
+    })
   }
   D <- nrow(disc)
   grid <- data.frame(base = rep(seq_len(G), D), kernel = rep(disc$kernel, each = G),
@@ -209,6 +217,20 @@ kron_axis_rotations <- function(point, axes) {
        t = lapply(axes$t$coef, function(C) rotate(H_t, C)))
 }
 
+# H'H for the whitened basis H of a Kronecker grid point, whose leading
+# columns are kronecker(H_x, H_t) (`ax`, whitened_axes()): that block's Gram
+# matrix is kronecker(H_x'H_x, H_t'H_t), its products with the other
+# columns R one kron_product(), so only R'R is a product over the n
+# outputs (the rest per axis, n_x + n_t long).
+kron_gram <- function(H, ax, product) {
+  m <- ncol(ax$x) * ncol(ax$t)
+  J <- kronecker(crossprod(ax$x), crossprod(ax$t))
+  if (m == ncol(H)) return(J)
+  R <- H[, -seq_len(m), drop = FALSE]
+  JR <- t(kron_product(t(R), ax$x, ax$t, product))
+  rbind(cbind(J, JR), cbind(t(JR), crossprod(R)))
+}
+
 # The axes' bases whitened at a Kronecker grid point: kronecker(x, t) is the
 # whitened kronecker(B_x, B_t).
 whitened_axes <- function(point, basis) {
@@ -224,11 +246,14 @@ kron_product <- function(Z, G_x, G_t, product) {
   runs <- nrow(Z)
   n_x <- nrow(G_x)
   n_t <- nrow(G_t)
-  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
-  W <- product(Zs, G_t)
-  W <- matrix(aperm(array(W, c(runs, n_x, ncol(G_t))), c(1L, 3L, 2L)), runs * ncol(G_t), n_x)
+  W <- product(setting_rows(Z, runs, n_x, n_t), G_t)
+  W <- block_transpose_cpp(W, runs, n_x, ncol(G_t), 0L)
   matrix(product(W, G_x), runs, ncol(G_t) * ncol(G_x))
 }
+
+# Z (runs x n_x n_t, library order) with a row per (run, setting), run
+# fastest, and a column per t: the rows a product over t works on.
+setting_rows <- function(Z, runs, n_x, n_t) block_transpose_cpp(Z, runs, n_t, n_x, 0L)
 
 # Z H for the whitened basis H of base point g: its Kronecker columns per
 # axis (kron_product()), the rest (the sensitivities') as one product.
@@ -257,13 +282,10 @@ kron_coordinates <- function(Z, dense, g, used, product) {
   Gt <- do.call(cbind, lapply(ax$t[t_used], `[[`, "G"))
   m_t <- vapply(ax$t[t_used], function(a) ncol(a$G), 1L)
   start <- cumsum(m_t) - m_t
-  # rows (run, setting), run fastest
-  Zs <- matrix(aperm(array(Z, c(runs, n_t, n_x)), c(1L, 3L, 2L)), runs * n_x, n_t)
-  W <- product(Zs, Gt)
+  W <- product(setting_rows(Z, runs, n_x, n_t), Gt)
   # per t length, rows (run, t coordinate) and a column per setting
   Wt <- lapply(seq_along(t_used), function(b) {
-    Wb <- W[, start[b] + seq_len(m_t[b]), drop = FALSE]
-    matrix(aperm(array(Wb, c(runs, n_x, m_t[b])), c(1L, 3L, 2L)), runs * m_t[b], n_x)
+    block_transpose_cpp(W, runs, n_x, m_t[b], start[b])
   })
   do.call(cbind, lapply(seq_along(used), function(i) {
     b <- match(kt[i], t_used)
@@ -453,8 +475,11 @@ discrepancy_group_block <- function(Z, WF, dense, g, k, at, pure_ss, kappa, prod
     lambda <- grid$ratio[pts]
     weights <- outer(rots[[i]]$d, lambda, function(d, lam) lam / (1 + lam * d))
     Pi <- P[, cols, drop = FALSE]
-    # a quadratic form is >= 0; the difference can round below
-    out[, pts] <- pmax(out[, pts, drop = FALSE] - product(Pi^2, weights), 0)
+    # a quadratic form is >= 0; the difference can round below (pmax()'s
+    # values, without its cost per call)
+    v <- out[, pts, drop = FALSE] - product(Pi^2, weights)
+    v[v < 0] <- 0
+    out[, pts] <- v
     if (!error) next
     # per ratio, F' S^-1 F = FF - PF diag(w) PF' = Q diag(gamma) Q', and the
     # runs' (b'Q) = [zF, P] [Q; -diag(w) PF' Q], all ratios in one product

@@ -21,13 +21,15 @@
 # group k, its outputs `cells` (library order: all of the group's outputs,
 # or with `observed_only` its observed ones), B and the prior covariance
 # `prior` = lambda K_cc. NULL at lambda = 0. `kernels` is
-# discrepancy_kernels() of the setup's library (computed once by the caller).
+# discrepancy_kernels() of the setup's library (computed once by the caller),
+# or NULL for the library's own outputs of a setup with low-rank factors.
 delta_law <- function(setup, g, kernels, observed_only = FALSE) {
   d <- setup$discrepancy[setup$gd[g], ]
   if (d$ratio == 0) return(NULL)
   # predict() at new settings extends the kernels beyond the library's
   # outputs, which the factors do not reach: the full law there
-  if (isTRUE(setup$dense$lowrank) && NROW(kernels[[d$kernel]]) == nrow(setup$dense$basis_all)) {
+  if (isTRUE(setup$dense$lowrank) &&
+      (is.null(kernels) || NROW(kernels[[d$kernel]]) == nrow(setup$dense$basis_all))) {
     return(lowrank_delta_law(setup, g, observed_only))
   }
   point <- grid_point(setup, g)

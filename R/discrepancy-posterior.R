@@ -106,8 +106,12 @@ run_residuals <- function(fit, runs) {
     lib_outputs(fit$library, runs)
 }
 
-# The fit's discrepancy kernels (discrepancy_kernels()), for delta_law().
+# The fit's discrepancy kernels (discrepancy_kernels()), for delta_law():
+# NULL when its law comes from the setup's low-rank factors, which need no
+# dense kernel (one n x n matrix per length scale, and the projection's
+# products, made for nothing: 4% of a discrepancy fit at 480 outputs).
 fit_kernels <- function(fit) {
+  if (isTRUE(fit$setup$dense$lowrank)) return(NULL)
   discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
 }
 
@@ -161,13 +165,23 @@ discrepancy_draws <- function(fit, pick) {
                                                              drop = FALSE]
     for (k in seq_along(law$groups)) {
       grp <- law$groups[[k]]
-      e <- eigen(delta_cov(grp), symmetric = TRUE)
-      L <- sweep(e$vectors, 2, sqrt(pmax(e$values, 0)), "*")
+      L <- sqrt_psd(delta_cov(grp))
       Z <- matrix(stats::rnorm(length(rows) * ncol(L)), length(rows))
       out[rows, grp$cells] <- out[rows, grp$cells] + tcrossprod(Z, L) / sqrt(tau[rows, k])
     }
   }
   out
+}
+
+# The symmetric square root V diag(sqrt(max(e, 0))) V' of the symmetric PSD
+# matrix P = V diag(e) V': the one square root that does not depend on which
+# eigenvectors LAPACK picks, so a draw Z P^1/2 moves with P only. (A factor
+# V diag(sqrt(e)) turns with V, whose signs and, for close eigenvalues,
+# directions are accidents of rounding: a change in the last bit of P
+# changed the draws of delta for the same seed.)
+sqrt_psd <- function(P) {
+  e <- eigen(P, symmetric = TRUE)
+  tcrossprod(sweep(e$vectors, 2, sqrt(sqrt(pmax(e$values, 0))), "*"))
 }
 
 # ---- where ---------------------------------------------------------------------

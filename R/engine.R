@@ -239,8 +239,9 @@ whiten_rows <- function(M, point, n_x, n_t, over_x = TRUE) {
     return(do.call(cbind, unname(whiten_groups(M, point))))
   }
   # phi = 0 (independent t) whitens to M itself, exactly: skip the copy
-  if (any(point$phi != 0)) M <- ar1_whiten_rows_cpp(M, point$phi, n_x)
-  if (n_x > 1L && over_x) {
+  # (and R_x = I, rho_x = 0, the product)
+  if (any(point$phi != 0)) M <- ar1_whiten_columns_cpp(M, point$phi, n_x)
+  if (n_x > 1L && over_x && !is_identity(point$Rx_chol)) {
     A_x <- backsolve(point$Rx_chol, diag(n_x))          # U^-1, so R_x^-1 = A_x A_x'
     M <- matrix(matrix(M, nrow(M) * n_t, n_x) %*% A_x, nrow(M), n_x * n_t)
   }
@@ -446,8 +447,19 @@ normalise_log_prob <- function(lj) lj - log_sum_exp(lj)
 
 # log sum_i p(run i, grid point g, y) per grid point g, up to the constant
 # shared by all (log_evidence_constant()): one column of C at a time, so no
-# temporary is as large as C.
+# temporary is as large as C; in C++ (grid_log_mass_cpp()), with the
+# arithmetic of collapsed_log_lik() and log_sum_exp() (grid_log_mass_r()).
 grid_log_mass <- function(problem) {
+  n <- problem$n_obs
+  prior <- problem$prior
+  grid_log_mass_cpp(problem$C, prior$shape + sum(n) / 2, prior$rate,
+                    log_evidence_constant(prior, n), problem$setup$logdet,
+                    rep_len(as.numeric(problem$log_prior_run), nrow(problem$C)),
+                    as.numeric(problem$log_prior_grid))
+}
+
+# The same in R, column by column: the definition the C++ follows.
+grid_log_mass_r <- function(problem) {
   n <- problem$n_obs
   vapply(seq_len(ncol(problem$C)), function(g) {
     log_sum_exp(collapsed_log_lik(problem$C[, g], n, problem$setup$logdet[g], problem$prior) +

@@ -318,8 +318,7 @@ new_delta <- function(fit, x_new, kept, pick, E = NULL) {
     for (k in seq_along(law$groups)) {
       grp <- law$groups[[k]]
       cells <- grp$cells - n_lib
-      e <- eigen(delta_cov(grp), symmetric = TRUE)
-      L <- sweep(e$vectors, 2, sqrt(pmax(e$values, 0)), "*")
+      L <- sqrt_psd(delta_cov(grp))
       Z <- matrix(stats::rnorm(length(at) * ncol(L)), length(at))
       draws[at, cells] <- draws[at, cells] + tcrossprod(Z, L) / sqrt(tau[at, k])
     }

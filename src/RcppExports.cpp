@@ -11,6 +11,34 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// ar1_whiten_columns_cpp
+Rcpp::NumericMatrix ar1_whiten_columns_cpp(const Rcpp::NumericMatrix& M, const Rcpp::NumericVector& phi, int n_x);
+RcppExport SEXP _griddy_ar1_whiten_columns_cpp(SEXP MSEXP, SEXP phiSEXP, SEXP n_xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type M(MSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type phi(phiSEXP);
+    Rcpp::traits::input_parameter< int >::type n_x(n_xSEXP);
+    rcpp_result_gen = Rcpp::wrap(ar1_whiten_columns_cpp(M, phi, n_x));
+    return rcpp_result_gen;
+END_RCPP
+}
+// block_transpose_cpp
+Rcpp::NumericMatrix block_transpose_cpp(const Rcpp::NumericVector& X, int runs, int a, int b, int col0);
+RcppExport SEXP _griddy_block_transpose_cpp(SEXP XSEXP, SEXP runsSEXP, SEXP aSEXP, SEXP bSEXP, SEXP col0SEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< int >::type runs(runsSEXP);
+    Rcpp::traits::input_parameter< int >::type a(aSEXP);
+    Rcpp::traits::input_parameter< int >::type b(bSEXP);
+    Rcpp::traits::input_parameter< int >::type col0(col0SEXP);
+    rcpp_result_gen = Rcpp::wrap(block_transpose_cpp(X, runs, a, b, col0));
+    return rcpp_result_gen;
+END_RCPP
+}
 // grid_posterior_cpp
 Rcpp::List grid_posterior_cpp(const arma::mat& C, double shape_post, double rate, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid, bool joint, int threads);
 RcppExport SEXP _griddy_grid_posterior_cpp(SEXP CSEXP, SEXP shape_postSEXP, SEXP rateSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP, SEXP jointSEXP, SEXP threadsSEXP) {
@@ -86,6 +114,23 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< int >::type grid_start(grid_startSEXP);
     Rcpp::traits::input_parameter< double >::type tau_start(tau_startSEXP);
     rcpp_result_gen = Rcpp::wrap(gibbs_chain_cpp(C, tables, options, grid_start, tau_start));
+    return rcpp_result_gen;
+END_RCPP
+}
+// grid_log_mass_cpp
+Rcpp::NumericVector grid_log_mass_cpp(const Rcpp::NumericMatrix& C, double k, double rate, double cst, const Rcpp::NumericVector& logdet, const Rcpp::NumericVector& log_prior_run, const Rcpp::NumericVector& log_prior_grid);
+RcppExport SEXP _griddy_grid_log_mass_cpp(SEXP CSEXP, SEXP kSEXP, SEXP rateSEXP, SEXP cstSEXP, SEXP logdetSEXP, SEXP log_prior_runSEXP, SEXP log_prior_gridSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type C(CSEXP);
+    Rcpp::traits::input_parameter< double >::type k(kSEXP);
+    Rcpp::traits::input_parameter< double >::type rate(rateSEXP);
+    Rcpp::traits::input_parameter< double >::type cst(cstSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type logdet(logdetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_run(log_prior_runSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type log_prior_grid(log_prior_gridSEXP);
+    rcpp_result_gen = Rcpp::wrap(grid_log_mass_cpp(C, k, rate, cst, logdet, log_prior_run, log_prior_grid));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -383,11 +428,14 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_griddy_ar1_whiten_columns_cpp", (DL_FUNC) &_griddy_ar1_whiten_columns_cpp, 3},
+    {"_griddy_block_transpose_cpp", (DL_FUNC) &_griddy_block_transpose_cpp, 5},
     {"_griddy_grid_posterior_cpp", (DL_FUNC) &_griddy_grid_posterior_cpp, 8},
     {"_griddy_log_mass_cpp", (DL_FUNC) &_griddy_log_mass_cpp, 7},
     {"_griddy_run_order_cpp", (DL_FUNC) &_griddy_run_order_cpp, 2},
     {"_griddy_collapsed_heads_cpp", (DL_FUNC) &_griddy_collapsed_heads_cpp, 6},
     {"_griddy_gibbs_chain_cpp", (DL_FUNC) &_griddy_gibbs_chain_cpp, 5},
+    {"_griddy_grid_log_mass_cpp", (DL_FUNC) &_griddy_grid_log_mass_cpp, 7},
     {"_griddy_ar1_whiten_rows_cpp", (DL_FUNC) &_griddy_ar1_whiten_rows_cpp, 3},
     {"_griddy_ar1_colour_rows_cpp", (DL_FUNC) &_griddy_ar1_colour_rows_cpp, 3},
     {"_griddy_memory_pass_cpp", (DL_FUNC) &_griddy_memory_pass_cpp, 1},

@@ -210,3 +210,41 @@ test_that("complete data and Kronecker kernels take the per-axis coordinates, to
     expect_lt(max(abs(C - plain_quad_forms(Y, other$y_field, whole)) / C), 1e-10)
   }
 })
+
+test_that("block_transpose_cpp() regroups blocks of runs as aperm() does, value for value", {
+  set.seed(2)
+  runs <- 5L
+  a <- 3L
+  b <- 4L
+  X <- matrix(rnorm(runs * a * (b + 2)), runs * a)
+  ref <- function(M) matrix(aperm(array(M, c(runs, a, ncol(M))), c(1L, 3L, 2L)),
+                            runs * ncol(M), a)
+  expect_identical(block_transpose_cpp(X, runs, a, b + 2L, 0L), ref(X))
+  # from column 2 on: the columns' blocks alone
+  expect_identical(block_transpose_cpp(X, runs, a, b, 2L), ref(X[, 3:6]))
+  # a matrix read by its length, whatever its dimensions: runs x (a b)
+  Z <- matrix(rnorm(runs * a * b), runs)
+  expect_identical(setting_rows(Z, runs, b, a),
+                   matrix(aperm(array(Z, c(runs, a, b)), c(1L, 3L, 2L)), runs * b, a))
+  expect_error(block_transpose_cpp(X, runs, a, b + 3L, 0L), "do not fit")
+})
+
+test_that("the whitened basis's Gram matrix per axis is the dense crossprod, to rounding", {
+  case <- engine_case()
+  for (disc in list(gp_discrepancy(), gp_discrepancy(scaled = TRUE))) {
+    problem <- calibration_problem(case$lib, case$field, 0, c(0, 0.7), NULL, 2, NULL,
+                                   discrepancy = disc)
+    dense <- problem$setup$dense
+    for (g in seq_along(dense$H)) {
+      H <- dense$H[[g]][[1]]
+      J <- kron_gram(H, dense$axis_basis[[g]], function(X, B) X %*% B)
+      expect_lt(max(abs(J - crossprod(H))), 1e-12 * max(abs(J)))
+      # every kernel's rotation diagonalises C' H'H C: G = H T has G'G = diag(d)
+      for (r in dense$rot[[g]]) {
+        G <- H %*% r[[1]]$T
+        expect_lt(max(abs(crossprod(G) - diag(r[[1]]$d, length(r[[1]]$d)))),
+                  1e-10 * max(r[[1]]$d))
+      }
+    }
+  }
+})

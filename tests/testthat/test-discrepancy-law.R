@@ -106,3 +106,14 @@ test_that("delta's law is NULL at lambda = 0 and restricts to the observed outpu
                  tolerance = 1e-12)
   }
 })
+
+test_that("a low-rank fit's law needs no dense kernels: the same law from the factors", {
+  fit <- law_fit()$fit
+  expect_true(fit$setup$dense$lowrank)
+  expect_null(fit_kernels(fit))
+  K <- discrepancy_kernels(fit$library, attr(fit$setup$discrepancy, "kernels"))
+  positive <- which(fit$grid$delta_ratio > 0)
+  for (g in positive[c(1, length(positive))]) {
+    expect_identical(delta_law(fit$setup, g, NULL)$groups, delta_law(fit$setup, g, K)$groups)
+  }
+})

@@ -197,3 +197,24 @@ test_that("an orthogonal discrepancy's posterior leaves theta's directions alone
   # the bump, which k cannot imitate, is still found
   expect_true(all(post$lower[sys$gap > 0.3] > 0))
 })
+
+test_that("delta's draws use the symmetric square root, which rounding cannot turn", {
+  # P with a repeated eigenvalue and a null space, made twice: the same
+  # matrix to rounding, through two bases of the repeated eigenspace
+  set.seed(4)
+  V <- qr.Q(qr(matrix(rnorm(36), 6)))
+  turn <- diag(6)
+  turn[1:2, 1:2] <- matrix(c(cos(1), sin(1), -sin(1), cos(1)), 2)
+  P1 <- V %*% diag(c(2, 2, 1, 0.5, 0, 0)) %*% t(V)
+  W <- V %*% turn
+  P2 <- W %*% diag(c(2, 2, 1, 0.5, 0, 0)) %*% t(W)
+  P2 <- (P2 + t(P2)) / 2
+  expect_lt(max(abs(P1 - P2)), 1e-14)
+  S1 <- sqrt_psd(P1)
+  expect_equal(S1, t(S1))
+  expect_equal(S1 %*% S1, P1, tolerance = 1e-10)
+  # a draw Z S moves with P alone (an eigenvector factor, as before, is
+  # free to turn within the repeated eigenvalue and to change sign)
+  expect_lt(max(abs(S1 - sqrt_psd(P2))), 1e-7)
+  expect_equal(sqrt_psd(matrix(0, 2, 2)), matrix(0, 2, 2))
+})

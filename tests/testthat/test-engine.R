@@ -413,3 +413,33 @@ test_that("near-singular R_x, several outputs per x setting: as accurate as the 
     expect_lt(max(abs(C - case$exact) / case$exact), 2e-10)
   }
 })
+
+test_that("the AR(1) whitening column by column gives ar1_whiten_rows_cpp()'s values exactly", {
+  set.seed(5)
+  for (dims in list(c(4, 1, 6), c(7, 3, 5), c(1, 2, 1), c(3, 3, 2))) {
+    M <- matrix(rnorm(dims[1] * dims[2] * dims[3]), dims[1])
+    phi <- runif(dims[3] - 1, 0, 0.95)
+    expect_identical(ar1_whiten_columns_cpp(M, phi, dims[2]), ar1_whiten_rows_cpp(M, phi, dims[2]))
+  }
+  expect_error(ar1_whiten_columns_cpp(matrix(0, 2, 6), 0.5, 2L), "lag coefficients")
+  # R_x = I (rho_x = 0) whitens over x to M itself: whiten_rows() skips the product
+  M <- matrix(rnorm(24), 2)
+  point <- list(Rx_chol = diag(3), phi = c(0.3, 0.2, 0.1))
+  expect_identical(whiten_rows(M, point, 3L, 4L), ar1_whiten_rows_cpp(M, point$phi, 3L))
+  point$Rx_chol <- chol(0.5 + diag(0.5, 3))
+  A_x <- backsolve(point$Rx_chol, diag(3))
+  expect_equal(whiten_rows(M, point, 3L, 4L),
+               matrix(matrix(ar1_whiten_rows_cpp(M, point$phi, 3L), 8, 3) %*% A_x, 2, 12))
+})
+
+test_that("grid_log_mass() in C++ is the R definition, value for value", {
+  ex <- griddy_example()
+  problem <- calibration_problem(ex$library, ex$field, 0, c(0, 0.5), NULL, 2, NULL,
+                                 discrepancy = gp_discrepancy(length_x = 1, length_t = c(0.3, 1)))
+  expect_identical(grid_log_mass(problem), grid_log_mass_r(problem))
+  # run weights, and a grid point whose every run is impossible
+  problem$log_prior_run <- log(seq_len(nrow(problem$C)) / sum(seq_len(nrow(problem$C))))
+  problem$log_prior_grid[2] <- -Inf
+  expect_identical(grid_log_mass(problem), grid_log_mass_r(problem))
+  expect_identical(grid_log_mass(problem)[2], -Inf)
+})
