@@ -93,8 +93,25 @@ normal_scores <- function(m, discrete = FALSE) {
   starts <- c(1L, ends[-length(ends)] + 1L)
   r <- numeric(n)
   r[o] <- rep((starts + ends) / 2, ends - starts + 1L)
-  matrix(stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)), nrow(m))
+  # a whole rank's score is the same number for every parameter and fit
+  # with n draws (rank_scores()); a tie's half rank is computed
+  whole <- r == floor(r)
+  z <- numeric(n)
+  z[whole] <- rank_scores(n)[r[whole]]
+  z[!whole] <- stats::qnorm((r[!whole] - 3 / 8) / (n - 2 * 3 / 8 + 1))
+  matrix(z, nrow(m))
 }
+
+# The normal scores qnorm((r - 3/8) / (n + 1/4)) of the ranks r = 1..n,
+# computed once for the last n asked (a fit's parameters all have n draws).
+rank_scores <- function(n) {
+  if (!identical(score_cache$n, n)) {
+    score_cache$z <- stats::qnorm((seq_len(n) - 3 / 8) / (n - 2 * 3 / 8 + 1))
+    score_cache$n <- n
+  }
+  score_cache$z
+}
+score_cache <- new.env(parent = emptyenv())
 
 # posterior's should_return_NA() for finite draws: all one value.
 is_flat <- function(m) abs(max(m) - min(m)) < .Machine$double.eps
@@ -146,13 +163,37 @@ chain_autocovariances <- function(m) {
   out
 }
 
+# The first lags' autocovariances of chains (columns of m), averaged over the
+# chains: lags 0 to `lags` - 1, each summed directly (chain_autocovariances()'s
+# numbers to rounding; it transforms all n lags, and Geyer's sum for draws
+# that mix well stops after a few).
+first_autocovariances <- function(m, lags) {
+  n <- nrow(m)
+  centred <- m - rep(.colMeans(m, n, ncol(m)), each = n)
+  ss <- .colSums(centred^2, n, ncol(m))
+  v <- ss / (n - 1)
+  out <- vapply(seq_len(lags) - 1L, function(k) {
+    lagged <- .colSums(centred[seq_len(n - k), , drop = FALSE] *
+                         centred[k + seq_len(n - k), , drop = FALSE], n - k, ncol(m))
+    ac <- lagged / ss * v * (n - 1) / n
+    mean(ifelse(v == 0, 0, ac))
+  }, numeric(1))
+  out
+}
+
+# How many lags basic_ess() sums directly before it transforms them all.
+direct_lags <- 12L
+
 # The ESS of chains (columns of m) from Geyer's initial monotone sequence of
-# autocorrelations (posterior's .ess(), step for step).
+# autocorrelations (posterior's .ess(), step for step). The autocovariances
+# of the first direct_lags lags are summed directly; the sequence reads all
+# n of them (by FFT, as posterior) only when it runs further.
 basic_ess <- function(m) {
   n_chains <- ncol(m)
   n <- nrow(m)
   if (n < 3L || is_flat(m)) return(NA_real_)
-  acov <- .rowMeans(chain_autocovariances(m), n, n_chains)
+  direct <- min(n, direct_lags)
+  acov <- first_autocovariances(m, direct)
   mean_var <- acov[1] * n / (n - 1)
   var_plus <- mean_var * (n - 1) / n
   if (n_chains > 1L) var_plus <- var_plus + stats::var(.colMeans(m, n, n_chains))
@@ -164,6 +205,7 @@ basic_ess <- function(m) {
   rho[2] <- odd
   while (t < n - 5 && !is.nan(even + odd) && (even + odd > 0)) {
     t <- t + 2
+    if (t + 2 > length(acov)) acov <- .rowMeans(chain_autocovariances(m), n, n_chains)
     even <- 1 - (mean_var - acov[t + 1]) / var_plus
     odd <- 1 - (mean_var - acov[t + 2]) / var_plus
     if (even + odd >= 0) {
