@@ -172,13 +172,15 @@ first_autocovariances <- function(m, lags) {
   centred <- m - rep(.colMeans(m, n, ncol(m)), each = n)
   ss <- .colSums(centred^2, n, ncol(m))
   v <- ss / (n - 1)
-  out <- vapply(seq_len(lags) - 1L, function(k) {
-    lagged <- .colSums(centred[seq_len(n - k), , drop = FALSE] *
-                         centred[k + seq_len(n - k), , drop = FALSE], n - k, ncol(m))
-    ac <- lagged / ss * v * (n - 1) / n
-    mean(ifelse(v == 0, 0, ac))
-  }, numeric(1))
-  out
+  # column j of the shifted matrix is the chain `j - 1` draws on, zeros past
+  # its end: one product gives every lag's sum
+  shift <- seq_len(n) + rep(seq_len(lags) - 1L, each = n)
+  ac <- vapply(seq_len(ncol(m)), function(k) {
+    if (v[k] == 0) return(numeric(lags))
+    x <- centred[, k]
+    drop(crossprod(x, matrix(c(x, numeric(lags))[shift], n))) / ss[k] * v[k] * (n - 1) / n
+  }, numeric(lags))
+  .rowMeans(matrix(ac, lags), lags, ncol(m))
 }
 
 # How many lags basic_ess() sums directly before it transforms them all.
