@@ -172,13 +172,12 @@ first_autocovariances <- function(m, lags) {
   centred <- m - rep(.colMeans(m, n, ncol(m)), each = n)
   ss <- .colSums(centred^2, n, ncol(m))
   v <- ss / (n - 1)
-  # column j of the shifted matrix is the chain `j - 1` draws on, zeros past
-  # its end: one product gives every lag's sum
-  shift <- seq_len(n) + rep(seq_len(lags) - 1L, each = n)
   ac <- vapply(seq_len(ncol(m)), function(k) {
-    if (v[k] == 0) return(numeric(lags))
+    out <- numeric(lags)
+    if (v[k] == 0) return(out)
     x <- centred[, k]
-    drop(crossprod(x, matrix(c(x, numeric(lags))[shift], n))) / ss[k] * v[k] * (n - 1) / n
+    for (j in seq_len(lags)) out[j] <- sum(x[1:(n - j + 1L)] * x[j:n])
+    out / ss[k] * v[k] * (n - 1) / n
   }, numeric(lags))
   .rowMeans(matrix(ac, lags), lags, ncol(m))
 }
