@@ -91,12 +91,17 @@ normal_scores <- function(m, discrete = FALSE) {
   xs <- x[o]
   ends <- c(which(xs[-1L] != xs[-n]), n)
   starts <- c(1L, ends[-length(ends)] + 1L)
+  z <- numeric(n)
+  if (length(ends) == n) {
+    # no ties: the draw at sorted position i has rank i
+    z[o] <- rank_scores(n)
+    return(matrix(z, nrow(m)))
+  }
   r <- numeric(n)
   r[o] <- rep((starts + ends) / 2, ends - starts + 1L)
   # a whole rank's score is the same number for every parameter and fit
   # with n draws (rank_scores()); a tie's half rank is computed
   whole <- r == floor(r)
-  z <- numeric(n)
   z[whole] <- rank_scores(n)[r[whole]]
   z[!whole] <- stats::qnorm((r[!whole] - 3 / 8) / (n - 2 * 3 / 8 + 1))
   matrix(z, nrow(m))
@@ -182,22 +187,31 @@ first_autocovariances <- function(m, lags) {
   .rowMeans(matrix(ac, lags), lags, ncol(m))
 }
 
-# How many lags basic_ess() sums directly before it transforms them all.
+# How many lags basic_ess() sums directly before it transforms them all,
+# and the lag-1 autocorrelation above which it transforms them at once.
 direct_lags <- 12L
+slow_mixing <- 0.5
 
 # The ESS of chains (columns of m) from Geyer's initial monotone sequence of
-# autocorrelations (posterior's .ess(), step for step). The autocovariances
-# of the first direct_lags lags are summed directly; the sequence reads all
+# autocorrelations (posterior's .ess(), step for step). Draws that mix well
+# (lag-1 autocorrelation at most slow_mixing) have the autocovariances of
+# their first direct_lags lags summed directly, and the sequence reads all
 # n of them (by FFT, as posterior) only when it runs further.
 basic_ess <- function(m) {
   n_chains <- ncol(m)
   n <- nrow(m)
   if (n < 3L || is_flat(m)) return(NA_real_)
-  direct <- min(n, direct_lags)
-  acov <- first_autocovariances(m, direct)
+  acov <- first_autocovariances(m, 2L)
   mean_var <- acov[1] * n / (n - 1)
   var_plus <- mean_var * (n - 1) / n
   if (n_chains > 1L) var_plus <- var_plus + stats::var(.colMeans(m, n, n_chains))
+  # a chain whose lag-1 autocorrelation is high sums many lags: all of them
+  # by FFT at once, else the first direct_lags directly
+  acov <- if (1 - (mean_var - acov[2]) / var_plus > slow_mixing) {
+    .rowMeans(chain_autocovariances(m), n, n_chains)
+  } else {
+    first_autocovariances(m, min(n, direct_lags))
+  }
   rho <- rep.int(0, n)
   t <- 0
   even <- 1

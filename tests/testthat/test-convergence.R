@@ -189,3 +189,15 @@ test_that("whole ranks take their normal scores from one table, half ranks their
                    stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)))
   expect_identical(rank_scores(n), stats::qnorm((seq_len(n) - 3 / 8) / (n + 1 / 4)))
 })
+
+test_that("continuous draws without ties take the table's scores, as ranks give them", {
+  set.seed(9)
+  m <- matrix(stats::rexp(3000), 1500, 2)
+  n <- length(m)
+  r <- rank(as.vector(m))
+  expect_identical(as.vector(normal_scores(m)), stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)))
+  # a chain that mixes slowly goes to the transform at once: posterior's ESS
+  ar <- matrix(stats::arima.sim(list(ar = 0.9), 3000), 1500, 2)
+  expect_equal(basic_ess(ar), suppressWarnings(posterior::ess_basic(ar, split = FALSE)),
+               tolerance = 1e-12)
+})
