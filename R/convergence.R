@@ -168,50 +168,16 @@ chain_autocovariances <- function(m) {
   out
 }
 
-# The first lags' autocovariances of chains (columns of m), averaged over the
-# chains: lags 0 to `lags` - 1, each summed directly (chain_autocovariances()'s
-# numbers to rounding; it transforms all n lags, and Geyer's sum for draws
-# that mix well stops after a few).
-first_autocovariances <- function(m, lags) {
-  n <- nrow(m)
-  centred <- m - rep(.colMeans(m, n, ncol(m)), each = n)
-  ss <- .colSums(centred^2, n, ncol(m))
-  v <- ss / (n - 1)
-  ac <- vapply(seq_len(ncol(m)), function(k) {
-    out <- numeric(lags)
-    if (v[k] == 0) return(out)
-    x <- centred[, k]
-    for (j in seq_len(lags)) out[j] <- sum(x[1:(n - j + 1L)] * x[j:n])
-    out / ss[k] * v[k] * (n - 1) / n
-  }, numeric(lags))
-  .rowMeans(matrix(ac, lags), lags, ncol(m))
-}
-
-# How many lags basic_ess() sums directly before it transforms them all,
-# and the lag-1 autocorrelation above which it transforms them at once.
-direct_lags <- 12L
-slow_mixing <- 0.5
-
 # The ESS of chains (columns of m) from Geyer's initial monotone sequence of
-# autocorrelations (posterior's .ess(), step for step). Draws that mix well
-# (lag-1 autocorrelation at most slow_mixing) have the autocovariances of
-# their first direct_lags lags summed directly, and the sequence reads all
-# n of them (by FFT, as posterior) only when it runs further.
+# autocorrelations (posterior's .ess(), step for step).
 basic_ess <- function(m) {
   n_chains <- ncol(m)
   n <- nrow(m)
   if (n < 3L || is_flat(m)) return(NA_real_)
-  acov <- first_autocovariances(m, 2L)
+  acov <- .rowMeans(chain_autocovariances(m), n, n_chains)
   mean_var <- acov[1] * n / (n - 1)
   var_plus <- mean_var * (n - 1) / n
   if (n_chains > 1L) var_plus <- var_plus + stats::var(.colMeans(m, n, n_chains))
-  # a chain whose lag-1 autocorrelation is high sums many lags: all of them
-  # by FFT at once, else the first direct_lags directly
-  acov <- if (1 - (mean_var - acov[2]) / var_plus > slow_mixing) {
-    .rowMeans(chain_autocovariances(m), n, n_chains)
-  } else {
-    first_autocovariances(m, min(n, direct_lags))
-  }
   rho <- rep.int(0, n)
   t <- 0
   even <- 1
@@ -220,7 +186,6 @@ basic_ess <- function(m) {
   rho[2] <- odd
   while (t < n - 5 && !is.nan(even + odd) && (even + odd > 0)) {
     t <- t + 2
-    if (t + 2 > length(acov)) acov <- .rowMeans(chain_autocovariances(m), n, n_chains)
     even <- 1 - (mean_var - acov[t + 1]) / var_plus
     odd <- 1 - (mean_var - acov[t + 2]) / var_plus
     if (even + odd >= 0) {

@@ -162,23 +162,6 @@ test_that("the diagnostics' shortcuts give the numbers of the general path", {
                    chain_matrix(fit$draws$tau[shuffled], fit$draws$chain[shuffled]))
 })
 
-test_that("the first lags summed directly are the transform's, and a long sequence reads on", {
-  set.seed(7)
-  for (m in list(matrix(stats::rnorm(3000), 1000, 3), cbind(stats::rnorm(500), 2),
-                 matrix(cumsum(stats::rnorm(800)), 400, 2))) {
-    n <- nrow(m)
-    full <- .rowMeans(chain_autocovariances(m), n, ncol(m))
-    expect_equal(first_autocovariances(m, direct_lags), full[seq_len(direct_lags)],
-                 tolerance = 1e-13)
-  }
-  # a random walk's autocorrelations stay high beyond the direct lags: its
-  # ESS is still posterior's
-  m <- matrix(cumsum(stats::rnorm(4000)), 2000, 2)
-  expect_equal(rank_ess_bulk(m), suppressWarnings(posterior::ess_bulk(m)), tolerance = 1e-12)
-  expect_equal(basic_ess(m), suppressWarnings(posterior::ess_basic(m, split = FALSE)),
-               tolerance = 1e-12)
-})
-
 test_that("whole ranks take their normal scores from one table, half ranks their own", {
   set.seed(8)
   m <- matrix(c(stats::rnorm(397), 0.5, 0.5, 0.5), 100, 4)  # one tie of three, one of two
@@ -196,8 +179,4 @@ test_that("continuous draws without ties take the table's scores, as ranks give 
   n <- length(m)
   r <- rank(as.vector(m))
   expect_identical(as.vector(normal_scores(m)), stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)))
-  # a chain that mixes slowly goes to the transform at once: posterior's ESS
-  ar <- matrix(stats::arima.sim(list(ar = 0.9), 3000), 1500, 2)
-  expect_equal(basic_ess(ar), suppressWarnings(posterior::ess_basic(ar, split = FALSE)),
-               tolerance = 1e-12)
 })
