@@ -451,12 +451,7 @@ group_tau_draws <- function(problem, chains) {
 # "checks" part grows by the time the margins take here.
 new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   kept <- seq(control$burn_in + control$thin, control$n_iter, by = control$thin)
-  draws <- data.table::rbindlist(lapply(seq_along(out$chains), function(ch) {
-    d <- out$chains[[ch]]
-    list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
-         grid_point = d$grid_point, tau = d$tau)
-  }))
-  draws <- as.data.frame(draws)
+  draws <- chain_draws(out$chains, kept)
   if (!is.null(out$group_tau)) draws <- cbind(draws[names(draws) != "tau"], out$group_tau)
   start <- proc.time()[["elapsed"]]
   fit <- structure(
@@ -471,6 +466,18 @@ new_griddy_fit <- function(problem, out, update, control, call, runtime) {
   fit$diagnostics <- fit_diagnostics(fit)
   fit$runtime[["checks"]] <- runtime[["checks"]] + proc.time()[["elapsed"]] - start
   fit
+}
+
+# The chains' kept draws, one after another, as a data.frame with columns
+# chain, iteration, run, grid_point and tau (columns_frame(): what
+# data.table::rbindlist() and as.data.frame() made, without their
+# conversions).
+chain_draws <- function(chains, kept) {
+  column <- function(v) unlist(lapply(chains, `[[`, v), use.names = FALSE)
+  lengths <- vapply(chains, function(d) length(d$run), 1L)
+  columns_frame(list(chain = rep(seq_along(chains), lengths),
+                     iteration = rep(kept, length(chains)), run = column("run"),
+                     grid_point = column("grid_point"), tau = column("tau")))
 }
 
 # The exact posterior's margins of a fit (a griddy_exact without the joint

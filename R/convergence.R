@@ -91,10 +91,32 @@ normal_scores <- function(m, discrete = FALSE) {
   xs <- x[o]
   ends <- c(which(xs[-1L] != xs[-n]), n)
   starts <- c(1L, ends[-length(ends)] + 1L)
+  z <- numeric(n)
+  if (length(ends) == n) {
+    # no ties: the draw at sorted position i has rank i
+    z[o] <- rank_scores(n)
+    return(matrix(z, nrow(m)))
+  }
   r <- numeric(n)
   r[o] <- rep((starts + ends) / 2, ends - starts + 1L)
-  matrix(stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)), nrow(m))
+  # a whole rank's score is the same number for every parameter and fit
+  # with n draws (rank_scores()); a tie's half rank is computed
+  whole <- r == floor(r)
+  z[whole] <- rank_scores(n)[r[whole]]
+  z[!whole] <- stats::qnorm((r[!whole] - 3 / 8) / (n - 2 * 3 / 8 + 1))
+  matrix(z, nrow(m))
 }
+
+# The normal scores qnorm((r - 3/8) / (n + 1/4)) of the ranks r = 1..n,
+# computed once for the last n asked (a fit's parameters all have n draws).
+rank_scores <- function(n) {
+  if (!identical(score_cache$n, n)) {
+    score_cache$z <- stats::qnorm((seq_len(n) - 3 / 8) / (n - 2 * 3 / 8 + 1))
+    score_cache$n <- n
+  }
+  score_cache$z
+}
+score_cache <- new.env(parent = emptyenv())
 
 # posterior's should_return_NA() for finite draws: all one value.
 is_flat <- function(m) abs(max(m) - min(m)) < .Machine$double.eps

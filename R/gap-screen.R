@@ -44,12 +44,13 @@ gap_screen <- function(fit) {
   g <- which.max(fit$exact$grid$prob)
   # the fit has said what there is to say about its library and prior: the
   # screen's own problem stays quiet
-  problem <- tryCatch(suppressWarnings(screen_problem(fit, runs, g), classes = "griddy_warning"),
-                      griddy_error = function(e) NULL)
-  if (is.null(problem)) return(NULL)
+  log_mass <- tryCatch(suppressWarnings(screen_log_mass(fit, runs, g),
+                                        classes = "griddy_warning"),
+                       griddy_error = function(e) NULL)
+  if (is.null(log_mass)) return(NULL)
   # the subset's and the grid point's prior mass in the full model
   log_prior_mass <- log_sum_exp(fit$log_prior_run[runs]) + fit$log_prior_grid[g]
-  log_mass_disc <- grid_posterior(problem, joint = FALSE)$log_mass + log_prior_mass
+  log_mass_disc <- log_mass + log_prior_mass
   blocks <- screen_blocks(fit, runs)
   list(log_bf = log_mass_disc - log_mass_full, runs = length(runs), blocks = blocks,
        n_flagged = if (is.null(blocks)) 0L else sum(blocks$flagged))
@@ -104,9 +105,7 @@ screen_problem <- function(fit, runs, g, discrepancy = screen_discrepancy()) {
   # full model's does (a subset's nearest runs differ, and so would the
   # model): around the best run under independent noise, which C holds
   # when the grid has the point rho = 0
-  zero <- which(rowSums(as.matrix(fit$grid) != 0) == 0)[1]
-  best <- if (!is.na(zero)) which.min(fit$C[, zero])
-  disc <- discrepancy_for_data(discrepancy, lib, fit$y_field, pattern, best)
+  disc <- discrepancy_for_data(discrepancy, lib, fit$y_field, pattern, screen_best_run(fit))
   setup <- correlation_setup(sub, rho$x, rho$t, fit$setup$x_power, pattern, disc)
   # the replicates' constant of the log-determinant, which a setup does not
   # keep: grid point g of the fit has the same correlation and no
@@ -120,6 +119,79 @@ screen_problem <- function(fit, runs, g, discrepancy = screen_discrepancy()) {
   C <- fold_extra_logdet(predicted_forms(lib, runs, fit$y_field, setup), fit$prior, fit$n_obs)
   new_griddy_problem(sub, fit$y_field, fit$prior, normalise_log_prob(fit$log_prior_run[runs]),
                      setup, C = C)
+}
+
+# The log evidence of the screen's model (library rows `runs` at grid point
+# g with the screen's discrepancy): by the dense algebra of
+# small_screen_log_mass() where it applies, else from screen_problem().
+# `small`: whether to take the dense route where it applies (the tests
+# compare the two).
+screen_log_mass <- function(fit, runs, g, small = TRUE) {
+  if (small && small_screen_applies(fit, runs)) return(small_screen_log_mass(fit, runs, g))
+  grid_posterior(screen_problem(fit, runs, g), joint = FALSE)$log_mass
+}
+
+# Up to this many measured cells a Kronecker fit's screen is computed
+# densely (small_screen_log_mass()): there an n x n eigen-decomposition per
+# length scale costs less than the engine's setups (bench/calibrate-overhead.R).
+small_screen_cells <- 64L
+
+# Whether small_screen_log_mass() computes the screen of this fit: the
+# Kronecker case (complete data, one noise group, no sd, no replicates: no
+# noise pattern kept) at most small_screen_cells cells, and runs that were
+# all simulated (a predicted run has a covariance of its own).
+small_screen_applies <- function(fit, runs) {
+  is.null(fit$setup$pattern) && length(fit$y_field) <= small_screen_cells &&
+    length(predicted_parts(fit$library, runs)) == 0L
+}
+
+# screen_problem()'s log evidence, computed directly: with R = U'U the
+# noise correlation of grid point g over the n cells and, per length scale
+# l of the discrepancy, U^-T K_l U^-1 = V diag(d) V', each run's residual
+# r (z = V' U^-T r) has r' (R + lambda K_l)^-1 r = sum_k z_k^2 / (1 + lambda
+# d_k) and log|R + lambda K_l| = log|R| + sum_k log(1 + lambda d_k): the
+# algebra of the engine's low-rank factors (discrepancy-engine.R), over n
+# dimensions at once. The same kernels (discrepancy_kernels(): projected off
+# the sensitivities learnt from the whole library), grid and priors as
+# screen_problem()'s; equal to its log evidence to rounding (test-gap-screen.R).
+small_screen_log_mass <- function(fit, runs, g, discrepancy = screen_discrepancy()) {
+  lib <- fit$library
+  n_out <- lib_n_out(lib)
+  pattern <- setup_noise_pattern(fit$setup, n_out, fit$prior)
+  disc <- discrepancy_for_data(discrepancy, lib, fit$y_field, pattern, screen_best_run(fit))
+  points <- discrepancy_points(disc, lib)
+  kernels <- discrepancy_kernels(lib, attr(points, "kernels"))
+  U <- observed_noise_cholesky(fit$setup, g, lib_t(lib), seq_len(n_out),
+                               list(seq_len(n_out)))[[1]]
+  resid <- matrix(fit$y_field, length(runs), n_out, byrow = TRUE) - lib_outputs(lib, runs)
+  Z <- t(backsolve(U, t(resid), transpose = TRUE))
+  C <- matrix(0, length(runs), nrow(points))
+  logdet <- rep(fit$setup$logdet[g], nrow(points))
+  for (l in unique(points$kernel)) {
+    X <- backsolve(U, kernels[[l]], transpose = TRUE)
+    M <- t(backsolve(U, t(X), transpose = TRUE))
+    e <- eigen((M + t(M)) / 2, symmetric = TRUE)
+    d <- pmax(e$values, 0)
+    at <- which(points$kernel == l)
+    C[, at] <- (Z %*% e$vectors)^2 %*% (1 / (1 + outer(d, points$ratio[at])))
+    logdet[at] <- logdet[at] + colSums(log1p(outer(d, points$ratio[at])))
+  }
+  n <- fit$n_obs
+  assert_misfit_scale(C, fit$y_field, n)
+  if (fit$prior$rate == 0 && min(C) <= 0) {
+    griddy_abort("A library run reproduces the field data exactly.")
+  }
+  post <- grid_posterior_cpp(C, fit$prior$shape + n / 2, fit$prior$rate, logdet,
+                             normalise_log_prob(fit$log_prior_run[runs]), points$log_prior,
+                             FALSE, 1L)
+  post$log_norm + log_evidence_constant(fit$prior, n)
+}
+
+# The run that fits best under independent noise, which C holds when the
+# grid has the point rho = 0 (NULL otherwise: the discrepancy then finds it).
+screen_best_run <- function(fit) {
+  zero <- which(rowSums(as.matrix(fit$grid) != 0) == 0)[1]
+  if (!is.na(zero)) which.min(fit$C[, zero])
 }
 
 # The runs that carry all but 1e-6 of the posterior, at most

@@ -61,10 +61,10 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
   })
   # one data.frame from the rows' columns (an rbind() of one-row
   # data.frames cost most of the table on a small problem)
-  out <- data.frame(parameter = names(theta),
-                    lapply(stats::setNames(nm = names(rows[[1]])), function(col) {
-                      unlist(lapply(rows, `[[`, col), use.names = FALSE)
-                    }))
+  out <- columns_frame(c(list(parameter = names(theta)),
+                         lapply(stats::setNames(nm = names(rows[[1]])), function(col) {
+                           unlist(lapply(rows, `[[`, col), use.names = FALSE)
+                         })))
   # from four parameters, or in a library grown by refine()'s proposals
   # (`scattered`), the posterior over runs as an importance sample
   # (resolution-runs.R): a parameter is limited while it is not resolved
@@ -74,6 +74,13 @@ resolution_table <- function(p, theta, level = 0.95, min_values = resolution_min
   out$limited <- out$limited | (!runs$resolved & !out$constant)
   attr(out, "runs") <- runs
   out
+}
+
+# A data.frame of equally long, named, plain columns, as data.frame() makes
+# it, without its checks and conversions (which took most of a small fit's
+# resolution table).
+columns_frame <- function(cols) {
+  structure(cols, class = "data.frame", row.names = c(NA_integer_, -length(cols[[1]])))
 }
 
 # One column of resolution_table(): `v` the column, `support` the runs with

@@ -502,3 +502,18 @@ test_that("the grid draws are the same with the runs' rows kept or computed each
     expect_identical(chain(50), chain(0))  # room for a few runs only
   }
 })
+
+test_that("the chains' draws are the frame data.table made of them", {
+  set.seed(5)
+  chains <- lapply(1:3, function(i) {
+    list(run = sample.int(50, 20, TRUE), grid_point = sample.int(3, 20, TRUE), tau = stats::rexp(20))
+  })
+  kept <- seq(12L, 50L, by = 2L)
+  made <- as.data.frame(data.table::rbindlist(lapply(seq_along(chains), function(ch) {
+    d <- chains[[ch]]
+    list(chain = rep(ch, length(d$run)), iteration = kept, run = d$run,
+         grid_point = d$grid_point, tau = d$tau)
+  })))
+  expect_identical(chain_draws(chains, kept), made)
+  expect_identical(chain_draws(chains[1], kept), made[made$chain == 1L, , drop = FALSE])
+})

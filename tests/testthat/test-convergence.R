@@ -161,3 +161,22 @@ test_that("the diagnostics' shortcuts give the numbers of the general path", {
   expect_identical(chain_shaper(fit$draws$chain[shuffled])(fit$draws$tau[shuffled]),
                    chain_matrix(fit$draws$tau[shuffled], fit$draws$chain[shuffled]))
 })
+
+test_that("whole ranks take their normal scores from one table, half ranks their own", {
+  set.seed(8)
+  m <- matrix(c(stats::rnorm(397), 0.5, 0.5, 0.5), 100, 4)  # one tie of three, one of two
+  m[2, 2] <- m[3, 3]
+  n <- length(m)
+  r <- rank(as.vector(m), ties.method = "average")
+  expect_identical(as.vector(normal_scores(m)),
+                   stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)))
+  expect_identical(rank_scores(n), stats::qnorm((seq_len(n) - 3 / 8) / (n + 1 / 4)))
+})
+
+test_that("continuous draws without ties take the table's scores, as ranks give them", {
+  set.seed(9)
+  m <- matrix(stats::rexp(3000), 1500, 2)
+  n <- length(m)
+  r <- rank(as.vector(m))
+  expect_identical(as.vector(normal_scores(m)), stats::qnorm((r - 3 / 8) / (n - 2 * 3 / 8 + 1)))
+})

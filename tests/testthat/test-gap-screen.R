@@ -274,3 +274,31 @@ test_that("a Kronecker fit's screen needs no second setup: its replicates' const
                                             disc_fit$setup$gt == fit$setup$gt[g])[1]],
                tolerance = 1e-10)
 })
+
+test_that("a small Kronecker fit's dense screen is the engine's screen to rounding", {
+  # Brynjarsdottir and O'Hagan's simple machine (one x column, no t) and the
+  # 3 x 12 system with and without a gap, over rho grids
+  x <- data.frame(x = seq(0.2, 4, length.out = 11))
+  theta <- data.frame(theta = seq(0.3, 1, length.out = 1001))
+  set.seed(1)
+  yf <- 0.65 * x$x / (1 + x$x / 20) + stats::rnorm(11, sd = 0.01)
+  machine <- list(library = sim_library(theta, outer(theta$theta, x$x), x = x),
+                  field = field_data(matrix(yf), x = x))
+  fits <- list(quiet_fit(machine)$fit,
+               quiet_fit(screen_system(0.1, seed = 2), rho_t = c(0, 0.5), rho_x = c(0, 0.3))$fit,
+               quiet_fit(screen_system(0, seed = 2), rho_t = 0.5)$fit)
+  for (fit in fits) {
+    runs <- screen_runs(fit$exact$run)
+    g <- which.max(fit$exact$grid$prob)
+    expect_true(small_screen_applies(fit, runs))
+    expect_equal(screen_log_mass(fit, runs, g), screen_log_mass(fit, runs, g, small = FALSE),
+                 tolerance = 1e-10)
+  }
+  # replicates keep a noise pattern: the engine's screen
+  sys <- screen_system(0.1, seed = 2)
+  rep_field <- field_data(rbind(sys$field$y, sys$field$y + 0.01),
+                          x = rbind(lib_x(sys$library), lib_x(sys$library)),
+                          t = lib_t(sys$library))
+  fit <- quiet_fit(list(library = sys$library, field = rep_field))$fit
+  expect_false(small_screen_applies(fit, screen_runs(fit$exact$run)))
+})

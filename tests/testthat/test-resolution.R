@@ -163,3 +163,16 @@ test_that("a summary saved before the `constant` column prints (chapter 5's ship
   expect_match(lines, "^k: interval limited by the library's resolution", all = FALSE)
   expect_false(any(grepl("^m: interval limited", lines)))
 })
+
+test_that("the table's frame is the one data.frame() makes", {
+  cols <- list(parameter = c("a", "b"), lower = c(0.1, 0.2), n = 1:2, limited = c(TRUE, FALSE))
+  expect_identical(columns_frame(cols), do.call(data.frame, cols))
+  set.seed(3)
+  theta <- data.frame(a = runif(200), b = rep(1, 200))
+  p <- runif(200)^6
+  tab <- resolution_table(p / sum(p), theta)
+  expect_identical(attributes(tab)[c("names", "class", "row.names")],
+                   attributes(data.frame(parameter = c("a", "b"),
+                                         tab[names(tab) != "parameter"]))[c("names", "class",
+                                                                           "row.names")])
+})
