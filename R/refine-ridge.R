@@ -210,7 +210,8 @@ state_thin_tails <- function(state) {
 # fitted within 0.03 log units of the best of all: the likelihood had not
 # begun to fall where the runs stopped. A side is open when the best run of
 # its outer tenth fits within `open_end_drop` (1 log unit, about half the
-# Gaussian's 1.92) of the best run, unless the outermost run lies within a
+# Gaussian's 1.92) of the best run (of separated modes, the tenth is the
+# outer mode's: open_side()), unless the outermost run lies within a
 # tenth of the runs' extent of the range's edge in some parameter (a ridge
 # or a weakly identified parameter ending at the range's edge is bounded by
 # the prior, not cut off by the runs; on ridge-4 trial 12, where the runs
@@ -246,13 +247,22 @@ open_ends <- function(table, ll, theta, range, applies = TRUE) {
 # One side of a parameter (v: its unit coordinate, signed so that the side
 # is up): open when the best run of the outer slice fits within
 # open_end_drop of the best, and the outermost run is not within `margin`
-# of the range's edge in any parameter.
+# of the range's edge in any parameter. The slice is a tenth of the extent
+# of the well-fitting runs' stretch that holds the outermost run: a gap in
+# v wider than a tenth of their whole extent (`slice`) ends a stretch, so
+# that of two separated modes the slice is the outer mode's tenth (as a
+# tenth of both, on bench/coarse-start-modes.R bimodal-4-81, it held the
+# outer mode's best run, and every trial was called open).
 open_side <- function(v, drop, u, margin, slice) {
-  outer <- v >= max(v) - slice
-  end <- which.max(v)
+  o <- order(v, decreasing = TRUE)
+  gaps <- -diff(v[o])
+  inner <- if (any(gaps > slice)) v[o][which(gaps > slice)[1]] else min(v)
+  outer <- v >= max(v) - open_end_slice * (max(v) - inner)
+  end <- o[1]
   at_edge <- any(pmin(u[end, ], 1 - u[end, ]) <= margin)
   max(drop[outer]) >= -open_end_drop && !at_edge
 }
+
 # open_ends() of a refinement state: the runs' log likelihood is their
 # posterior mass over their prior weight (log_prior_run: the prior over the
 # proposals' density, refine()'s importance weight).
