@@ -194,3 +194,82 @@ state_thin_tails <- function(state) {
   thin_tails(state$table, state$p, lib_theta(library),
              has_proposal_rounds(library) && uses_proposal(library))
 }
+
+# Open ends (issue 35 item 1: a ridge stopped where the runs stop). On a
+# product ridge in 4 parameters (bench/ridge-systems.R ridge-4, trials 11
+# and 18 at abb7bf2) refine() stopped "resolved", unwarned, with th2's
+# interval 0.79 and 0.80 of the reference's: the runs ended part way along
+# the ridge, their tails were not thin (ratio 1.2), and no check looked
+# past them. What the runs do show is the likelihood where they end. Take
+# the runs fitting within `open_end_range` (3 log units) of the best run;
+# along each parameter, the outer tenth of their extent on each side. Where
+# the data bound the parameter, the likelihood has fallen there: for a
+# Gaussian posterior those runs reach about 2.45 sds from the mode, the
+# outer tenth starts near 1.96 sds, where the profile likelihood is 1.92
+# log units below its peak. On trial 11 the best run in th1's outer tenth
+# fitted within 0.03 log units of the best of all: the likelihood had not
+# begun to fall where the runs stopped. A side is open when the best run of
+# its outer tenth fits within `open_end_drop` (1 log unit, about half the
+# Gaussian's 1.92) of the best run (of separated modes, the tenth is the
+# outer mode's: open_side()), unless the outermost run lies within a
+# tenth of the runs' extent of the range's edge in some parameter (a ridge
+# or a weakly identified parameter ending at the range's edge is bounded by
+# the prior, not cut off by the runs; on ridge-4 trial 12, where the runs
+# reached both ends of the ridge at th2 = 0.97 and th1 = 0.99, no side is
+# open). The bars are read off the Gaussian profile, not tuned to trials.
+open_end_range <- 3
+open_end_drop <- 1
+open_end_slice <- 0.1
+
+# Per parameter: TRUE where a side of its interval is open. ll: each run's
+# log likelihood (up to a constant); theta: the runs' parameters, one column
+# per row of the table; range: the range's lower and upper rows (the base
+# library's box).
+open_ends <- function(table, ll, theta, range, applies = TRUE) {
+  out <- rep(FALSE, nrow(table))
+  if (!applies) return(out)
+  ok <- is.finite(ll)
+  good <- ok & ll >= max(ll[ok]) - open_end_range
+  varies <- range[2, ] > range[1, ]
+  # unit coordinates of the varying parameters (a constant one has no edge)
+  u <- sweep(sweep(as.matrix(theta)[good, varies, drop = FALSE], 2, range[1, varies]), 2,
+             range[2, varies] - range[1, varies], "/")
+  drop <- ll[good] - max(ll[ok])
+  margin <- open_end_slice * apply(u, 2, function(x) diff(range(x)))
+  cols <- which(varies & !table$constant)
+  out[cols] <- vapply(match(cols, which(varies)), function(k) {
+    open_side(u[, k], drop, u, margin, margin[k]) ||
+      open_side(-u[, k], drop, u, margin, margin[k])
+  }, logical(1))
+  out
+}
+
+# One side of a parameter (v: its unit coordinate, signed so that the side
+# is up): open when the best run of the outer slice fits within
+# open_end_drop of the best, and the outermost run is not within `margin`
+# of the range's edge in any parameter. The slice is a tenth of the extent
+# of the well-fitting runs' stretch that holds the outermost run: a gap in
+# v wider than a tenth of their whole extent (`slice`) ends a stretch, so
+# that of two separated modes the slice is the outer mode's tenth (as a
+# tenth of both, on bench/coarse-start-modes.R bimodal-4-81, it held the
+# outer mode's best run, and every trial was called open).
+open_side <- function(v, drop, u, margin, slice) {
+  o <- order(v, decreasing = TRUE)
+  gaps <- -diff(v[o])
+  inner <- if (any(gaps > slice)) v[o][which(gaps > slice)[1]] else min(v)
+  outer <- v >= max(v) - open_end_slice * (max(v) - inner)
+  end <- o[1]
+  at_edge <- any(pmin(u[end, ], 1 - u[end, ]) <= margin)
+  max(drop[outer]) >= -open_end_drop && !at_edge
+}
+
+# open_ends() of a refinement state: the runs' log likelihood is their
+# posterior mass over their prior weight (log_prior_run: the prior over the
+# proposals' density, refine()'s importance weight).
+state_open_ends <- function(state) {
+  problem <- state$problem
+  library <- problem$library
+  ll <- suppressWarnings(log(state$p)) - problem$log_prior_run
+  open_ends(state$table, ll, lib_theta(library), library_box(lib_base(library)),
+            has_proposal_rounds(library) && uses_proposal(library))
+}

@@ -76,11 +76,12 @@ refine_rounds <- function(problem, simulator, max_runs, runs_per_round, progress
 # table of the round before, `previous`), is cut off by the last round's box,
 # or, with a simulator, rests on predicted runs; or an interval still moved
 # since the table `earlier`, a few rounds back (drifted(), refine-ridge.R),
-# or the runs thin out beyond an interval's bound (thin_tails()).
+# or the runs thin out beyond an interval's bound (thin_tails()) or end where
+# the likelihood has not begun to fall (open_ends()).
 needs_round <- function(state, previous, simulating, earlier = NULL) {
   !is_resolved(state$table, previous) || any(truncated_sides(state)) ||
     any(drifted(state$table, earlier, state$p, lib_theta(state$problem$library))) || !explored(state$problem$library) ||
-    any(state_thin_tails(state)) ||
+    any(state_thin_tails(state)) || any(state_open_ends(state)) ||
     state$far_mass > far_mass_tol || length(unresolved_modes(state)) > 0L ||
     (simulating && predicted_mass(state) > predicted_tol)
 }

@@ -120,7 +120,10 @@
 #' intervals still moved. Nor is it resolved while the runs outside an
 #' interval carry fewer effective runs than their share of the
 #' posterior's (the runs thin out before the posterior does, as at the
-#' unreached end of a ridge); the warning names those parameters too.
+#' unreached end of a ridge), nor while the best-fitting runs end, along a
+#' parameter, where the likelihood has not begun to fall (within one log
+#' unit of the best run) short of the range's edge; the warning names those
+#' parameters too.
 #' `refine()` of a resolved fit returns it unchanged; when `max_runs` runs
 #' are spent first, the result warns (class `griddy_warning_resolution`) and
 #' `refine()` of it carries on where it stopped. Otherwise the refined fit
@@ -391,6 +394,7 @@ warn_unresolved <- function(state, rounds) {
   drift <- drifted(tab, drift_reference(rounds$history, state$problem$library), state$p,
                    lib_theta(state$problem$library))
   thin <- state_thin_tails(state)
+  open <- state_open_ends(state)
   why <- ifelse(tab$limited & !tab$constant & (few_values | is.null(runs)),
                 paste0(format(tab$effective_values, digits = 2), " effective values"),
          ifelse(cut, "its interval reaches the edge of the refined region",
@@ -400,7 +404,9 @@ warn_unresolved <- function(state, rounds) {
          ifelse(thin, paste0("the runs outside its interval are fewer than their share ",
                              "of the posterior's: the runs thin out before the posterior does, ",
                              "which may go on past them"),
-                NA)))))
+         ifelse(open, paste0("the runs end where the likelihood has not begun to fall: ",
+                             "the posterior may go on past them"),
+                NA))))))
   bad <- !is.na(why)
   extra <- c(if (!is.null(runs)) paste0("the posterior rests on ", runs),
              if (state$far_mass > far_mass_tol) {
@@ -428,6 +434,6 @@ warn_unresolved <- function(state, rounds) {
               "may miss the truth: ", paste0(tab$parameter[bad], " (", why[bad], ")",
                                              collapse = ", "),
               ". Call refine() on the result again, with more `max_runs`.",
-              class = c(if (any(drift | thin) || !explored(state$problem$library)) "reach",
+              class = c(if (any(drift | thin | open) || !explored(state$problem$library)) "reach",
                         "resolution"))
 }

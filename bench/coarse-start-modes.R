@@ -18,14 +18,22 @@
 # (refine() alone, on a machine shared with other jobs: compare ratios).
 # Run: Rscript bench/coarse-start-modes.R <system> <route> [trials];
 # GRIDDY_SRC=<dir> loads another source tree (the old code), GRIDDY_TAG
-# names the result: bench/results/coarse-start-modes-<system>-<route><tag>.csv
+# names the result: bench/results/coarse-start-modes-<system>-<route><tag>.csv;
+# GRIDDY_LIB=<library> uses an installed build (R CMD INSTALL -l <library>)
 args <- commandArgs(trailingOnly = TRUE)
 system_name <- if (length(args) >= 1) args[1] else "osc-64"
 route <- if (length(args) >= 2) args[2] else "simulator"
 n_trials <- if (length(args) >= 3) as.integer(args[3]) else 20L
 first_trial <- if (length(args) >= 4) as.integer(args[4]) else 1L
 src <- Sys.getenv("GRIDDY_SRC", ".")
-pkgload::load_all(src, quiet = TRUE)
+# GRIDDY_LIB=<library>: an installed build (-O2) instead, its internals
+# (resolution_limited(), lib_theta()) attached beside it
+if (nzchar(Sys.getenv("GRIDDY_LIB"))) {
+  library(griddy, lib.loc = Sys.getenv("GRIDDY_LIB"))
+  attach(asNamespace("griddy"), name = "griddy_internals", warn.conflicts = FALSE)
+} else {
+  pkgload::load_all(src, quiet = TRUE)
+}
 source("bench/many-parameters-systems.R")
 
 oscillator_system <- function(n_side, w_upper = 7) {

@@ -24,7 +24,14 @@ args <- commandArgs(trailingOnly = TRUE)
 system_name <- if (length(args) >= 1) args[1] else "smooth-4"
 n_trials <- if (length(args) >= 2) as.integer(args[2]) else 3L
 max_runs <- if (length(args) >= 3) as.integer(args[3]) else 20000L
-pkgload::load_all(".", quiet = TRUE)
+# GRIDDY_LIB=<library>: an installed build (-O2), its internals attached;
+# GRIDDY_TAG: a suffix for the results file
+if (nzchar(Sys.getenv("GRIDDY_LIB"))) {
+  library(griddy, lib.loc = Sys.getenv("GRIDDY_LIB"))
+  attach(asNamespace("griddy"), name = "griddy_internals", warn.conflicts = FALSE)
+} else {
+  pkgload::load_all(".", quiet = TRUE)
+}
 # the systems, the reference posterior and one_trial()
 source("bench/many-parameters-systems.R")
 
@@ -44,7 +51,8 @@ if (sys.nframe() == 0L && n_trials > 0L) {
   res <- run_system(sys, n_trials)
   dir.create("bench/results", showWarnings = FALSE)
   data.table::fwrite(res, file.path("bench/results",
-                                    paste0("many-parameters-", system_name, ".csv")))
+                                    paste0("many-parameters-", system_name,
+                                           Sys.getenv("GRIDDY_TAG"), ".csv")))
   dt <- data.table::as.data.table(res)
   print(dt[, .(pairs = .N, plain_coverage = mean(plain_covered), coverage = mean(covered),
                ref_coverage = mean(ref_covered),

@@ -33,7 +33,14 @@ first_trial <- if (length(args) >= 3) as.integer(args[3]) else 1L
 tag <- if (length(args) >= 4) args[4] else "run"
 # max_runs: refine()'s default unless given
 max_runs_arg <- if (length(args) >= 5) as.integer(args[5]) else NULL
-pkgload::load_all(".", quiet = TRUE)
+# GRIDDY_LIB=<library>: an installed build (-O2) instead of load_all(), its
+# internals (resolution_limited(), load_average()) attached beside it
+if (nzchar(Sys.getenv("GRIDDY_LIB"))) {
+  library(griddy, lib.loc = Sys.getenv("GRIDDY_LIB"))
+  attach(asNamespace("griddy"), name = "griddy_internals", warn.conflicts = FALSE)
+} else {
+  pkgload::load_all(".", quiet = TRUE)
+}
 source("bench/many-parameters-systems.R")
 
 ridge_system <- function(p, n = 80) {

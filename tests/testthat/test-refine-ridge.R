@@ -173,3 +173,41 @@ test_that("refine() on a product ridge does not stop resolved while its tails ar
   state <- refine_state(r)
   expect_identical(state_thin_tails(state), c(TRUE, TRUE, FALSE, FALSE))
 })
+
+# Runs along the product ridge a b = 0.1 (b = 0.1 / a, a in [0.1, 1]) and
+# across it in c, in the unit box; log likelihood -(a b - 0.1)^2 / (2 s^2)
+# - (c - 0.5)^2 / (2 s^2), flat along the ridge. The runs along a stop at
+# `a_end`. Returns list(table, ll, theta, range).
+open_ridge_case <- function(a_end, n = 3000, s = 0.01) {
+  set.seed(352)
+  a <- stats::runif(n, 0.1, a_end)
+  theta <- data.frame(a = a, b = pmin(0.1 / a + stats::rnorm(n, sd = s / a), 1),
+                      c = 0.5 + stats::rnorm(n, sd = s))
+  ll <- -(theta$a * theta$b - 0.1)^2 / (2 * s^2) - (theta$c - 0.5)^2 / (2 * s^2)
+  p <- exp(ll - max(ll)) / sum(exp(ll - max(ll)))
+  list(table = resolution_table(p, theta, scattered = TRUE), ll = ll, theta = theta,
+       range = rbind(c(0, 0, 0), c(1, 1, 1)))
+}
+
+test_that("runs that end along a ridge where the likelihood has not fallen leave it open", {
+  # ridge-4 trials 11 and 18 (bench/ridge-systems.R at abb7bf2) stopped
+  # "resolved", unwarned, with th2 at 0.79 and 0.80 of the reference's
+  # width: the runs ended part way along the ridge and their tails were not
+  # thin. Here the runs stop at a = 0.6 while the ridge goes on to a = 1
+  cut <- open_ridge_case(0.6)
+  expect_identical(open_ends(cut$table, cut$ll, cut$theta, cut$range), c(TRUE, TRUE, FALSE))
+  # runs to the range's edge: the ridge ends there, nothing is open
+  whole <- open_ridge_case(1)
+  expect_identical(open_ends(whole$table, whole$ll, whole$theta, whole$range),
+                   c(FALSE, FALSE, FALSE))
+  # a Gaussian posterior: the likelihood falls at the runs' ends
+  set.seed(353)
+  theta <- data.frame(a = stats::rnorm(3000, 0.5, 0.05), b = stats::rnorm(3000, 0.4, 0.05))
+  ll <- -((theta$a - 0.5)^2 + (theta$b - 0.4)^2) / (2 * 0.05^2)
+  p <- exp(ll - max(ll)) / sum(exp(ll - max(ll)))
+  tab <- resolution_table(p, theta, scattered = TRUE)
+  expect_identical(open_ends(tab, ll, theta, rbind(c(0, 0), c(1, 1))), c(FALSE, FALSE))
+  # boxes (below four parameters) keep their own tests
+  expect_identical(open_ends(cut$table, cut$ll, cut$theta, cut$range, applies = FALSE),
+                   c(FALSE, FALSE, FALSE))
+})
