@@ -168,7 +168,7 @@ cat("log Bayes factor, disc over patch:", log_bf_disc_patch, "\n")
 # heights x samples, the simulator's row blocks by height: hence t().
 roughness_scan <- function(r, contact, half_width) {
   f <- r$refined_fit
-  th <- lib_theta(f$library)
+  th <- griddy:::lib_theta(f$library)
   best <- th[which.max(tabulate(f$draws$run, nrow(th))), ]
   obs <- as.vector(t(as.matrix(field$y)))
   n <- length(obs)
