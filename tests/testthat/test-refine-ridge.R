@@ -140,6 +140,24 @@ test_that("runs that thin out along a ridge before the posterior does are seen",
                    c(FALSE, FALSE, FALSE))
 })
 
+test_that("a parameter the data do not inform is not held by thin tails at its range's edges", {
+  # chapter 5's nine Fiala parameters: seven keep their prior (flat over
+  # the range), and runs drawn densest mid-range (as proposals fitted to
+  # the informed parameters leave them) sample the edges thinly. An
+  # interval spanning the range cannot be too narrow, so with the range
+  # given it is not flagged; without it, it is (the check's own verdict).
+  set.seed(352)
+  a <- stats::rbeta(4000, 2, 2)
+  theta <- data.frame(a = a, b = stats::runif(4000))
+  p <- (1 / stats::dbeta(a, 2, 2)) / sum(1 / stats::dbeta(a, 2, 2))
+  tab <- resolution_table(p, theta, scattered = TRUE)
+  box <- rbind(c(0, 0), c(1, 1))
+  expect_identical(thin_tails(tab, p, theta), c(TRUE, FALSE))
+  expect_identical(thin_tails(tab, p, theta, range = box), c(FALSE, FALSE))
+  # a range twice as wide: the interval spans half of it and is checked
+  expect_identical(thin_tails(tab, p, theta, range = rbind(c(0, 0), c(2, 1))), c(TRUE, FALSE))
+})
+
 test_that("refine() on a product ridge does not stop resolved while its tails are thin", {
   # th1 and th2 enter only through th1 th2: a hyperbolic ridge in 4
   # parameters. Before the thin-tails check refine() stopped "resolved"
