@@ -47,8 +47,12 @@
 # t components (centred inside the box, truncated to it) put fewer runs near
 # the edges than in the middle, so the runs outside each 95% interval carry
 # fewer effective runs than their share, though no posterior lies beyond
-# the box. That is the check's documented cost at a range edge, not a lack
-# of runs; the rds records each refinement's own warning.
+# the box. thin_tails() now leaves alone an interval spanning 0.85 of its
+# range (no posterior's interval is wider than the range, so it cannot be
+# too narrow); rerun with that (commit after f6b89d8, 446 s, -O2, load ~3),
+# both refinements resolve: the patch after 5,850 added runs (286
+# effective runs), the disc after 12,000 (938). The rds records each
+# refinement's own warnings (the patch's lost-mode warning near k = 172).
 #
 # Run from the package root (an optimised install; load_all() builds -O0):
 #   Rscript -e 'library(griddy, lib.loc = "<O2 library>"); source("data-raw/ch5-nine.R")'
