@@ -25,26 +25,6 @@ source("bench/helpers.R")
 out_stem <- Sys.getenv("DISC_RATIO_OUT", "bench/results/discrepancy-ratio")
 repeats <- as.integer(Sys.getenv("REPEATS", "3"))
 
-oscillation_system <- function(per_dim, n_t, seed = 1) {
-  set.seed(seed)
-  x <- data.frame(load = c(1, 2, 3))
-  t <- seq(0, 1, length.out = n_t)
-  sim <- function(freq, damp, drift = 0) {
-    out <- matrix(0, length(freq), nrow(x) * n_t)
-    for (k in seq_len(nrow(x))) {
-      l <- x$load[k]
-      out[, (k - 1) * n_t + seq_len(n_t)] <- l * exp(-outer(damp, t)) * sin(outer(freq, t)) +
-        drift * l * outer(rep(1, length(freq)), t^2)
-    }
-    out
-  }
-  theta <- expand.grid(freq = seq(4, 8, length.out = per_dim),
-                       damp = seq(0.5, 2.5, length.out = per_dim))
-  lib <- sim_library(theta, sim(theta$freq, theta$damp), x = x, t = t)
-  y <- drop(sim(6.03, 1.47, drift = 0.15)) + rnorm(nrow(x) * n_t, sd = 0.05)
-  list(lib = lib, field = field_data(matrix(y, nrow(x), byrow = TRUE), x = x, t = t))
-}
-
 cases <- list(`long-1296` = c(36, 160), `long-5041` = c(71, 160), `short-5041` = c(71, 20))
 timed <- function(expr) {
   t0 <- proc.time()
@@ -54,7 +34,7 @@ timed <- function(expr) {
 }
 rows <- list()
 for (name in names(cases)) {
-  sys <- oscillation_system(cases[[name]][1], cases[[name]][2])
+  sys <- damped_oscillation_system(cases[[name]][1], cases[[name]][2])
   args <- list(sys$lib, sys$field, rho_t = seq(0, 0.9, by = 0.1), seed = 1, progress = FALSE)
   plain <- disc <- list()
   for (r in seq_len(repeats)) {

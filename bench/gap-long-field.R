@@ -22,27 +22,9 @@ source("bench/helpers.R")
 out_stem <- Sys.getenv("GAP_LONG_OUT", "bench/results/gap-long-field")
 parts <- strsplit(Sys.getenv("GAP_LONG_PARTS", "plain,discrepancy,scaled,gap"), ",")[[1]]
 
-# a damped oscillation whose amplitude grows with the load; theta = (freq,
-# damp); reality adds a slow drift over t that grows with the load (the gap)
-long_field_system <- function(n_t = 160, seed = 1) {
-  set.seed(seed)
-  x <- data.frame(load = c(1, 2, 3))
-  t <- seq(0, 1, length.out = n_t)
-  sim <- function(freq, damp, drift = 0) {
-    out <- matrix(0, length(freq), nrow(x) * n_t)
-    for (k in seq_len(nrow(x))) {
-      l <- x$load[k]
-      out[, (k - 1) * n_t + seq_len(n_t)] <- l * exp(-outer(damp, t)) * sin(outer(freq, t)) +
-        drift * l * outer(rep(1, length(freq)), t^2)
-    }
-    out
-  }
-  theta <- expand.grid(freq = seq(4, 8, length.out = 36), damp = seq(0.5, 2.5, length.out = 36))
-  lib <- sim_library(theta, sim(theta$freq, theta$damp), x = x, t = t)
-  y <- drop(sim(6.03, 1.47, drift = 0.15)) + rnorm(nrow(x) * n_t, sd = 0.05)
-  field <- field_data(matrix(y, nrow(x), byrow = TRUE), x = x, t = t)
-  list(lib = lib, field = field)
-}
+# the damped oscillation of bench/helpers.R (damped_oscillation_system()):
+# 36 x 36 runs, 3 loads x 160 t, a drift over t as the gap
+long_field_system <- function(n_t = 160, seed = 1) damped_oscillation_system(36, n_t, seed)
 
 sys <- long_field_system()
 rho_t <- seq(0, 0.9, by = 0.1)

@@ -423,3 +423,28 @@ settings_times_case <- function(N, n_x, n_t, seed) {
   list(lib = griddy::sim_library(theta, y, x = xs, t = tt), y = y, x = xs, t = tt,
        response = response)
 }
+
+# A damped oscillation whose amplitude grows with the load; theta = (freq,
+# damp) on a per_dim x per_dim grid over [4, 8] x [0.5, 2.5]; 3 loads x n_t
+# times; reality (freq 6.03, damp 1.47) adds a slow drift over t that grows
+# with the load (the gap), noise sd 0.05. gap-long-field.R's long field and
+# discrepancy-ratio.R's libraries.
+damped_oscillation_system <- function(per_dim, n_t, seed = 1) {
+  set.seed(seed)
+  x <- data.frame(load = c(1, 2, 3))
+  t <- seq(0, 1, length.out = n_t)
+  sim <- function(freq, damp, drift = 0) {
+    out <- matrix(0, length(freq), nrow(x) * n_t)
+    for (k in seq_len(nrow(x))) {
+      l <- x$load[k]
+      out[, (k - 1) * n_t + seq_len(n_t)] <- l * exp(-outer(damp, t)) * sin(outer(freq, t)) +
+        drift * l * outer(rep(1, length(freq)), t^2)
+    }
+    out
+  }
+  theta <- expand.grid(freq = seq(4, 8, length.out = per_dim),
+                       damp = seq(0.5, 2.5, length.out = per_dim))
+  lib <- griddy::sim_library(theta, sim(theta$freq, theta$damp), x = x, t = t)
+  y <- drop(sim(6.03, 1.47, drift = 0.15)) + rnorm(nrow(x) * n_t, sd = 0.05)
+  list(lib = lib, field = griddy::field_data(matrix(y, nrow(x), byrow = TRUE), x = x, t = t))
+}
