@@ -448,7 +448,8 @@ normalise_log_prob <- function(lj) lj - log_sum_exp(lj)
 # log sum_i p(run i, grid point g, y) per grid point g, up to the constant
 # shared by all (log_evidence_constant()): one column of C at a time, so no
 # temporary is as large as C; in C++ (grid_log_mass_cpp()), with the
-# arithmetic of collapsed_log_lik() and log_sum_exp() (grid_log_mass_r()).
+# arithmetic of collapsed_log_lik() and log_sum_exp() (test-engine.R's
+# grid_log_mass_r(): the definition the C++ follows).
 grid_log_mass <- function(problem) {
   n <- problem$n_obs
   prior <- problem$prior
@@ -456,15 +457,6 @@ grid_log_mass <- function(problem) {
                     log_evidence_constant(prior, n), problem$setup$logdet,
                     rep_len(as.numeric(problem$log_prior_run), nrow(problem$C)),
                     as.numeric(problem$log_prior_grid))
-}
-
-# The same in R, column by column: the definition the C++ follows.
-grid_log_mass_r <- function(problem) {
-  n <- problem$n_obs
-  vapply(seq_len(ncol(problem$C)), function(g) {
-    log_sum_exp(collapsed_log_lik(problem$C[, g], n, problem$setup$logdet[g], problem$prior) +
-                  problem$log_prior_run + problem$log_prior_grid[g])
-  }, numeric(1))
 }
 
 # The posterior of a calibration problem (see calibration_problem()): the

@@ -432,6 +432,15 @@ test_that("the AR(1) whitening column by column gives ar1_whiten_rows_cpp()'s va
                matrix(matrix(ar1_whiten_rows_cpp(M, point$phi, 3L), 8, 3) %*% A_x, 2, 12))
 })
 
+# grid_log_mass() in R, column by column: the definition the C++ follows.
+grid_log_mass_r <- function(problem) {
+  n <- problem$n_obs
+  vapply(seq_len(ncol(problem$C)), function(g) {
+    log_sum_exp(collapsed_log_lik(problem$C[, g], n, problem$setup$logdet[g], problem$prior) +
+                  problem$log_prior_run + problem$log_prior_grid[g])
+  }, numeric(1))
+}
+
 test_that("grid_log_mass() in C++ is the R definition, value for value", {
   ex <- griddy_example()
   problem <- calibration_problem(ex$library, ex$field, 0, c(0, 0.5), NULL, 2, NULL,
